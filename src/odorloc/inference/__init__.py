@@ -1,0 +1,1 @@
+"""Estimators: particle filters, grid posteriors, evidence grids and odor-path maps."""

@@ -1,0 +1,52 @@
+"""Base class of all component parameters.
+
+Parameters are immutable, validated pydantic models: unknown keys are rejected (a typo is an error,
+not a silently ignored setting) and every value error names the field.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Annotated
+
+from pydantic import AfterValidator, BaseModel, ConfigDict
+
+
+class Params(BaseModel):
+    """Frozen, validated parameter set of a component."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid", arbitrary_types_allowed=True)
+
+
+def _finite(v: float) -> float:
+    if not math.isfinite(v):
+        raise ValueError("must be finite")
+    return v
+
+
+def _positive(v: float) -> float:
+    if not (math.isfinite(v) and v > 0):
+        raise ValueError("must be a finite number > 0")
+    return v
+
+
+def _nonneg(v: float) -> float:
+    if not (math.isfinite(v) and v >= 0):
+        raise ValueError("must be a finite number >= 0")
+    return v
+
+
+def _finite_vec(v: tuple[float, ...]) -> tuple[float, ...]:
+    if not all(math.isfinite(x) for x in v):
+        raise ValueError("all components must be finite")
+    return v
+
+
+Finite = Annotated[float, AfterValidator(_finite)]
+"""A finite float."""
+Positive = Annotated[float, AfterValidator(_positive)]
+"""A finite float > 0."""
+NonNegative = Annotated[float, AfterValidator(_nonneg)]
+"""A finite float >= 0."""
+Vector = Annotated[tuple[float, ...], AfterValidator(_finite_vec)]
+"""A tuple of finite floats (a point or a vector; 2 or 3 components)."""

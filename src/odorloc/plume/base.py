@@ -1,0 +1,97 @@
+"""The plume-model interface shared by every plume family.
+
+``step(dt, rng)`` advances the plume (reading the wind model it was built with),
+``concentration(points)`` gives the instantaneous concentration and ``encounter_rate(points)``
+the expected rate of detectable odor encounters (Poisson sensing, infotaxis).
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from collections.abc import Sequence
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from odorloc.errors import ConfigError
+from odorloc.wind.base import WindModel
+from odorloc.world.arena import Arena, as_points
+from odorloc.world.sources import Source
+
+
+def check_sources(sources: Sequence[Source], arena: Arena, field: str = "plume.sources") -> None:
+    """Raise :class:`ConfigError` when a source lies outside the arena or inside an obstacle."""
+    if len(sources) == 0:
+        raise ConfigError(field, "at least one source is required")
+    for k, s in enumerate(sources):
+        if len(s.position) != arena.dim:
+            raise ConfigError(
+                f"{field}[{k}].position", f"needs {arena.dim} components, got {len(s.position)}"
+            )
+        if not arena.contains(s.pos)[0]:
+            raise ConfigError(f"{field}[{k}].position", f"{s.position} is outside the arena")
+        if arena.in_obstacle(s.pos)[0]:
+            raise ConfigError(f"{field}[{k}].position", f"{s.position} is inside an obstacle")
+
+
+class PlumeModel(ABC):
+    """Base class of plume models.
+
+    Parameters
+    ----------
+    arena : Arena
+    wind : WindModel
+        The wind the plume is carried by. The plume reads it but never steps it (the
+        :class:`~odorloc.world.World` does), so several plumes may share one wind.
+    sources : sequence of Source
+    """
+
+    def __init__(self, arena: Arena, wind: WindModel, sources: Sequence[Source]) -> None:
+        check_sources(sources, arena)
+        self.arena = arena
+        self.wind = wind
+        self.sources = tuple(sources)
+        self.t = 0.0
+
+    @property
+    def dim(self) -> int:
+        """Spatial dimension (that of the arena)."""
+        return self.arena.dim
+
+    @property
+    def source_positions(self) -> np.ndarray:
+        """``(S, d)`` source positions, metres."""
+        return np.array([s.pos for s in self.sources])
+
+    def reset(self, rng: np.random.Generator) -> None:
+        """Restart at ``t = 0`` with no released odor (or the steady state for steady models)."""
+        self.t = 0.0
+
+    def step(self, dt: float, rng: np.random.Generator) -> None:
+        """Advance the plume by ``dt`` seconds."""
+        if not (np.isfinite(dt) and dt > 0):
+            raise ConfigError("dt", f"must be a finite number > 0, got {dt}")
+        self._advance(dt, rng)
+        self.t += dt
+
+    def _advance(self, dt: float, rng: np.random.Generator) -> None:  # noqa: B027
+        """Evolve the plume state by ``dt`` (steady models do nothing)."""
+
+    def concentration(self, points: ArrayLike) -> np.ndarray:
+        """Instantaneous concentration at ``(Q, d)`` points, ``(Q,)`` (model units)."""
+        return self._concentration(as_points(points, self.dim))
+
+    def encounter_rate(self, points: ArrayLike) -> np.ndarray:
+        """Expected odor encounters per second at ``(Q, d)`` points, ``(Q,)`` 1/s."""
+        return self._encounter_rate(as_points(points, self.dim))
+
+    @abstractmethod
+    def _concentration(self, points: np.ndarray) -> np.ndarray: ...
+
+    def _encounter_rate(self, points: np.ndarray) -> np.ndarray:
+        """Default: concentration read as a rate (override where the model defines one)."""
+        return self._concentration(points)
+
+    def frame(self) -> dict[str, np.ndarray]:
+        """A copy of the state needed to reproduce :meth:`concentration` (for recording)."""
+        raise NotImplementedError(f"{type(self).__name__} cannot be recorded")

@@ -1,0 +1,87 @@
+"""The wind-model interface.
+
+A wind model is a velocity field that may evolve in time. Parameters are immutable
+(:class:`odorloc.params.Params`); the evolving state lives in the model instance and is
+reset by :meth:`WindModel.reset`.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from odorloc.errors import ConfigError
+from odorloc.world.arena import Arena, as_points
+
+
+class WindModel(ABC):
+    """Base class of wind models.
+
+    Subclasses implement :meth:`_velocity`, and :meth:`_advance` when they evolve in time.
+    """
+
+    arena: Arena
+    t: float
+
+    def __init__(self, arena: Arena) -> None:
+        self.arena = arena
+        self.t = 0.0
+
+    @property
+    def dim(self) -> int:
+        """Spatial dimension (that of the arena)."""
+        return self.arena.dim
+
+    def reset(self, rng: np.random.Generator) -> None:
+        """Restart at ``t = 0`` drawing any random initial state from ``rng``."""
+        self.t = 0.0
+
+    def step(self, dt: float, rng: np.random.Generator) -> None:
+        """Advance the field by ``dt`` seconds."""
+        if not (np.isfinite(dt) and dt > 0):
+            raise ConfigError("dt", f"must be a finite number > 0, got {dt}")
+        self._advance(dt, rng)
+        self.t += dt
+
+    def _advance(self, dt: float, rng: np.random.Generator) -> None:  # noqa: B027
+        """Evolve the state by ``dt``; steady fields do nothing."""
+
+    def velocity(self, points: ArrayLike, t: float | None = None) -> np.ndarray:
+        """Air velocity at ``points``.
+
+        Parameters
+        ----------
+        points : (Q, d) array_like, metres
+        t : float, optional
+            Time in seconds. Stochastic fields only know their current state, so ``t`` must be
+            ``None`` or the current time; deterministic fields accept any ``t``.
+
+        Returns
+        -------
+        (Q, d) ndarray, m/s
+        """
+        p = as_points(points, self.dim)
+        if t is not None and not self.deterministic and abs(t - self.t) > 1e-9:
+            raise ConfigError(
+                "t", f"{type(self).__name__} only knows its current time {self.t:g} s, not {t:g} s"
+            )
+        return self._velocity(p, self.t if t is None else float(t))
+
+    #: ``True`` when :meth:`velocity` is a pure function of (points, t).
+    deterministic: bool = False
+
+    @abstractmethod
+    def _velocity(self, points: np.ndarray, t: float) -> np.ndarray:
+        """Velocity at ``(Q, d)`` points, ``(Q, d)`` m/s."""
+
+    def mean_velocity(self) -> np.ndarray:
+        """Current spatial-mean velocity over the arena (sampled on a coarse grid), ``(d,)`` m/s."""
+        axes = [np.linspace(lo, hi, 5) for lo, hi in zip(self.arena.lower, self.arena.upper)]
+        pts = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, self.dim)
+        return self.velocity(pts).mean(axis=0)
+
+    def state(self) -> dict[str, np.ndarray]:
+        """A copy of the evolving state (for recording); steady fields return ``{}``."""
+        return {}
