@@ -14,6 +14,15 @@ _MODULES = [
     "odorloc.plume.vergassola",
     "odorloc.plume.eulerian",
     "odorloc.plume.replay",
+    "odorloc.sensors.gas",
+    "odorloc.sensors.encounter",
+    "odorloc.sensors.anemometer",
+    "odorloc.platforms.wheeled",
+    "odorloc.platforms.uav",
+    "odorloc.searchers.simple",
+    "odorloc.searchers.pf_entropy",
+    "odorloc.searchers.gradient_bionic",
+    "odorloc.searchers.ds_mapping",
 ]
 
 for _name in _MODULES:

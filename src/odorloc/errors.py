@@ -37,6 +37,6 @@ def format_validation_error(err: pydantic.ValidationError, prefix: str = "") -> 
     loc = loc.replace(".[", "[")
     if prefix:
         loc = f"{prefix}.{loc}" if loc else prefix
-    msg = first["msg"]
+    msg = str(first["msg"]).removeprefix("Value error, ").removeprefix("Assertion failed, ")
     more = f" (and {len(errors) - 1} more problem(s))" if len(errors) > 1 else ""
     return f"{loc or '<root>'}: {msg}{more}"

@@ -19,7 +19,7 @@ from odorloc.world.arena import Arena, as_points
 from odorloc.world.sources import Source
 
 
-def check_sources(sources: Sequence[Source], arena: Arena, field: str = "plume.sources") -> None:
+def check_sources(sources: Sequence[Source], arena: Arena, field: str = "world.sources") -> None:
     """Raise :class:`ConfigError` when a source lies outside the arena or inside an obstacle."""
     if len(sources) == 0:
         raise ConfigError(field, "at least one source is required")

@@ -1,0 +1,222 @@
+"""Episode recorder: trajectory, readings, declarations, belief and plume snapshots.
+
+Arrays are collected per step and stacked once at the end; a :class:`Recording` saves to a
+single ``.npz`` file and loads back.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from odorloc.world.arena import Arena
+
+
+@dataclass
+class Recording:
+    """What happened in one episode.
+
+    Attributes
+    ----------
+    t : (K,) ndarray, s
+    positions : (K, A, d) ndarray, metres
+    gas : (K, A) ndarray
+    detection : (K, A) bool ndarray
+    wind : (K, A, d) ndarray, m/s (anemometer readings)
+    diagnostics : dict of str to (K,) ndarray
+        Scalars the searcher reported each recorded step (entropy, ESS, ...).
+    beliefs : list of (t, dict of arrays)
+        Belief snapshots (particles and weights, or grids).
+    plume_t : (F,) ndarray, s
+    plume_frames : (F, nx, ny) ndarray
+        Concentration on a coarse grid (a horizontal slice at source height in 3D).
+    plume_extent : (4,) ndarray
+        ``(xmin, xmax, ymin, ymax)`` of the frames, metres.
+    sources : (S, d) ndarray, metres
+    declared : (K', d) ndarray
+        Declared source positions (empty if none).
+    occupancy : (nx, ny) bool ndarray or None
+        The arena's obstacles (slice in 3D), for plotting.
+    arena_bounds : (2, d) ndarray
+    meta : dict
+        Scenario name, metrics and seeds.
+    """
+
+    t: np.ndarray
+    positions: np.ndarray
+    gas: np.ndarray
+    detection: np.ndarray
+    wind: np.ndarray
+    diagnostics: dict[str, np.ndarray]
+    beliefs: list[tuple[float, dict[str, np.ndarray]]]
+    plume_t: np.ndarray
+    plume_frames: np.ndarray
+    plume_extent: np.ndarray
+    sources: np.ndarray
+    declared: np.ndarray
+    occupancy: np.ndarray | None
+    arena_bounds: np.ndarray
+    meta: dict[str, Any] = field(default_factory=dict)
+
+    def save(self, path: str | Path) -> Path:
+        """Write the recording to one ``.npz`` file."""
+        arrays: dict[str, Any] = {
+            k: getattr(self, k)
+            for k in (
+                "t",
+                "positions",
+                "gas",
+                "detection",
+                "wind",
+                "plume_t",
+                "plume_frames",
+                "plume_extent",
+                "sources",
+                "declared",
+                "arena_bounds",
+            )
+        }
+        if self.occupancy is not None:
+            arrays["occupancy"] = self.occupancy
+        for k, v in self.diagnostics.items():
+            arrays[f"diag__{k}"] = v
+        arrays["belief_t"] = np.array([b[0] for b in self.beliefs])
+        for i, (_, snap) in enumerate(self.beliefs):
+            for k, v in snap.items():
+                arrays[f"belief{i}__{k}"] = v
+        arrays["meta"] = np.array(json.dumps(self.meta, default=_json_default))
+        path = Path(path)
+        np.savez_compressed(path, **arrays)
+        return path
+
+    @classmethod
+    def load(cls, path: str | Path) -> Recording:
+        """Read a recording written by :meth:`save`."""
+        with np.load(path, allow_pickle=False) as z:
+            data = {k: z[k] for k in z.files}
+        diags = {k[6:]: v for k, v in data.items() if k.startswith("diag__")}
+        beliefs = []
+        for i, bt in enumerate(data["belief_t"]):
+            pre = f"belief{i}__"
+            beliefs.append(
+                (float(bt), {k[len(pre) :]: v for k, v in data.items() if k.startswith(pre)})
+            )
+        return cls(
+            t=data["t"],
+            positions=data["positions"],
+            gas=data["gas"],
+            detection=data["detection"],
+            wind=data["wind"],
+            diagnostics=diags,
+            beliefs=beliefs,
+            plume_t=data["plume_t"],
+            plume_frames=data["plume_frames"],
+            plume_extent=data["plume_extent"],
+            sources=data["sources"],
+            declared=data["declared"],
+            occupancy=data.get("occupancy"),
+            arena_bounds=data["arena_bounds"],
+            meta=json.loads(str(data["meta"])),
+        )
+
+
+def _json_default(o: Any) -> Any:
+    if isinstance(o, np.generic):
+        return o.item()
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    return str(o)
+
+
+class Recorder:
+    """Collects a :class:`Recording` step by step (used by the episode engine)."""
+
+    def __init__(self, scenario: Any, arena: Arena, sources: np.ndarray) -> None:
+        self.cfg = scenario.recording
+        self.scenario_name = scenario.name
+        self.arena = arena
+        self.sources = sources
+        self._t: list[float] = []
+        self._pos: list[np.ndarray] = []
+        self._gas: list[list[float]] = []
+        self._det: list[list[bool]] = []
+        self._wind: list[np.ndarray] = []
+        self._diag: dict[str, list[float]] = {}
+        self._beliefs: list[tuple[float, dict[str, np.ndarray]]] = []
+        self._plume_t: list[float] = []
+        self._frames: list[np.ndarray] = []
+        lo, hi = arena.lo, arena.hi
+        n_per_m = self.cfg.plume_grid
+        nx = int(np.clip(np.ceil((hi[0] - lo[0]) * n_per_m), 20, 300))
+        ny = int(np.clip(np.ceil((hi[1] - lo[1]) * n_per_m), 20, 300))
+        xs = np.linspace(lo[0], hi[0], nx)
+        ys = np.linspace(lo[1], hi[1], ny)
+        gx, gy = np.meshgrid(xs, ys, indexing="ij")
+        pts = [gx.ravel(), gy.ravel()]
+        if arena.dim == 3:
+            # A horizontal slice at the (first) source height.
+            pts.append(np.full(gx.size, float(sources[0, 2])))
+        self._grid = np.column_stack(pts)
+        self._grid_shape = (nx, ny)
+        self._extent = np.array([lo[0], hi[0], lo[1], hi[1]])
+
+    def record(
+        self,
+        step: int,
+        t: float,
+        obs: list[Any],
+        platforms: list[Any],
+        searcher: Any,
+        world: Any,
+    ) -> None:
+        """Record one control step (respecting the configured strides)."""
+        if step % self.cfg.stride == 0:
+            self._t.append(t)
+            self._pos.append(np.array([o.position for o in obs]))
+            self._gas.append([o.gas for o in obs])
+            self._det.append([o.detection for o in obs])
+            self._wind.append(np.array([o.wind for o in obs]))
+            diag = searcher.diagnostics()
+            for k in set(self._diag) | set(diag):
+                col = self._diag.setdefault(k, [np.nan] * (len(self._t) - 1))
+                col.append(float(diag.get(k, np.nan)))
+        if step % self.cfg.belief_stride == 0:
+            b = searcher.belief()
+            if b is not None:
+                self._beliefs.append((t, b.snapshot()))
+        if step % self.cfg.plume_stride == 0:
+            self._plume_t.append(t)
+            c = world.plume.concentration(self._grid).reshape(self._grid_shape)
+            self._frames.append(c.astype(np.float32))
+
+    def finish(self, metrics: dict[str, Any], declaration: Any) -> Recording:
+        """Stack everything into a :class:`Recording`."""
+        d = self.arena.dim
+        occ = self.arena.occ
+        if occ is not None and occ.ndim == 3:
+            k = int(self.arena.cell_index(self.sources[:1])[0, 2])
+            occ = occ[:, :, k]
+        declared = (
+            np.asarray(declaration.positions) if declaration is not None else np.zeros((0, d))
+        )
+        return Recording(
+            t=np.asarray(self._t),
+            positions=np.asarray(self._pos).reshape(len(self._t), -1, d),
+            gas=np.asarray(self._gas, float),
+            detection=np.asarray(self._det, bool),
+            wind=np.asarray(self._wind).reshape(len(self._t), -1, d),
+            diagnostics={k: np.asarray(v) for k, v in self._diag.items()},
+            beliefs=self._beliefs,
+            plume_t=np.asarray(self._plume_t),
+            plume_frames=np.asarray(self._frames),
+            plume_extent=self._extent,
+            sources=self.sources,
+            declared=declared,
+            occupancy=None if occ is None else np.asarray(occ),
+            arena_bounds=np.array([self.arena.lo, self.arena.hi]),
+            meta={"scenario": self.scenario_name, **metrics},
+        )

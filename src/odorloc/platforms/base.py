@@ -1,0 +1,362 @@
+"""The platform interface: how one agent's body executes motion commands.
+
+A platform turns the searcher's :class:`~odorloc.searchers.base.Command` into motion, one control
+period at a time, and keeps the agent's kinematic and energy state. One instance per agent;
+parameters are an immutable :class:`~odorloc.params.Params`, everything that evolves lives in
+attributes reset by :meth:`Platform.reset`.
+
+Command semantics shared by every platform
+------------------------------------------
+``velocity``
+    Move with the given world-frame velocity (m/s, clipped to the platform's limits); it stays in
+    force (a ``None`` command continues it) until another command arrives. Always ``ready``.
+``waypoint``
+    Go to an absolute position over as many periods as needed; ``ready`` once reached (and, for
+    platforms that hover, once the hover there is done). Re-sending the *same* waypoint while it
+    is active or already reached continues it instead of restarting it, so searchers may re-issue
+    their target every period.
+``move``
+    Like ``waypoint`` with target ``position + value`` fixed when the command is received; every
+    ``move`` command is a new displacement.
+``hold``
+    Stop where you are.
+
+Collisions: platforms never pass through obstacles or arena walls. A straight motion is cut at the
+last free point (:meth:`~odorloc.world.arena.Arena.first_hit`); the period counts as one blocked
+move (:attr:`Platform.collided`). A waypoint or move that is blocked ends there (the platform
+becomes ``ready``), so a searcher waiting on ``ready`` never waits for an unreachable target.
+With a body ``radius > 0`` the check also follows points on the body outline (a circle in the
+horizontal plane; in 3D also the top and bottom points), spaced at most half an occupancy cell
+apart. Outline points that already start inside an obstacle (a start pose touching a wall) do not
+constrain that motion, so such a robot can drive away.
+"""
+
+from __future__ import annotations
+
+import math
+from abc import ABC, abstractmethod
+from functools import lru_cache
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from odorloc.errors import ConfigError
+from odorloc.params import Params
+from odorloc.searchers.base import Command
+from odorloc.world.arena import Arena
+
+_KINDS = ("velocity", "waypoint", "move", "hold")
+_SAME_WAYPOINT_TOL = 1e-9  # metres; a re-sent waypoint closer than this is the same one
+
+
+def wrap_angle(a: float) -> float:
+    """Angle ``a`` (rad) wrapped into ``(-pi, pi]``."""
+    w = math.remainder(a, 2.0 * math.pi)
+    return math.pi if w == -math.pi else w
+
+
+@lru_cache(maxsize=64)
+def _outline_offsets(dim: int, radius: float, resolution: float) -> np.ndarray:
+    """Points on a body outline of ``radius`` relative to its centre, ``(K, dim)`` metres."""
+    # Spacing <= half a cell so that no occupied cell fits between two outline points.
+    n = max(8, math.ceil(2.0 * math.pi * radius / (0.5 * resolution)))
+    a = np.arange(n) * (2.0 * math.pi / n)
+    ring = radius * np.column_stack([np.cos(a), np.sin(a)])
+    if dim == 2:
+        out = ring
+    else:
+        out = np.vstack(
+            [np.column_stack([ring, np.zeros(n)]), [[0.0, 0.0, radius], [0.0, 0.0, -radius]]]
+        )
+    out.setflags(write=False)
+    return out
+
+
+def _box_fraction(start: np.ndarray, end: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> float:
+    """Largest ``s`` in [0, 1] keeping ``start + s (end - start)`` in the box ``[lo, hi]``."""
+    d = end - start
+    s = 1.0
+    for a in range(len(d)):
+        if d[a] > 0.0 and end[a] > hi[a]:
+            s = min(s, (hi[a] - start[a]) / d[a])
+        elif d[a] < 0.0 and end[a] < lo[a]:
+            s = min(s, (lo[a] - start[a]) / d[a])
+    return max(s, 0.0)
+
+
+def free_fraction(arena: Arena, start: np.ndarray, end: np.ndarray, radius: float = 0.0) -> float:
+    """Fraction in [0, 1] of the straight motion ``start -> end`` that a body can travel freely.
+
+    Parameters
+    ----------
+    arena : Arena
+    start, end : (d,) ndarray, metres
+        Centre of the body before and after the (unobstructed) motion.
+    radius : float, metres
+        Body radius; 0 treats the body as a point.
+
+    Returns
+    -------
+    float
+        1.0 when the whole motion is free, else the fraction up to the last free sample
+        (:meth:`~odorloc.world.arena.Arena.first_hit`; exact in an arena without obstacles).
+    """
+    if arena.occ is None:
+        # An empty box is convex: the free fraction is where the segment meets the (shrunk) walls.
+        lo = arena.lo + radius
+        hi = arena.hi - radius
+        if np.all((start >= lo) & (start <= hi)):
+            return _box_fraction(start, end, lo, hi)
+    frac = float(arena.first_hit(start, end)[0])
+    if radius > 0.0 and frac > 0.0:
+        off = _outline_offsets(arena.dim, float(radius), float(arena.resolution))
+        a = start[None, :] + off
+        b = end[None, :] + off
+        # Outline points starting inside an obstacle would pin the body forever; ignore them.
+        ok = arena.is_free(a)
+        if ok.any():
+            frac = min(frac, float(arena.first_hit(a[ok], b[ok]).min()))
+    return frac
+
+
+class Platform(ABC):
+    """Base class of robot and UAV platforms (one instance per agent).
+
+    Subclasses implement :meth:`_start` (a new command arrived), :meth:`_advance` (execute the
+    current command for one period), :attr:`ready` and :attr:`speed_limit`; straight motions go
+    through :meth:`_translate`, which handles collisions and the path length.
+
+    Parameters
+    ----------
+    params : Params
+        The platform's immutable parameters.
+    """
+
+    params: Params
+    #: Body radius used for collision checks, metres (0 = point).
+    radius: float = 0.0
+
+    def __init__(self, params: Params) -> None:
+        self.params = params
+        self._pos: np.ndarray | None = None
+        self._heading = 0.0
+        self._vel = np.zeros(0)
+        self._path = 0.0
+        self._collided = 0
+        self._blocked = False
+        self._command: Command | None = None
+        self._target: np.ndarray | None = None
+        self._checked_arena: Arena | None = None
+
+    # ------------------------------------------------------------------ lifecycle
+    def reset(self, position: ArrayLike, heading: float = 0.0) -> None:
+        """Place the platform at ``position`` (``(d,)`` metres, d in {2, 3}) facing ``heading``.
+
+        ``heading`` is the angle in the horizontal plane, rad (x axis = 0, counter-clockwise).
+        Clears the command, the path length, the collision count and the energy used.
+        """
+        p = np.array(position, dtype=float)
+        if p.ndim != 1 or p.size not in (2, 3):
+            raise ConfigError("position", f"expected 2 or 3 coordinates, got shape {p.shape}")
+        if not np.all(np.isfinite(p)):
+            raise ConfigError("position", "must be finite")
+        if not math.isfinite(heading):
+            raise ConfigError("heading", "must be finite")
+        self._pos = p
+        self._heading = wrap_angle(float(heading))
+        self._vel = np.zeros_like(p)
+        self._path = 0.0
+        self._collided = 0
+        self._blocked = False
+        self._command = None
+        self._target = None
+        self._checked_arena = None
+        self._reset_state()
+
+    def _reset_state(self) -> None:  # noqa: B027
+        """Clear subclass state at :meth:`reset`; default nothing."""
+
+    def apply(self, command: Command | None, dt: float, arena: Arena) -> None:
+        """Execute ``command`` for one control period.
+
+        Parameters
+        ----------
+        command : Command or None
+            The new command; ``None`` continues the current one.
+        dt : float
+            Control period, seconds.
+        arena : Arena
+            The map whose walls and obstacles stop the platform.
+        """
+        pos = self._require_reset()
+        if not (math.isfinite(dt) and dt > 0):
+            raise ConfigError("dt", f"must be a finite number > 0, got {dt}")
+        if arena is not self._checked_arena:
+            self._check_arena(arena)
+        if command is not None:
+            cmd = self._validate(command)
+            if not self._continues_current(cmd):
+                self._command = cmd
+                if cmd.kind == "waypoint":
+                    self._target = cmd.value.copy()
+                elif cmd.kind == "move":
+                    self._target = pos + cmd.value
+                else:
+                    self._target = None
+                self._start(cmd)
+        start = pos.copy()
+        self._blocked = False
+        self._advance(float(dt), arena)
+        self._vel = (self._pos - start) / dt
+
+    def _check_arena(self, arena: Arena) -> None:
+        pos = self._require_reset()
+        if arena.dim != pos.size:
+            raise ConfigError(
+                "position", f"has {pos.size} coordinates but the arena is {arena.dim}D"
+            )
+        if not arena.is_free(pos)[0]:
+            raise ConfigError(
+                "position", f"{pos.tolist()} is outside the arena or inside an obstacle"
+            )
+        self._checked_arena = arena
+
+    def _validate(self, command: Command) -> Command:
+        if command.kind not in _KINDS:
+            raise ConfigError("command.kind", f"unknown kind {command.kind!r} (known: {_KINDS})")
+        if command.kind == "hold":
+            return command
+        v = np.asarray(command.value, dtype=float)
+        if v.shape != (self.dim,):
+            raise ConfigError(
+                "command.value", f"{command.kind} needs shape ({self.dim},), got {v.shape}"
+            )
+        if not np.all(np.isfinite(v)):
+            raise ConfigError("command.value", "must be finite")
+        return Command(command.kind, v)
+
+    def _continues_current(self, cmd: Command) -> bool:
+        cur = self._command
+        return (
+            cmd.kind == "waypoint"
+            and cur is not None
+            and cur.kind == "waypoint"
+            and float(np.max(np.abs(cmd.value - cur.value))) <= _SAME_WAYPOINT_TOL
+        )
+
+    def _require_reset(self) -> np.ndarray:
+        if self._pos is None:
+            raise RuntimeError(f"{type(self).__name__}: call reset(position, heading) first")
+        return self._pos
+
+    # ------------------------------------------------------------------ subclass hooks
+    @abstractmethod
+    def _start(self, command: Command) -> None:
+        """React to a newly received (validated) command; ``self._target`` is already set."""
+
+    @abstractmethod
+    def _advance(self, dt: float, arena: Arena) -> None:
+        """Execute the current command for ``dt`` seconds."""
+
+    def _translate(self, end: np.ndarray, arena: Arena) -> bool:
+        """Move straight towards ``end`` as far as free space allows; ``True`` if blocked."""
+        pos = self._require_reset()
+        if np.array_equal(end, pos):
+            return False
+        frac = free_fraction(arena, pos, end, self.radius)
+        blocked = frac < 1.0
+        if not blocked:
+            new = end.copy()
+        else:
+            new = pos + frac * (end - pos)
+            if arena.occ is None:
+                # Keep rounding from leaving the box, which would pin the body at the wall.
+                r = self.radius
+                new = np.clip(new, np.minimum(arena.lo + r, pos), np.maximum(arena.hi - r, pos))
+        self._path += float(np.linalg.norm(new - pos))
+        self._pos = new
+        if blocked:
+            self._collided += 1
+            self._blocked = True
+        return blocked
+
+    # ------------------------------------------------------------------ state
+    @property
+    def dim(self) -> int:
+        """Number of spatial dimensions (2 or 3)."""
+        return int(self._require_reset().size)
+
+    @property
+    def position(self) -> np.ndarray:
+        """Current position, ``(d,)`` metres (a copy)."""
+        return self._require_reset().copy()
+
+    @property
+    def heading(self) -> float:
+        """Heading in the horizontal plane, rad in ``(-pi, pi]`` (x axis = 0, counter-clockwise)."""
+        return self._heading
+
+    @property
+    def velocity(self) -> np.ndarray:
+        """Average velocity over the last period, ``(d,)`` m/s."""
+        return self._vel.copy()
+
+    @property
+    def path_length(self) -> float:
+        """Distance travelled since :meth:`reset`, metres."""
+        return self._path
+
+    @property
+    def collided(self) -> int:
+        """Number of periods in which a motion was stopped by an obstacle or wall."""
+        return self._collided
+
+    @property
+    def blocked(self) -> bool:
+        """``True`` when the last period's motion was stopped by an obstacle or wall."""
+        return self._blocked
+
+    @property
+    def command(self) -> Command | None:
+        """The command in force (``None`` before the first one)."""
+        return self._command
+
+    @property
+    def target(self) -> np.ndarray | None:
+        """The current waypoint/move target, ``(d,)`` metres, or ``None``."""
+        return None if self._target is None else self._target.copy()
+
+    @property
+    def energy(self) -> float:
+        """Energy used since :meth:`reset`, J."""
+        return float(sum(self.energy_breakdown().values()))
+
+    def energy_breakdown(self) -> dict[str, float]:
+        """Energy used per component, J. Default: no energy model."""
+        return {}
+
+    @property
+    def exhausted(self) -> bool:
+        """``True`` once the energy budget is used up (platforms without a budget: never)."""
+        return False
+
+    @property
+    @abstractmethod
+    def ready(self) -> bool:
+        """``True`` when idle or the current waypoint/move (and any hover) is done."""
+
+    @property
+    @abstractmethod
+    def speed_limit(self) -> float:
+        """Maximum translational speed, m/s."""
+
+    def state(self) -> dict[str, float | np.ndarray]:
+        """A snapshot for recording: position, heading, velocity, path length, energy."""
+        return {
+            "position": self.position,
+            "heading": self.heading,
+            "velocity": self.velocity,
+            "path_length": self.path_length,
+            "energy": self.energy,
+            "collided": float(self.collided),
+        }

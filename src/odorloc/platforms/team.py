@@ -1,0 +1,206 @@
+"""Team communication: who can hear whom, message delivery and byte accounting.
+
+Agents within ``radius`` metres of each other (Euclidean distance, inclusive) are neighbours;
+the graph is recomputed from the positions at every delivery. A payload broadcast by an agent
+reaches every neighbour, and its size is charged once per recipient (the unicast reading of
+"data transmitted to neighbouring UAVs", eq. 8 of the multi-UAV paper): that is what
+:attr:`CommGraph.bytes_sent` and :attr:`CommGraph.bytes_total` count. Radius 0 means no
+communication at all (even between co-located agents); ``inf`` connects everybody.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from odorloc.errors import ConfigError
+from odorloc.searchers.base import Message
+
+Payload = Mapping[str, ArrayLike]
+
+
+def message_nbytes(payload: Payload) -> int:
+    """Size of a payload in bytes: the sum of its arrays' ``nbytes``.
+
+    Examples
+    --------
+    A Gaussian summary of a 3D belief (mean + covariance, 12 float64 numbers) is 96 bytes.
+    """
+    return int(sum(np.asarray(v).nbytes for v in payload.values()))
+
+
+def neighbour_matrix(positions: ArrayLike, radius: float) -> np.ndarray:
+    """Adjacency of agents within ``radius`` of each other.
+
+    Parameters
+    ----------
+    positions : (N, d) array_like, metres
+    radius : float, metres
+        Communication radius; 0 = nobody, ``inf`` = everybody.
+
+    Returns
+    -------
+    (N, N) bool ndarray
+        Symmetric, ``False`` on the diagonal.
+    """
+    p = np.asarray(positions, dtype=float)
+    if p.ndim != 2:
+        raise ConfigError("positions", f"expected shape (N, d), got {p.shape}")
+    n = len(p)
+    if radius == 0.0:
+        return np.zeros((n, n), dtype=bool)
+    if math.isinf(radius):
+        adj = np.ones((n, n), dtype=bool)
+    else:
+        diff = p[:, None, :] - p[None, :, :]
+        adj = np.einsum("ijk,ijk->ij", diff, diff) <= radius * radius
+    np.fill_diagonal(adj, False)
+    return adj
+
+
+class CommGraph:
+    """The neighbour graph of a team and the message exchange over it.
+
+    Parameters
+    ----------
+    radius : float, metres
+        Communication radius (>= 0; ``inf`` for all-to-all).
+
+    Attributes
+    ----------
+    bytes_total : int
+        Bytes delivered since :meth:`reset`, counted once per recipient.
+    bytes_sent, bytes_received : (N,) int64 ndarray
+        Per-agent bytes sent (summed over recipients) and received.
+    messages_delivered : int
+        Message copies delivered (one per recipient).
+    last_sent : (N,) int64 ndarray
+        Bytes each agent sent at the last :meth:`deliver`.
+    """
+
+    def __init__(self, radius: float) -> None:
+        r = float(radius)
+        if math.isnan(r) or r < 0:
+            raise ConfigError("comm_radius", f"must be >= 0 (inf for all-to-all), got {radius}")
+        self.radius = r
+        self._n: int | None = None
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget the graph and zero the accounting."""
+        self._n = None
+        self.adjacency = np.zeros((0, 0), dtype=bool)
+        self.bytes_total = 0
+        self.messages_delivered = 0
+        self.bytes_sent = np.zeros(0, dtype=np.int64)
+        self.bytes_received = np.zeros(0, dtype=np.int64)
+        self.last_sent = np.zeros(0, dtype=np.int64)
+        self._last_key: tuple[np.ndarray, Mapping[int, Payload]] | None = None
+
+    def _size(self, n: int) -> None:
+        if self._n is None:
+            self._n = n
+            self.bytes_sent = np.zeros(n, dtype=np.int64)
+            self.bytes_received = np.zeros(n, dtype=np.int64)
+            self.last_sent = np.zeros(n, dtype=np.int64)
+        elif n != self._n:
+            raise ConfigError("positions", f"team size changed from {self._n} to {n}; reset()")
+
+    def update(self, positions: ArrayLike) -> np.ndarray:
+        """Recompute the neighbour graph from ``(N, d)`` positions; return the ``(N, N)`` matrix."""
+        self.adjacency = neighbour_matrix(positions, self.radius)
+        self._size(len(self.adjacency))
+        return self.adjacency
+
+    def neighbours(self, agent: int) -> np.ndarray:
+        """Indices of ``agent``'s neighbours in the current graph, ascending."""
+        return np.flatnonzero(self.adjacency[agent])
+
+    def degree(self) -> np.ndarray:
+        """Number of neighbours per agent, ``(N,)``."""
+        return self.adjacency.sum(axis=1)
+
+    def _payloads(
+        self, messages: Mapping[int, Payload], n: int
+    ) -> dict[int, dict[str, np.ndarray]]:
+        out: dict[int, dict[str, np.ndarray]] = {}
+        for k, payload in messages.items():
+            if not (isinstance(k, int | np.integer) and 0 <= int(k) < n):
+                raise ConfigError("messages", f"sender {k!r} is not an agent index in [0, {n})")
+            if not isinstance(payload, Mapping):
+                raise ConfigError(f"messages[{k}]", "payload must be a dict of name -> array")
+            arrs = {}
+            for name, v in payload.items():
+                a = np.array(v)  # a copy: later changes by the sender must not reach receivers
+                a.setflags(write=False)
+                arrs[str(name)] = a
+            out[int(k)] = arrs
+        return out
+
+    def deliver(
+        self, positions: ArrayLike, messages: Mapping[int, Payload]
+    ) -> tuple[list[tuple[Message, ...]], int]:
+        """Update the graph from ``positions`` and deliver each agent's payload to its neighbours.
+
+        Parameters
+        ----------
+        positions : (N, d) array_like, metres
+            Positions at the time of sending.
+        messages : dict of int to dict of str to array_like
+            Payload broadcast by each sending agent.
+
+        Returns
+        -------
+        inbox : list of tuple of Message
+            For each agent, the messages it received, ordered by sender.
+        nbytes : int
+            Bytes delivered by this call (payload size times number of recipients, summed).
+        """
+        adj = self.update(positions)
+        n = len(adj)
+        payloads = self._payloads(messages, n)
+        inbox: list[list[Message]] = [[] for _ in range(n)]
+        sent = np.zeros(n, dtype=np.int64)
+        for k in sorted(payloads):
+            msg = Message(k, payloads[k])
+            size = msg.nbytes
+            to = np.flatnonzero(adj[k])
+            for j in to:
+                inbox[j].append(msg)
+            sent[k] = size * len(to)
+            self.bytes_received[to] += size
+            self.messages_delivered += len(to)
+        self.bytes_sent += sent
+        self.last_sent = sent
+        total = int(sent.sum())
+        self.bytes_total += total
+        self._last_key = (np.array(positions, dtype=float), messages)
+        return [tuple(b) for b in inbox], total
+
+    def bytes_sent_by(
+        self,
+        agent: int,
+        positions: ArrayLike | None = None,
+        messages: Mapping[int, Payload] | None = None,
+    ) -> int:
+        """Bytes ``agent`` sends (summed over recipients) for ``messages`` at ``positions``.
+
+        Without arguments, or with those of the last :meth:`deliver`, this is the amount charged
+        at that delivery; otherwise it is computed without touching the accounting. Use it to
+        charge the sender's communication energy (eq. 8, multi-UAV paper).
+        """
+        if positions is None and messages is None:
+            return int(self.last_sent[agent]) if self._n is not None else 0
+        if positions is None or messages is None:
+            raise ConfigError("positions", "give both positions and messages, or neither")
+        key = self._last_key
+        p = np.asarray(positions, dtype=float)
+        if key is not None and messages is key[1] and np.array_equal(p, key[0]):
+            return int(self.last_sent[agent])
+        if agent not in messages:
+            return 0
+        adj = neighbour_matrix(p, self.radius)
+        return message_nbytes(messages[agent]) * int(adj[agent].sum())

@@ -1,0 +1,92 @@
+"""Arena geometry: bounds, obstacles, segment and line-of-sight queries, loaders."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from odorloc.errors import ConfigError
+from odorloc.world.arena import Arena
+
+
+@pytest.fixture
+def room() -> Arena:
+    return Arena.box((0.0, 0.0), (10.0, 5.0), 0.1).with_boxes([((4.0, 1.0), (5.0, 4.0))])
+
+
+def test_grid_shape_and_centres(room: Arena) -> None:
+    assert room.grid_shape == (100, 50)
+    cx, cy = room.cell_centers()
+    assert cx[0] == pytest.approx(0.05) and cy[-1] == pytest.approx(4.95)
+
+
+def test_contains_and_obstacles_vectorised(room: Arena) -> None:
+    pts = np.array([[1.0, 1.0], [4.5, 2.5], [11.0, 1.0], [4.5, 0.5], [10.0, 5.0]])
+    assert room.contains(pts).tolist() == [True, True, False, True, True]
+    assert room.in_obstacle(pts).tolist() == [False, True, False, False, False]
+    assert room.is_free(pts).tolist() == [True, False, False, True, True]
+
+
+def test_segment_and_line_of_sight(room: Arena) -> None:
+    a = np.array([[1.0, 2.5], [1.0, 0.5], [1.0, 2.5]])
+    b = np.array([[8.0, 2.5], [8.0, 0.5], [1.0, 4.9]])
+    assert room.segment_free(a, b).tolist() == [False, True, True]
+    assert room.line_of_sight(a, b).tolist() == [False, True, True]
+    # Broadcasting one start against many ends.
+    assert room.segment_free([1.0, 2.5], b).shape == (3,)
+
+
+def test_first_hit_stops_before_obstacle(room: Arena) -> None:
+    s = room.first_hit([[1.0, 2.5]], [[9.0, 2.5]])[0]
+    x_stop = 1.0 + s * 8.0
+    assert 3.9 <= x_stop < 4.0  # the wall face is at x = 4.0
+    assert room.first_hit([[1.0, 0.5]], [[9.0, 0.5]])[0] == 1.0
+
+
+def test_3d_arena_boxes() -> None:
+    a = Arena.box((0, 0, 0), (4, 4, 2), 0.2).with_boxes([((1, 1, 0), (2, 2, 1))])
+    assert a.dim == 3 and a.grid_shape == (20, 20, 10)
+    assert a.in_obstacle([[1.5, 1.5, 0.5], [1.5, 1.5, 1.5]]).tolist() == [True, False]
+    assert a.segment_free([[0.5, 1.5, 0.5]], [[3.5, 1.5, 0.5]]).tolist() == [False]
+    assert a.segment_free([[0.5, 1.5, 1.5]], [[3.5, 1.5, 1.5]]).tolist() == [True]
+
+
+def test_polygon_obstacle() -> None:
+    a = Arena.box((0, 0), (4, 4), 0.05).with_polygons([[(1, 1), (3, 1), (2, 3)]])
+    assert a.in_obstacle([[2.0, 1.5], [0.5, 3.5], [2.9, 2.9]]).tolist() == [True, False, False]
+
+
+def test_csv_and_image_loaders_agree(tmp_path) -> None:
+    grid = np.zeros((5, 8), int)  # rows = y (top row = max y), columns = x
+    grid[0, 7] = 1  # top-right corner cell
+    csv_path = tmp_path / "map.csv"
+    np.savetxt(csv_path, grid, fmt="%d", delimiter=",")
+    a = Arena.from_csv(csv_path, resolution=0.5)
+    assert a.upper == (4.0, 2.5)
+    assert a.in_obstacle([[3.75, 2.25], [0.25, 0.25]]).tolist() == [True, False]
+    img = np.where(grid == 1, 0, 255).astype(np.uint8)  # dark = obstacle (ROS map style)
+    png = tmp_path / "map.png"
+    Image.fromarray(img).save(png)
+    b = Arena.from_image(png, resolution=0.5)
+    assert np.array_equal(a.occ, b.occ)
+
+
+@pytest.mark.parametrize(
+    ("lower", "upper", "res", "field"),
+    [
+        ((0, 0), (-1, 5), 0.1, "arena.upper"),
+        ((0, 0), (1, 1, 1), 0.1, "arena.lower"),
+        ((0, 0), (1, float("nan")), 0.1, "arena.upper"),
+        ((0, 0), (1, 1), 0.0, "arena.resolution"),
+    ],
+)
+def test_invalid_arena(lower, upper, res, field) -> None:
+    with pytest.raises(ConfigError) as ei:
+        Arena(tuple(lower), tuple(upper), res)
+    assert ei.value.field == field
+
+
+def test_bad_points_shape(room: Arena) -> None:
+    with pytest.raises(ConfigError, match="points"):
+        room.contains(np.zeros((3, 3)))
