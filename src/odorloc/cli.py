@@ -136,6 +136,123 @@ def scenarios(
 
 
 @app.command()
+def batch(
+    sweep: Annotated[
+        str | None,
+        typer.Argument(help="Sweep YAML file (scenarios x searchers x grids x episodes)."),
+    ] = None,
+    scenario: Annotated[
+        list[str] | None, typer.Option("--scenario", "-s", help="Scenario(s), without a sweep file.")
+    ] = None,
+    searcher: Annotated[
+        list[str] | None, typer.Option("--searcher", "-a", help="Searcher(s), without a sweep file.")
+    ] = None,
+    episodes: Annotated[int, typer.Option(help="Episodes per cell, without a sweep file.")] = 10,
+    seed: Annotated[int, typer.Option(help="Root seed, without a sweep file.")] = 0,
+    out: Annotated[Path, typer.Option(help="Output folder (store, CSV, Parquet).")] = Path(
+        "odorloc-batch"
+    ),
+    backend: Annotated[str, typer.Option(help="local (process pool) or dask.")] = "local",
+    workers: Annotated[int, typer.Option(help="Worker processes.")] = 2,
+    scheduler: Annotated[
+        str | None, typer.Option(help="Join a running Dask scheduler (tcp://host:port).")
+    ] = None,
+    progress: Annotated[bool, typer.Option(help="Live progress bar.")] = True,
+) -> None:
+    """Run (or resume) a Monte Carlo set; every finished episode is stored at once.
+
+    Re-running the same command resumes: finished episodes are skipped. Writes
+    ``results.sqlite``, ``results.csv`` and ``results.parquet`` into ``--out``.
+    """
+    from odorloc.experiments.store import ResultStore
+    from odorloc.experiments.sweep import run_sweep
+
+    if sweep is None:
+        if not scenario:
+            _fail("batch: give a sweep file or at least one --scenario")
+        spec: Any = {
+            "name": "cli-batch",
+            "seed": seed,
+            "episodes": episodes,
+            "scenarios": [{"name": s} for s in scenario or []],
+            "searchers": [{"name": a} for a in (searcher or [])] or None,
+        }
+        if spec["searchers"] is None:
+            from odorloc.scenarios import get_scenario
+
+            try:
+                names = sorted({get_scenario(s).searcher.type for s in scenario or []})
+            except OdorlocError as exc:
+                _fail(str(exc))
+            spec["searchers"] = [{"name": n} for n in names]
+    else:
+        spec = sweep
+    out.mkdir(parents=True, exist_ok=True)
+    store_path = out / "results.sqlite"
+    try:
+        df = run_sweep(
+            spec, store_path, backend=backend, workers=workers, scheduler=scheduler, progress=progress
+        )
+    except OdorlocError as exc:
+        _fail(str(exc))
+        return
+    with ResultStore(store_path, readonly=True) as store:
+        csv = store.to_csv(out / "results.csv")
+        pq = store.to_parquet(out / "results.parquet")
+    n_err = int((df["status"] == "error").sum()) if len(df) else 0
+    console.print(f"{len(df)} episodes ({n_err} errors) -> {store_path}, {csv}, {pq}")
+
+
+@app.command()
+def report(
+    results: Annotated[Path, typer.Argument(help="Results store (.sqlite) or CSV/Parquet export.")],
+    out: Annotated[Path | None, typer.Option(help="HTML file to write.")] = None,
+) -> None:
+    """Write a self-contained HTML report (tables with intervals, figures, episode viewer)."""
+    from odorloc.experiments.report import report_main
+
+    target = out or results.with_suffix(".html")
+    try:
+        path = report_main(results, target)
+    except OdorlocError as exc:
+        _fail(str(exc))
+        return
+    console.print(f"wrote {path}")
+
+
+@app.command()
+def reproduce(
+    paper: Annotated[str, typer.Argument(help="Reproduction name (see --list).")] = "",
+    out: Annotated[Path | None, typer.Option(help="Output folder.")] = None,
+    episodes: Annotated[int | None, typer.Option(help="Episodes per cell (default: the paper's).")] = None,
+    workers: Annotated[int, typer.Option(help="Worker processes.")] = 2,
+    seed: Annotated[int, typer.Option(help="Root seed.")] = 2024,
+    list_: Annotated[bool, typer.Option("--list", help="List the reproductions.")] = False,
+) -> None:
+    """Reproduce a paper's headline comparison: table beside the paper's numbers, figures, report.
+
+    Results are stored as they finish; running the same command again resumes.
+    """
+    from odorloc.experiments import reproduce as rp
+
+    if list_ or not paper:
+        for n in rp.names():
+            r = rp.get(n)
+            console.print(f"[bold]{n}[/]  ({r.paper}) {r.summary}")
+        return
+    try:
+        r = rp.get(paper)
+        kw: dict[str, Any] = {"workers": workers, "seed": seed}
+        if episodes is not None:
+            if episodes < 1:
+                raise ConfigError("episodes", "must be >= 1")
+            kw["episodes"] = episodes
+        r.run(out or Path("odorloc-reproduce") / paper, **kw)
+    except OdorlocError as exc:
+        _fail(str(exc))
+
+
+@app.command()
 def components() -> None:
     """List every registered component (wind, plume, sensors, platforms, searchers)."""
     from odorloc import registry

@@ -62,10 +62,10 @@ class Recording:
     arena_bounds: np.ndarray
     meta: dict[str, Any] = field(default_factory=dict)
 
-    def save(self, path: str | Path) -> Path:
-        """Write the recording to one ``.npz`` file."""
-        arrays: dict[str, Any] = {
-            k: getattr(self, k)
+    def to_arrays(self) -> dict[str, np.ndarray]:
+        """Flat dict of arrays (the ``.npz`` layout; ``meta`` as a JSON string array)."""
+        arrays: dict[str, np.ndarray] = {
+            k: np.asarray(getattr(self, k))
             for k in (
                 "t",
                 "positions",
@@ -81,26 +81,22 @@ class Recording:
             )
         }
         if self.occupancy is not None:
-            arrays["occupancy"] = self.occupancy
+            arrays["occupancy"] = np.asarray(self.occupancy)
         for k, v in self.diagnostics.items():
-            arrays[f"diag__{k}"] = v
-        arrays["belief_t"] = np.array([b[0] for b in self.beliefs])
+            arrays[f"diag__{k}"] = np.asarray(v)
+        arrays["belief_t"] = np.array([b[0] for b in self.beliefs], float)
         for i, (_, snap) in enumerate(self.beliefs):
             for k, v in snap.items():
-                arrays[f"belief{i}__{k}"] = v
+                arrays[f"belief{i}__{k}"] = np.asarray(v)
         arrays["meta"] = np.array(json.dumps(self.meta, default=_json_default))
-        path = Path(path)
-        np.savez_compressed(path, **arrays)
-        return path
+        return arrays
 
     @classmethod
-    def load(cls, path: str | Path) -> Recording:
-        """Read a recording written by :meth:`save`."""
-        with np.load(path, allow_pickle=False) as z:
-            data = {k: z[k] for k in z.files}
+    def from_arrays(cls, data: dict[str, np.ndarray]) -> Recording:
+        """Inverse of :meth:`to_arrays`."""
         diags = {k[6:]: v for k, v in data.items() if k.startswith("diag__")}
         beliefs = []
-        for i, bt in enumerate(data["belief_t"]):
+        for i, bt in enumerate(data.get("belief_t", [])):
             pre = f"belief{i}__"
             beliefs.append(
                 (float(bt), {k[len(pre) :]: v for k, v in data.items() if k.startswith(pre)})
@@ -120,8 +116,20 @@ class Recording:
             declared=data["declared"],
             occupancy=data.get("occupancy"),
             arena_bounds=data["arena_bounds"],
-            meta=json.loads(str(data["meta"])),
+            meta=json.loads(str(data["meta"])) if "meta" in data else {},
         )
+
+    def save(self, path: str | Path) -> Path:
+        """Write the recording to one compressed ``.npz`` file."""
+        path = Path(path)
+        np.savez_compressed(path, **self.to_arrays())
+        return path
+
+    @classmethod
+    def load(cls, path: str | Path) -> Recording:
+        """Read a recording written by :meth:`save`."""
+        with np.load(path, allow_pickle=False) as z:
+            return cls.from_arrays({k: z[k] for k in z.files})
 
 
 def _json_default(o: Any) -> Any:

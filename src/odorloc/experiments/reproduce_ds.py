@@ -1,0 +1,1 @@
+"""Reproduction of the D-S multi-source mapping paper (registered by :mod:`.reproduce`)."""
