@@ -273,7 +273,7 @@ def _indoor_episode_figures(out: Path, seed: int) -> list[Path]:
             ax.plot(*rec.sources[0, :2], "*", color="gold", mec="k", ms=15, label="true source",
                     zorder=6)
             mean = (w[:, None] * snap["positions"]).sum(0) / w.sum()
-            ax.plot(*mean[:2], "X", color="magenta", mec="k", ms=11, label="estimate", zorder=6)
+            ax.plot(*mean[:2], "X", color="red", mec="k", ms=11, label="estimate", zorder=6)
             ax.set_xlim(b[0, 0], b[1, 0])
             ax.set_ylim(b[0, 1], b[1, 1])
             ax.set_aspect("equal")

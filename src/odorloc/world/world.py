@@ -3,13 +3,17 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from odorloc.errors import ConfigError
-from odorloc.plume.base import PlumeModel
-from odorloc.wind.base import WindModel
 from odorloc.world.arena import Arena
+
+if TYPE_CHECKING:
+    # Type-only: the plume and wind packages import ``odorloc.world`` themselves.
+    from odorloc.plume.base import PlumeModel
+    from odorloc.wind.base import WindModel
 
 
 @dataclass(eq=False)

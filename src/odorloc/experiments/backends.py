@@ -1,0 +1,320 @@
+"""Execution backends: run episode tasks and stream ``(task, row)`` pairs back as they finish.
+
+Both backends send work in small chunks (a few episodes per work item) to keep the per-episode
+overhead low, keep only a bounded number of chunks in flight (memory does not grow with the sweep)
+and yield results in completion order; the caller (the parent process) writes them to the store.
+Results do not depend on the backend or the number of workers because each task carries its own
+seeds.
+
+- :class:`LocalBackend` -- a :class:`concurrent.futures.ProcessPoolExecutor` on this machine, no
+  set-up (``workers=1`` runs in the calling process).
+- :class:`DaskBackend` -- a Dask ``distributed`` cluster: a ``LocalCluster`` of ``workers``
+  single-threaded processes, or an existing cluster given by its scheduler address. Needs the
+  extra ``odorloc[dask]``; the episode function's module must be importable on the workers.
+"""
+
+from __future__ import annotations
+
+import math
+import multiprocessing
+import time
+import traceback
+from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
+from typing import Any
+
+from odorloc.errors import ConfigError
+
+TaskRow = tuple[Any, dict]
+
+MAX_CHUNK = 8
+"""Upper bound on episodes per work item (small, so results reach the store promptly)."""
+
+
+def execute_task(episode_fn: Callable[[Any], dict], task: Any, keep_arrays: bool = False) -> dict:
+    """Run one episode, turning an exception into an ``"error"`` row.
+
+    ``wall_time`` (s) is measured here unless the episode function reports it; ``arrays`` is
+    dropped unless ``keep_arrays`` (so it is never shipped back needlessly).
+    """
+    t0 = time.perf_counter()
+    try:
+        row = dict(episode_fn(task))
+    except Exception as exc:
+        tb = traceback.format_exc().strip().splitlines()
+        # first line states the error; the tail of the traceback says where
+        row = {
+            "status": "error",
+            "error": f"{type(exc).__name__}: {exc}\n" + "\n".join(tb[-12:]),
+            "termination": "error",
+            "success": False,
+        }
+    row.setdefault("status", "ok")
+    row.setdefault("error", "")
+    if row.get("wall_time") is None:
+        row["wall_time"] = time.perf_counter() - t0
+    if not keep_arrays:
+        row.pop("arrays", None)
+    return row
+
+
+def run_chunk(
+    episode_fn: Callable[[Any], dict], tasks: Sequence[Any], keep_arrays: bool = False
+) -> list[dict]:
+    """Run a chunk of tasks in order; one row per task (the unit of work sent to a worker)."""
+    return [execute_task(episode_fn, t, keep_arrays) for t in tasks]
+
+
+def default_chunk_size(n_tasks: int, workers: int) -> int:
+    """About four chunks per worker, at most :data:`MAX_CHUNK` episodes each."""
+    return max(1, min(MAX_CHUNK, math.ceil(n_tasks / (4 * max(1, workers)))))
+
+
+def _chunks(tasks: Sequence[Any], size: int) -> Iterator[list[Any]]:
+    for i in range(0, len(tasks), size):
+        yield list(tasks[i : i + size])
+
+
+class LocalBackend:
+    """A process pool on this machine.
+
+    Parameters
+    ----------
+    workers : int
+        Worker processes; ``1`` runs the episodes in the calling process.
+    mp_context : str, optional
+        Start method; default ``"forkserver"`` where available (safe with the progress thread,
+        cheaper than ``"spawn"``), else ``"spawn"``.
+    """
+
+    def __init__(self, workers: int = 2, mp_context: str | None = None) -> None:
+        if workers < 1:
+            raise ConfigError("workers", f"must be >= 1, got {workers}")
+        self.workers = workers
+        if mp_context is None:
+            methods = multiprocessing.get_all_start_methods()
+            mp_context = "forkserver" if "forkserver" in methods else "spawn"
+        self.mp_context = mp_context
+        self._pool: ProcessPoolExecutor | None = None
+
+    def _new_pool(self) -> ProcessPoolExecutor:
+        ctx = multiprocessing.get_context(self.mp_context)
+        return ProcessPoolExecutor(max_workers=self.workers, mp_context=ctx)
+
+    def __enter__(self) -> LocalBackend:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def close(self) -> None:
+        """Shut the pool down, cancelling work not yet started."""
+        if self._pool is not None:
+            self._pool.shutdown(wait=True, cancel_futures=True)
+            self._pool = None
+
+    def run(
+        self,
+        tasks: Sequence[Any],
+        episode_fn: Callable[[Any], dict],
+        keep_arrays: bool = False,
+        chunk_size: int | None = None,
+    ) -> Iterator[TaskRow]:
+        """Yield ``(task, row)`` for every task, in completion order."""
+        if self.workers == 1:
+            for t in tasks:
+                yield t, execute_task(episode_fn, t, keep_arrays)
+            return
+        size = chunk_size or default_chunk_size(len(tasks), self.workers)
+        suspects: list[Any] = []
+        yield from self._run_chunks(list(_chunks(tasks, size)), episode_fn, keep_arrays, suspects)
+        if suspects:
+            # a worker died (segfault, os._exit, out of memory): rerun the affected episodes
+            # one per work item, so a repeat offender is isolated and recorded as an error
+            yield from self._run_isolated(suspects, episode_fn, keep_arrays)
+
+    def _run_chunks(
+        self,
+        chunks: list[list[Any]],
+        episode_fn: Callable[[Any], dict],
+        keep_arrays: bool,
+        suspects: list[Any],
+    ) -> Iterator[TaskRow]:
+        if self._pool is None:
+            self._pool = self._new_pool()
+        queue = iter(chunks)
+        inflight: dict[Future, list[Any]] = {}
+        max_inflight = 2 * self.workers + 1
+        broken = False
+
+        def submit() -> None:
+            for chunk in queue:
+                assert self._pool is not None
+                inflight[self._pool.submit(run_chunk, episode_fn, chunk, keep_arrays)] = chunk
+                if len(inflight) >= max_inflight:
+                    break
+
+        submit()
+        while inflight:
+            finished, _ = wait(inflight, return_when=FIRST_COMPLETED)
+            for fut in finished:
+                chunk = inflight.pop(fut)
+                try:
+                    rows = fut.result()
+                except BrokenProcessPool:
+                    broken = True
+                    suspects.extend(chunk)
+                    continue
+                yield from zip(chunk, rows, strict=True)
+            if not broken:
+                submit()
+        if broken:
+            for chunk in queue:
+                suspects.extend(chunk)
+            self._pool.shutdown(wait=True, cancel_futures=True)
+            self._pool = None
+
+    def _run_isolated(
+        self, tasks: list[Any], episode_fn: Callable[[Any], dict], keep_arrays: bool
+    ) -> Iterator[TaskRow]:
+        for t in tasks:
+            pool = self._new_pool()
+            try:
+                row = pool.submit(run_chunk, episode_fn, [t], keep_arrays).result()[0]
+            except BrokenProcessPool:
+                row = {
+                    "status": "error",
+                    "error": "WorkerDied: the worker process running this episode died",
+                    "termination": "error",
+                    "success": False,
+                }
+            finally:
+                pool.shutdown(wait=True)
+            yield t, row
+
+
+class DaskBackend:
+    """A Dask ``distributed`` cluster.
+
+    Parameters
+    ----------
+    workers : int
+        Worker processes of the ``LocalCluster`` started when no ``scheduler`` is given (one
+        thread each, so episodes do not compete for the GIL).
+    scheduler : str, optional
+        Address of a running scheduler, ``"tcp://host:port"``.
+    timeout : float, seconds
+        Connection timeout; an unreachable scheduler raises :class:`ConfigError`.
+    """
+
+    def __init__(self, workers: int = 2, scheduler: str | None = None, timeout: float = 5.0):
+        if workers < 1:
+            raise ConfigError("workers", f"must be >= 1, got {workers}")
+        if scheduler is not None and "://" not in scheduler:
+            raise ConfigError(
+                "scheduler", f"expected an address like tcp://host:8786, got {scheduler!r}"
+            )
+        self.workers = workers
+        self.scheduler = scheduler
+        self.timeout = timeout
+        self._client: Any = None
+        self._cluster: Any = None
+
+    def __enter__(self) -> DaskBackend:
+        try:
+            import distributed
+        except ImportError:
+            raise ConfigError(
+                "backend", "the dask backend needs the extra: pip install 'odorloc[dask]'"
+            ) from None
+        import logging
+
+        if self.scheduler is not None:
+            try:
+                self._client = distributed.Client(
+                    self.scheduler, timeout=self.timeout, set_as_default=False
+                )
+            except (OSError, TimeoutError) as exc:
+                reason = str(exc).splitlines()[0][:120] if str(exc) else type(exc).__name__
+                raise ConfigError(
+                    "scheduler",
+                    f"cannot reach Dask scheduler {self.scheduler} within {self.timeout:g} s "
+                    f"({reason})",
+                ) from None
+        else:
+            self._cluster = distributed.LocalCluster(
+                n_workers=self.workers,
+                threads_per_worker=1,
+                processes=True,
+                dashboard_address=None,
+                silence_logs=logging.ERROR,
+            )
+            self._client = distributed.Client(self._cluster, set_as_default=False)
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def close(self) -> None:
+        """Disconnect; a cluster started here is shut down."""
+        if self._client is not None:
+            self._client.close()
+            self._client = None
+        if self._cluster is not None:
+            self._cluster.close()
+            self._cluster = None
+
+    @property
+    def n_workers(self) -> int:
+        """Workers currently connected to the scheduler."""
+        return len(self._client.scheduler_info()["workers"]) if self._client else 0
+
+    def run(
+        self,
+        tasks: Sequence[Any],
+        episode_fn: Callable[[Any], dict],
+        keep_arrays: bool = False,
+        chunk_size: int | None = None,
+    ) -> Iterator[TaskRow]:
+        """Yield ``(task, row)`` for every task, as the chunks finish (``as_completed``)."""
+        import distributed
+
+        if self._client is None:
+            raise RuntimeError("use DaskBackend as a context manager")
+        n_workers = max(1, self.n_workers or self.workers)
+        size = chunk_size or default_chunk_size(len(tasks), n_workers)
+        queue = _chunks(tasks, size)
+        chunk_of: dict[str, list[Any]] = {}
+        max_inflight = 2 * n_workers + 1
+        ac = distributed.as_completed(loop=self._client.loop)
+
+        def submit_one() -> bool:
+            chunk = next(queue, None)
+            if chunk is None:
+                return False
+            fut = self._client.submit(run_chunk, episode_fn, chunk, keep_arrays, pure=False)
+            chunk_of[fut.key] = chunk
+            ac.add(fut)
+            return True
+
+        for _ in range(max_inflight):
+            if not submit_one():
+                break
+        for fut in ac:
+            chunk = chunk_of.pop(fut.key)
+            rows = fut.result()
+            fut.release()
+            submit_one()
+            yield from zip(chunk, rows, strict=True)
+
+
+def make_backend(
+    name: str, workers: int = 2, scheduler: str | None = None, timeout: float = 5.0
+) -> LocalBackend | DaskBackend:
+    """A backend by name: ``"local"`` or ``"dask"``."""
+    if name == "local":
+        return LocalBackend(workers=workers)
+    if name == "dask":
+        return DaskBackend(workers=workers, scheduler=scheduler, timeout=timeout)
+    raise ConfigError("backend", f"unknown backend {name!r} (known: local, dask)")

@@ -1,0 +1,575 @@
+"""A self-contained HTML report of a sweep.
+
+The page has no external dependency: figures are embedded as base64 PNG (animations as base64
+GIF), styles are inline, and a few lines of inline script only mark the body with what rendered
+(``data-rendered="images=5/5 tables=3"``) so that a headless browser can check the page. It opens
+from disk, offline.
+
+Sections: per-cell summary with intervals, paired comparisons between searchers, an optional
+comparison with a paper's reference numbers, standard figures (success and time against every
+swept parameter, box plots of search time, success against start distance) and an episode viewer.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import io
+import math
+import time
+from collections.abc import Callable, Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from odorloc.experiments import stats
+
+Renderer = Callable[[dict[str, np.ndarray], dict[str, Any]], Any]
+"""``renderer(arrays, info) -> GIF bytes or a path to a GIF``; ``info`` holds the episode row."""
+
+_CSS = """
+body{font-family:system-ui,-apple-system,Segoe UI,Roboto,sans-serif;margin:24px auto;
+max-width:1200px;color:#1b1f24;background:#fff;line-height:1.4}
+h1{font-size:1.6em;margin-bottom:4px}h2{margin-top:32px;border-bottom:2px solid #e1e4e8;
+padding-bottom:4px}.meta{color:#57606a;font-size:.9em}
+table{border-collapse:collapse;margin:8px 0 16px 0;font-size:.86em}
+th,td{border:1px solid #d0d7de;padding:4px 8px;text-align:right}
+th{background:#f6f8fa}td.l,th.l{text-align:left}tr:nth-child(even) td{background:#fbfcfd}
+.sig{font-weight:600;color:#0a6b2d}.bad{color:#b42318}
+figure{display:inline-block;margin:8px 12px 16px 0;vertical-align:top}
+figcaption{font-size:.85em;color:#57606a;max-width:560px}
+img{border:1px solid #e1e4e8}.note{color:#57606a;font-style:italic}
+"""
+
+_SCRIPT = """
+window.addEventListener('load', function () {
+  var imgs = document.images, ok = 0;
+  for (var i = 0; i < imgs.length; i++) {
+    if (imgs[i].complete && imgs[i].naturalWidth > 0) { ok++; }
+  }
+  var tables = document.getElementsByTagName('table').length;
+  document.body.setAttribute('data-rendered',
+    'images=' + ok + '/' + imgs.length + ' tables=' + tables);
+});
+"""
+
+
+# ----------------------------------------------------------------------------- helpers
+
+
+def _e(x: Any) -> str:
+    return html.escape(str(x))
+
+
+def _f(x: Any, digits: int = 1) -> str:
+    try:
+        v = float(x)
+    except (TypeError, ValueError):
+        return _e(x)
+    return "–" if math.isnan(v) else f"{v:.{digits}f}"
+
+
+def _p(p: float) -> str:
+    if p is None or math.isnan(p):
+        return "–"
+    return "&lt;0.001" if p < 0.001 else f"{p:.3f}"
+
+
+def _pct_ci(p: float, lo: float, hi: float) -> str:
+    return f"{_f(100 * p)} [{_f(100 * lo)}, {_f(100 * hi)}]"
+
+
+def _png(fig: Any) -> str:
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=90, bbox_inches="tight")
+    return base64.b64encode(buf.getvalue()).decode("ascii")
+
+
+def _figure(fig: Any, caption: str) -> str:
+    return (
+        f'<figure><img alt="{_e(caption)}" src="data:image/png;base64,{_png(fig)}">'
+        f"<figcaption>{_e(caption)}</figcaption></figure>"
+    )
+
+
+def _table(headers: Sequence[str], rows: Sequence[Sequence[str]], left: int = 1) -> str:
+    th = "".join(
+        f'<th class="{"l" if i < left else ""}">{_e(h)}</th>' for i, h in enumerate(headers)
+    )
+    body = "".join(
+        "<tr>"
+        + "".join(f'<td class="{"l" if i < left else ""}">{c}</td>' for i, c in enumerate(r))
+        + "</tr>"
+        for r in rows
+    )
+    return f"<table><thead><tr>{th}</tr></thead><tbody>{body}</tbody></table>"
+
+
+def _new_fig(w: float = 6.0, h: float = 3.6) -> Any:
+    # Figure without pyplot: no global state, no GUI backend
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(w, h))
+    return fig
+
+
+# ----------------------------------------------------------------------------- sections
+
+
+def _summary_section(summ: Any, level: float) -> str:
+    pct = f"{round(100 * level)} %"
+    rows = []
+    for r in summ.itertuples():
+        rows.append(
+            [
+                _e(r.cell_id),
+                str(r.n),
+                _pct_ci(r.success_rate, r.success_lo, r.success_hi),
+                f"{_f(r.mean_time)} [{_f(r.mean_time_lo)}, {_f(r.mean_time_hi)}]",
+                f"{_f(r.median_time)} [{_f(r.median_time_lo)}, {_f(r.median_time_hi)}]",
+                _f(r.mean_loc_error, 2),
+                _f(r.mean_path_length, 1),
+                f'<span class="bad">{r.errors}</span>' if r.errors else "0",
+            ]
+        )
+    headers = [
+        "cell",
+        "n",
+        f"success % [{pct} Wilson]",
+        f"mean time s [{pct} bootstrap]",
+        "median time s [CI]",
+        "mean loc. error m",
+        "mean path m",
+        "errors",
+    ]
+    return (
+        "<h2>Summary per cell</h2>"
+        '<p class="note">Times are over successful episodes; episodes that ended in an error are '
+        "excluded from n and counted in the last column.</p>" + _table(headers, rows)
+    )
+
+
+def _paired_section(df: Any, level: float, seed: int) -> str:
+    comp = stats.compare_searchers(df, level=level, seed=seed)
+    if len(comp) == 0:
+        return ""
+    rows = []
+    for (wk, a, b), g in comp.groupby(["world_key", "cell_a", "cell_b"], sort=False):
+        s = g[g["metric"] == "success"].iloc[0]
+        t = g[g["metric"] == "search_time"].iloc[0]
+        sig_s = ' class="sig"' if s.p_value < 0.05 else ""
+        sig_t = ' class="sig"' if t.p_value < 0.05 else ""
+        rows.append(
+            [
+                _e(wk),
+                _e(a.split("/", 1)[-1]),
+                _e(b.split("/", 1)[-1]),
+                str(s.n_pairs),
+                f"{_f(100 * s.mean_diff)} [{_f(100 * s.diff_lo)}, {_f(100 * s.diff_hi)}]",
+                f"<span{sig_s}>{_p(s.p_value)}</span>",
+                str(t.n_pairs),
+                f"{_f(t.mean_diff)} [{_f(t.diff_lo)}, {_f(t.diff_hi)}]",
+                f"<span{sig_t}>{_p(t.p_value)}</span>",
+            ]
+        )
+    headers = [
+        "world",
+        "A",
+        "B",
+        "pairs",
+        "success A−B (points) [CI]",
+        "McNemar p",
+        "pairs",
+        "time A−B s [CI]",
+        "Wilcoxon p",
+    ]
+    return (
+        "<h2>Paired comparisons</h2>"
+        '<p class="note">Episode i of every searcher faced the same world, so differences are '
+        "paired by episode; time differences use every episode without error (failures count "
+        "at the time limit).</p>" + _table(headers, rows, left=3)
+    )
+
+
+def _paper_section(summ: Any, reference: Mapping[str, Mapping[str, Any]]) -> str:
+    rows = []
+    for key, ref in reference.items():
+        match = summ[(summ["cell_id"] == key) | (summ["searcher"] == key)]
+        if len(match) == 0:
+            rows.append([_e(key), _e(ref.get("source", "")), "–", "–", "–", "–", "no such cell"])
+            continue
+        for r in match.itertuples():
+            ps = ref.get("success_rate")
+            pt = ref.get("mean_time")
+            in_s = ps is not None and r.success_lo <= ps <= r.success_hi
+            in_t = (
+                pt is not None
+                and not math.isnan(r.mean_time_lo)
+                and r.mean_time_lo <= pt <= r.mean_time_hi
+            )
+            verdict = []
+            if ps is not None:
+                verdict.append("success within CI" if in_s else "success outside CI")
+            if pt is not None:
+                verdict.append("time within CI" if in_t else "time outside CI")
+            rows.append(
+                [
+                    _e(r.cell_id),
+                    _e(ref.get("source", "")),
+                    _f(100 * ps) if ps is not None else "–",
+                    _pct_ci(r.success_rate, r.success_lo, r.success_hi),
+                    _f(pt) if pt is not None else "–",
+                    f"{_f(r.mean_time)} [{_f(r.mean_time_lo)}, {_f(r.mean_time_hi)}]",
+                    _e("; ".join(verdict)),
+                ]
+            )
+    headers = [
+        "cell",
+        "paper source",
+        "paper success %",
+        "ours [CI]",
+        "paper time s",
+        "ours [CI]",
+        "verdict",
+    ]
+    return (
+        "<h2>Comparison with the paper</h2>"
+        '<p class="note">Our simulator is not the paper\'s: the ordering of methods and the '
+        "ballpark matter more than exact agreement.</p>" + _table(headers, rows, left=2)
+    )
+
+
+def _group_label(row: Any, exclude: str, swept: Sequence[str]) -> str:
+    parts = [str(row["searcher"])]
+    parts += [f"{c.split('.', 1)[1]}={row[c]}" for c in swept if c != exclude]
+    return " ".join(parts)
+
+
+def _param_figures(summ: Any, level: float) -> list[str]:
+    swept = [c for c in summ.columns if c.startswith(("scenario.", "searcher."))]
+    out = []
+    for col in swept:
+        vals = summ[col]
+        if vals.nunique(dropna=True) < 2:
+            continue
+        numeric = all(isinstance(v, int | float) and not isinstance(v, bool) for v in vals)
+        fig = _new_fig(10.0, 3.6)
+        ax1, ax2 = fig.subplots(1, 2)
+        labels = summ.apply(lambda r, col=col: _group_label(r, col, swept), axis=1)
+        cats = list(dict.fromkeys(str(v) for v in vals))
+        for lab, g in summ.groupby(labels, sort=False):
+            x = (
+                g[col].to_numpy(float)
+                if numeric
+                else np.array([cats.index(str(v)) for v in g[col]])
+            )
+            o = np.argsort(x)
+            x = x[o]
+            sr = g["success_rate"].to_numpy(float)[o]
+            lo = g["success_lo"].to_numpy(float)[o]
+            hi = g["success_hi"].to_numpy(float)[o]
+            ax1.errorbar(
+                x,
+                100 * sr,
+                yerr=[100 * (sr - lo), 100 * (hi - sr)],
+                marker="o",
+                capsize=3,
+                label=lab,
+            )
+            mt = g["mean_time"].to_numpy(float)[o]
+            tlo = g["mean_time_lo"].to_numpy(float)[o]
+            thi = g["mean_time_hi"].to_numpy(float)[o]
+            ax2.errorbar(x, mt, yerr=[mt - tlo, thi - mt], marker="o", capsize=3, label=lab)
+        name = col.split(".", 1)[1]
+        for ax in (ax1, ax2):
+            ax.set_xlabel(name)
+            ax.grid(alpha=0.3)
+            if not numeric:
+                ax.set_xticks(range(len(cats)), cats)
+        ax1.set_ylabel("success %")
+        ax1.set_ylim(-3, 103)
+        ax2.set_ylabel("mean search time, s")
+        ax1.legend(fontsize=7)
+        pct = round(100 * level)
+        out.append(
+            _figure(
+                fig,
+                f"Success rate (Wilson {pct} % CI) and mean search time "
+                f"(bootstrap {pct} % CI) against {name}.",
+            )
+        )
+    return out
+
+
+def _box_figure(df: Any) -> str | None:
+    ok = df[(df["status"] != "error") & df["success"].fillna(False).astype(bool)]
+    if len(ok) == 0:
+        return None
+    cells = list(dict.fromkeys(ok["cell_id"]))
+    data = [ok.loc[ok["cell_id"] == c, "search_time"].dropna().to_numpy(float) for c in cells]
+    fig = _new_fig(max(6.0, 0.9 * len(cells) + 2), 3.8)
+    ax = fig.subplots()
+    ax.boxplot(data, showmeans=True)
+    ax.set_xticks(range(1, len(cells) + 1), cells, rotation=30, ha="right", fontsize=7)
+    ax.set_ylabel("search time, s")
+    ax.grid(axis="y", alpha=0.3)
+    return _figure(
+        fig, "Search time of successful episodes per cell (box: quartiles; triangle: mean)."
+    )
+
+
+def _distance_figure(df: Any, level: float, bins: int = 5) -> str | None:
+    ok = df[(df["status"] != "error")].dropna(subset=["start_distance"])
+    if len(ok) < 2 * bins or ok["start_distance"].nunique() < 2:
+        return None
+    d = ok["start_distance"].to_numpy(float)
+    edges = np.unique(np.quantile(d, np.linspace(0, 1, bins + 1)))
+    if edges.size < 3:
+        return None
+    fig = _new_fig(6.5, 3.8)
+    ax = fig.subplots()
+    for lab, g in ok.groupby("cell_id", sort=False):
+        gd = g["start_distance"].to_numpy(float)
+        gs = g["success"].fillna(False).astype(bool).to_numpy()
+        idx = np.clip(np.searchsorted(edges, gd, side="right") - 1, 0, edges.size - 2)
+        n = np.bincount(idx, minlength=edges.size - 1)
+        k = np.bincount(idx, weights=gs, minlength=edges.size - 1)
+        keep = n > 0
+        centres = 0.5 * (edges[:-1] + edges[1:])[keep]
+        lo, hi = stats.wilson_interval(k[keep], n[keep], level)
+        p = k[keep] / n[keep]
+        ax.errorbar(
+            centres,
+            100 * p,
+            yerr=[100 * (p - lo), 100 * (hi - p)],
+            marker="o",
+            capsize=3,
+            label=lab,
+        )
+    ax.set_xlabel("start distance to source, m")
+    ax.set_ylabel("success %")
+    ax.set_ylim(-3, 103)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7)
+    return _figure(
+        fig,
+        f"Success rate against start distance (quantile bins, Wilson {round(100 * level)} % CI).",
+    )
+
+
+def _trajectory_png(arrays: Mapping[str, np.ndarray]) -> str:
+    pos = np.asarray(arrays["positions"], float)
+    # (T, d) for one agent or (T, agents, d) for a team
+    tracks = [pos[:, i, :2] for i in range(pos.shape[1])] if pos.ndim == 3 else [pos[:, :2]]
+    fig = _new_fig(4.2, 4.0)
+    ax = fig.subplots()
+    for i, tr in enumerate(tracks):
+        ax.plot(tr[:, 0], tr[:, 1], lw=1.2, label="path" if i == 0 else None)
+        ax.plot(tr[0, 0], tr[0, 1], "o", color="tab:green", ms=6, label="start" if i == 0 else None)
+        ax.plot(tr[-1, 0], tr[-1, 1], "s", color="tab:blue", ms=5, label="end" if i == 0 else None)
+    for key in ("sources", "source"):
+        if key in arrays and np.size(arrays[key]):
+            src = np.atleast_2d(np.asarray(arrays[key], float))
+            ax.plot(src[:, 0], src[:, 1], "*", color="tab:red", ms=14, label="source")
+            break
+    for key in ("declared", "estimate"):
+        if key in arrays and np.size(arrays[key]):
+            est = np.atleast_2d(np.asarray(arrays[key], float))
+            ax.plot(est[:, 0], est[:, 1], "x", color="k", ms=9, label="declared")
+            break
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.set_xlabel("x, m")
+    ax.set_ylabel("y, m")
+    ax.legend(fontsize=7)
+    ax.grid(alpha=0.3)
+    return _png(fig)
+
+
+def _viewer_section(
+    df: Any,
+    store: Any,
+    episodes: Sequence[tuple[str, int]] | None,
+    renderer: Renderer | None,
+) -> str:
+    if episodes is None:
+        if store is None:
+            return ""
+        chosen: list[tuple[str, int]] = []
+        seen: set[str] = set()
+        for cid, ep in store.episodes_with_arrays():
+            if cid not in seen:
+                seen.add(cid)
+                chosen.append((cid, ep))
+            if len(chosen) >= 4:
+                break
+        episodes = chosen
+    if not episodes:
+        return ""
+    parts = ["<h2>Episode viewer</h2>"]
+    for cid, ep in episodes:
+        sel = df[(df["cell_id"] == cid) & (df["episode"] == ep)]
+        info = sel.iloc[0].to_dict() if len(sel) else {"cell_id": cid, "episode": ep}
+        caption = f"{cid}, episode {ep}"
+        if len(sel):
+            caption += (
+                f": {info.get('termination', '')}, success={bool(info.get('success'))}, "
+                f"t={_f(info.get('search_time'))} s"
+            )
+        arrays = store.arrays(cid, ep) if store is not None else None
+        img = None
+        if arrays is not None and renderer is not None:
+            try:
+                gif = renderer(arrays, info)
+                if isinstance(gif, str | Path):
+                    gif = Path(gif).read_bytes()
+                if gif:  # a renderer may decline (None) and leave the static plot
+                    b64 = base64.b64encode(gif).decode()
+                    img = f'<img alt="{_e(caption)}" src="data:image/gif;base64,{b64}">'
+            except Exception as exc:  # the static plot still tells the story
+                caption += f" (animation failed: {type(exc).__name__}: {exc})"
+        if img is None and arrays is not None and "positions" in arrays:
+            img = f'<img alt="{_e(caption)}" src="data:image/png;base64,{_trajectory_png(arrays)}">'
+        if img is None:
+            parts.append(f'<p class="note">{_e(caption)}: no trajectory stored.</p>')
+        else:
+            parts.append(f"<figure>{img}<figcaption>{_e(caption)}</figcaption></figure>")
+    return "".join(parts)
+
+
+# ----------------------------------------------------------------------------- entry points
+
+
+def write_report(
+    store_or_df: Any,
+    out_html: str | Path,
+    *,
+    title: str | None = None,
+    reference: Mapping[str, Mapping[str, Any]] | None = None,
+    episodes: Sequence[tuple[str, int]] | None = None,
+    renderer: Renderer | None = None,
+    level: float = 0.95,
+    seed: int = 0,
+) -> Path:
+    """Write a self-contained HTML report.
+
+    Parameters
+    ----------
+    store_or_df : ResultStore, path or pandas.DataFrame
+        Results: an open store, a store file, a CSV/Parquet export or an episode table.
+    out_html : path
+        Output file.
+    title : str, optional
+        Page title (default: the sweep name).
+    reference : dict, optional
+        Paper numbers per cell id or searcher label, e.g.
+        ``{"pf-entropy": {"success_rate": 0.94, "mean_time": 110.0, "source": "Table 1"}}``.
+    episodes : list of (cell_id, episode), optional
+        Episodes to show in the viewer (default: the first stored trajectory of up to four cells).
+    renderer : callable, optional
+        ``renderer(arrays, info) -> GIF bytes or path`` animating a stored episode; without it
+        (or if it fails) a static trajectory plot is embedded.
+    level : float
+        Confidence level of every interval.
+    seed : int
+        Seed of the bootstrap.
+
+    Returns
+    -------
+    pathlib.Path
+        ``out_html``.
+    """
+    from odorloc.experiments.store import ResultStore, open_results
+
+    store = None
+    own = False
+    if isinstance(store_or_df, ResultStore):
+        store = store_or_df
+    elif isinstance(store_or_df, str | Path) and Path(store_or_df).suffix not in (
+        ".csv",
+        ".parquet",
+        ".pq",
+    ):
+        store = ResultStore(store_or_df, readonly=True)
+        own = True
+    try:
+        df = store.frame() if store is not None else open_results(store_or_df)
+        meta = store.meta() if store is not None else {}
+        sweep_name = ""
+        if meta.get("sweep"):
+            import json
+
+            sweep_name = json.loads(meta["sweep"]).get("name", "")
+        title = title or (
+            f"odorloc sweep report: {sweep_name}" if sweep_name else "odorloc sweep report"
+        )
+        summ = stats.summarize(df, level=level, seed=seed)
+        n_err = int((df["status"] == "error").sum()) if len(df) else 0
+        n_cells = df["cell_id"].nunique() if len(df) else 0
+        body = [
+            f"<h1>{_e(title)}</h1>",
+            f'<p class="meta">{len(df)} episodes in {n_cells} cells; '
+            f"{n_err} errors; config hash {_e(meta.get('config_hash', '–'))}; "
+            f"generated {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}.</p>",
+        ]
+        if len(df) == 0:
+            body.append('<p class="note">No episodes stored yet.</p>')
+        else:
+            body.append(_summary_section(summ, level))
+            body.append(_paired_section(df, level, seed))
+            if reference:
+                body.append(_paper_section(summ, reference))
+            figs = _param_figures(summ, level)
+            box = _box_figure(df)
+            dist = _distance_figure(df, level)
+            figs += [f for f in (box, dist) if f]
+            if figs:
+                body.append("<h2>Figures</h2>" + "".join(figs))
+            body.append(_viewer_section(df, store, episodes, renderer))
+            errs = df[df["status"] == "error"]
+            if len(errs):
+                rows = [
+                    [
+                        _e(r.cell_id),
+                        str(r.episode),
+                        _e(str(r.error).splitlines()[0] if r.error else ""),
+                    ]
+                    for r in errs.head(50).itertuples()
+                ]
+                body.append("<h2>Errors</h2>" + _table(["cell", "episode", "error"], rows, left=3))
+    finally:
+        if own and store is not None:
+            store.close()
+    page = (
+        '<!DOCTYPE html><html lang="en"><head><meta charset="utf-8">'
+        f"<title>{_e(title)}</title><style>{_CSS}</style></head><body>"
+        + "\n".join(body)
+        + f"<script>{_SCRIPT}</script></body></html>"
+    )
+    out = Path(out_html)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(page, encoding="utf-8")
+    return out
+
+
+def _default_renderer() -> Renderer | None:
+    try:
+        from odorloc.viz.animation import episode_gif  # type: ignore[import-not-found]
+    except ImportError:
+        return None
+    return episode_gif
+
+
+def report_main(results_path: str | Path, out_html: str | Path, **kw: Any) -> Path:
+    """Command-line entry: report on a results store (or CSV/Parquet export).
+
+    The package's episode animation (``odorloc.viz.animation.episode_gif``) is used for the
+    episode viewer when available.
+    """
+    from odorloc.errors import ConfigError
+
+    p = Path(results_path)
+    if not p.exists():
+        raise ConfigError("results", f"no such file: {p}")
+    kw.setdefault("renderer", _default_renderer())
+    return write_report(p, out_html, **kw)

@@ -1,0 +1,309 @@
+"""Uncertainty-driven route planning over a Dempster-Shafer evidence grid (D-S paper, section 3).
+
+The next position ``P`` maximises the fitness (eqs. 6-7)
+
+    E_P = sum_i pi_i^{P*} X_i  ~=  sum_i pi_{i+Delta} X_i,
+
+the uncertainty ``X_i`` (eq. 5) that the air-mass path of a reading taken at ``P`` would cover.
+``pi^{P*}`` is approximated by the robot's current air-mass path map translated by the offset
+``Delta`` from the robot's cell to ``P`` (uniform airflow; the one-step time difference is
+ignored, as in the paper).
+
+Readings of the paper:
+
+* Shift direction. The path map moves with the robot: the map for a robot at ``P`` is
+  ``pi^P(c) = pi(c - Delta)``, hence ``E_P = sum_c pi(c) X(c + Delta)``. This is the paper's
+  ``pi_{i+Delta}`` with the index convention read so that the map follows the robot.
+  Cells shifted out of the grid contribute nothing. All candidate shifts are evaluated at once as
+  a cross-correlation of ``X`` with the path map's bounding box (:func:`scipy.signal.correlate`,
+  direct or FFT), so no shifted map is ever built.
+* Candidates. First the cell centres within ``step_range`` of the robot (the reach of the next
+  step, max speed times period) plus the robot's own cell; while the best ``E_P < eta_E`` the
+  radius is multiplied by ``widen_factor`` until it covers the whole area; if even then the best
+  ``E_P < eta_E`` the mission is finished and :meth:`UncertaintyRoutePlanner.plan` returns
+  ``None``.
+* Search region. With ``region`` set, only cells whose centre lies in it are candidates and only
+  their uncertainty counts in ``E_P`` (the paper's planner "never considered" cells outside the
+  work area). Cells excluded by ``allowed`` (e.g. obstacles) are never candidates.
+* Ties are broken uniformly at random with the caller's generator.
+* No path yet. If the path map is empty (e.g. before a second wind record exists) there is no
+  evidence to weigh; the plan keeps the robot where it is (``reason="empty_path_map"``) rather
+  than declaring the mission finished.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from pydantic import model_validator
+from scipy.signal import correlate
+
+from odorloc.errors import ConfigError
+from odorloc.inference.dempster_shafer import DSGrid
+from odorloc.inference.odor_path import CellGrid, OdorPathEstimator, PathPatch
+from odorloc.params import NonNegative, Params, Positive
+
+FloatArray = NDArray[np.float64]
+
+__all__ = ["RoutePlan", "UncertaintyRouteParams", "UncertaintyRoutePlanner", "fitness_map"]
+
+
+class UncertaintyRouteParams(Params):
+    """Parameters of :class:`UncertaintyRoutePlanner`.
+
+    Attributes
+    ----------
+    step_range : float, metres
+        Initial candidate radius: how far the robot gets in the next step (0.5 m/s x 0.5 s).
+    widen_factor : float
+        Radius multiplier while the best fitness is below ``eta_e`` (> 1).
+    eta_e : float
+        ``eta_E``, the fitness threshold (0.5).
+    region : ((x0, y0), (x1, y1)), optional
+        Search region, metres; ``None`` is the whole grid.
+    tie_rtol : float
+        Candidates within this relative tolerance of the best fitness count as ties.
+    """
+
+    step_range: Positive = 0.25
+    widen_factor: float = 2.0
+    eta_e: NonNegative = 0.5
+    region: tuple[tuple[float, float], tuple[float, float]] | None = None
+    tie_rtol: NonNegative = 1e-9
+
+    @model_validator(mode="after")
+    def _check(self) -> UncertaintyRouteParams:
+        if not (math.isfinite(self.widen_factor) and self.widen_factor > 1.0):
+            raise ValueError("widen_factor must be a finite number > 1")
+        if self.region is not None:
+            lo, hi = self.region
+            if not all(math.isfinite(v) for v in (*lo, *hi)) or hi[0] <= lo[0] or hi[1] <= lo[1]:
+                raise ValueError("region needs finite ((x0, y0), (x1, y1)) with x1 > x0, y1 > y0")
+        return self
+
+
+@dataclass(frozen=True, eq=False)
+class RoutePlan:
+    """Outcome of one planning call.
+
+    Attributes
+    ----------
+    target : (2,) ndarray or None
+        Centre of the chosen cell, metres; ``None`` when the mission is finished.
+    fitness : float
+        ``E_P`` of the target (the best fitness found when finished).
+    radius : float, metres
+        Candidate radius at which the decision was taken.
+    n_candidates : int
+        Candidates evaluated at that radius.
+    done : bool
+        ``True`` when even the whole area is below ``eta_E``.
+    reason : str
+        ``"ok"``, ``"widened"``, ``"finished"``, ``"empty_path_map"`` or ``"no_candidates"``.
+    """
+
+    target: FloatArray | None
+    fitness: float
+    radius: float
+    n_candidates: int
+    done: bool
+    reason: str
+
+
+def _as_patch(
+    path_model: OdorPathEstimator | PathPatch | ArrayLike, grid: CellGrid, ref: NDArray[np.intp]
+) -> PathPatch:
+    """The path map as a :class:`PathPatch` on ``grid``."""
+    if isinstance(path_model, OdorPathEstimator):
+        if path_model.n_records == 0:
+            return PathPatch(0, 0, np.zeros((0, 0)), grid, ref)
+        patch = path_model.path_patch()
+    elif isinstance(path_model, PathPatch):
+        patch = path_model
+    else:
+        dense = np.asarray(path_model, float)
+        if dense.shape != grid.shape:
+            raise ConfigError("path_model", f"shape {dense.shape} != grid {grid.shape}")
+        nz = np.nonzero(dense)
+        if nz[0].size == 0:
+            return PathPatch(0, 0, np.zeros((0, 0)), grid, ref)
+        x0, x1 = nz[0].min(), nz[0].max() + 1
+        y0, y1 = nz[1].min(), nz[1].max() + 1
+        return PathPatch(int(x0), int(y0), dense[x0:x1, y0:y1].copy(), grid, ref)
+    if not patch.grid.same_as(grid):
+        raise ConfigError("path_model", "path map grid differs from the evidence grid")
+    return patch
+
+
+def fitness_map(
+    uncertainty: FloatArray,
+    patch: PathPatch,
+    box: tuple[int, int, int, int] | None = None,
+) -> FloatArray:
+    """Fitness ``E_P`` (eq. 7) for every candidate cell ``P`` in an index box.
+
+    Parameters
+    ----------
+    uncertainty : (nx, ny) ndarray
+        ``X_i`` (eq. 5), zero where cells must not count.
+    patch : PathPatch
+        Current air-mass path map; ``patch.ref_cell`` is the robot cell it was computed for.
+    box : (ix0, ix1, iy0, iy1), optional
+        Candidate cells (end exclusive); default the whole grid.
+
+    Returns
+    -------
+    (ix1 - ix0, iy1 - iy0) ndarray
+        ``E`` for a robot moved to each cell of the box.
+    """
+    nx, ny = uncertainty.shape
+    cx0, cx1, cy0, cy1 = box if box is not None else (0, nx, 0, ny)
+    if cx1 <= cx0 or cy1 <= cy0:
+        return np.zeros((max(cx1 - cx0, 0), max(cy1 - cy0, 0)))
+    if patch.values.size == 0:
+        return np.zeros((cx1 - cx0, cy1 - cy0))
+    bx, by = patch.values.shape
+    rx, ry = int(patch.ref_cell[0]), int(patch.ref_cell[1])
+    # Map cell (u, v) of the patch lands on grid cell (ix0 + u + dx, iy0 + v + dy) for a shift
+    # (dx, dy) = candidate - ref; the X needed spans the candidate box grown by the patch.
+    sx0 = patch.ix0 + cx0 - rx
+    sy0 = patch.iy0 + cy0 - ry
+    wx = cx1 - cx0 + bx - 1
+    wy = cy1 - cy0 + by - 1
+    xs = np.zeros((wx, wy))
+    gx0, gx1 = max(sx0, 0), min(sx0 + wx, nx)
+    gy0, gy1 = max(sy0, 0), min(sy0 + wy, ny)
+    if gx1 > gx0 and gy1 > gy0:
+        xs[gx0 - sx0 : gx1 - sx0, gy0 - sy0 : gy1 - sy0] = uncertainty[gx0:gx1, gy0:gy1]
+    e = correlate(xs, patch.values, mode="valid")
+    return np.maximum(e, 0.0)  # FFT rounding can dip below zero
+
+
+class UncertaintyRoutePlanner:
+    """Chooses the next position maximising the uncertainty covered (D-S paper, section 3).
+
+    Parameters
+    ----------
+    params : UncertaintyRouteParams
+    """
+
+    def __init__(self, params: UncertaintyRouteParams) -> None:
+        self.params = params
+
+    def plan(
+        self,
+        ds_grid: DSGrid,
+        path_model: OdorPathEstimator | PathPatch | ArrayLike,
+        position: ArrayLike,
+        rng: np.random.Generator,
+        allowed: NDArray[np.bool_] | None = None,
+    ) -> FloatArray | None:
+        """Next target position, metres, or ``None`` when the mission is finished.
+
+        See :meth:`plan_detailed` for the parameters.
+        """
+        return self.plan_detailed(ds_grid, path_model, position, rng, allowed).target
+
+    def plan_detailed(
+        self,
+        ds_grid: DSGrid,
+        path_model: OdorPathEstimator | PathPatch | ArrayLike,
+        position: ArrayLike,
+        rng: np.random.Generator,
+        allowed: NDArray[np.bool_] | None = None,
+    ) -> RoutePlan:
+        """Evaluate the candidates, widening the range as needed (eqs. 6-7).
+
+        Parameters
+        ----------
+        ds_grid : DSGrid
+            Current evidence grid (its uncertainty ``X`` is weighed).
+        path_model : OdorPathEstimator, PathPatch or (nx, ny) array_like
+            The current air-mass path map on the same grid (an estimator gives its map at the
+            newest record, centred on the robot cell of that record; a dense array is taken as
+            centred on the robot's current cell).
+        position : (2,) array_like, metres
+            Robot position.
+        rng : numpy.random.Generator
+            Breaks ties.
+        allowed : (nx, ny) bool ndarray, optional
+            Cells the robot may go to (e.g. free of obstacles).
+
+        Returns
+        -------
+        RoutePlan
+        """
+        p = self.params
+        grid = ds_grid.grid
+        pos = np.asarray(position, float).reshape(-1)
+        if pos.shape != (2,) or not np.all(np.isfinite(pos)):
+            raise ConfigError("position", f"needs 2 finite components, got {position!r}")
+        robot_cell = grid.index(pos)[0]
+        patch = _as_patch(path_model, grid, robot_cell)
+
+        cand_mask = grid.region_mask(p.region)
+        if allowed is not None:
+            allowed = np.asarray(allowed, bool)
+            if allowed.shape != grid.shape:
+                raise ConfigError("allowed", f"shape {allowed.shape} != grid {grid.shape}")
+            cand_mask = cand_mask & allowed
+        x = ds_grid.uncertainty()
+        if p.region is not None:
+            x = np.where(grid.region_mask(p.region), x, 0.0)
+
+        if patch.empty:
+            here = grid.center(robot_cell)[0]
+            return RoutePlan(here, 0.0, 0.0, 0, False, "empty_path_map")
+        if not cand_mask.any():
+            return RoutePlan(None, 0.0, 0.0, 0, True, "no_candidates")
+
+        xc, yc = grid.x_centers(), grid.y_centers()
+        # the radius covers the whole area once it reaches the farthest corner of the
+        # candidates' bounding box
+        rows = np.flatnonzero(cand_mask.any(axis=1))
+        cols = np.flatnonzero(cand_mask.any(axis=0))
+        far = max(
+            math.hypot(xc[i] - pos[0], yc[j] - pos[1])
+            for i in (rows[0], rows[-1])
+            for j in (cols[0], cols[-1])
+        )
+        radius = p.step_range
+        best_e = 0.0
+        n_cand = 0
+        widened = False
+        while True:
+            whole = radius >= far
+            r_eff = radius
+            a = grid.cell_size
+            box = (
+                max(math.floor((pos[0] - r_eff - grid.lower[0]) / a), 0),
+                min(math.floor((pos[0] + r_eff - grid.lower[0]) / a) + 1, grid.nx),
+                max(math.floor((pos[1] - r_eff - grid.lower[1]) / a), 0),
+                min(math.floor((pos[1] + r_eff - grid.lower[1]) / a) + 1, grid.ny),
+            )
+            ix0, ix1, iy0, iy1 = box
+            dx = xc[ix0:ix1] - pos[0]
+            dy = yc[iy0:iy1] - pos[1]
+            in_range = (dx * dx)[:, None] + (dy * dy)[None, :] <= r_eff * r_eff
+            rcx, rcy = robot_cell[0] - ix0, robot_cell[1] - iy0
+            if 0 <= rcx < ix1 - ix0 and 0 <= rcy < iy1 - iy0:
+                in_range[rcx, rcy] = True  # staying put is always a candidate
+            cand = in_range & cand_mask[ix0:ix1, iy0:iy1]
+            n_cand = int(np.count_nonzero(cand))
+            if n_cand:
+                e = fitness_map(x, patch, box)
+                e_c = np.where(cand, e, -np.inf)
+                best_e = float(e_c.max())
+                if best_e >= p.eta_e:
+                    ties = np.argwhere(e_c >= best_e - p.tie_rtol * abs(best_e))
+                    pick = ties[rng.integers(len(ties))] if len(ties) > 1 else ties[0]
+                    target = grid.center(pick + np.array([ix0, iy0]))[0]
+                    reason = "widened" if widened else "ok"
+                    return RoutePlan(target, best_e, r_eff, n_cand, False, reason)
+            if whole:
+                return RoutePlan(None, best_e, r_eff, n_cand, True, "finished")
+            radius *= p.widen_factor
+            widened = True

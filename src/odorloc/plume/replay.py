@@ -1,0 +1,408 @@
+"""Record a plume and its wind as a "movie" and play it back bit-exactly.
+
+A :class:`Movie` holds, at fixed frame times, the plume's :meth:`~PlumeModel.frame` (filament
+arrays, a concentration grid or an analytic model's parameters) and the wind sampled on a coarse
+node grid. :class:`ReplayPlume` and :class:`ReplayWind` play it back: at time ``t`` they show the
+latest frame with time ``<= t`` (piecewise constant in time), so every searcher facing the movie
+sees exactly the same plume and wind (the DS mapping paper compares exploration methods this way).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from odorloc.errors import ConfigError
+from odorloc.params import Params
+from odorloc.plume.base import PlumeModel
+from odorloc.registry import register
+from odorloc.wind.base import WindModel
+from odorloc.world.arena import Arena
+from odorloc.world.sources import Source
+from odorloc.world.world import World
+
+FrameFn = Callable[[dict[str, np.ndarray], np.ndarray], np.ndarray]
+
+
+def _frame_functions() -> dict[str, FrameFn]:
+    from odorloc.plume.eulerian import EulerianPlume
+    from odorloc.plume.filament import FilamentPlume
+    from odorloc.plume.gaussian import GaussianPlume
+    from odorloc.plume.vergassola import VergassolaPlume
+
+    return {
+        "filament": FilamentPlume.frame_concentration,
+        "gaussian": GaussianPlume.frame_concentration,
+        "vergassola": VergassolaPlume.frame_concentration,
+        "eulerian": EulerianPlume.frame_concentration,
+    }
+
+
+@dataclass(eq=False)
+class Movie:
+    """A recorded plume + wind.
+
+    Attributes
+    ----------
+    times : (T,) ndarray, seconds
+        Frame times, increasing.
+    frames : list of dict of ndarray
+        Plume frames (each has a ``"model"`` entry naming the plume family).
+    wind_axes : list of ndarray
+        Node coordinates of the wind grid per axis, metres.
+    wind : (T, n1, ..., nd, d) ndarray, m/s
+        Wind velocity at the nodes for every frame.
+    arena_lower, arena_upper : (d,) ndarray, metres
+    resolution : float, metres
+    occ : bool ndarray or None
+        Arena occupancy grid.
+    source_positions : (S, d) ndarray, metres
+    source_rates : (S,) ndarray
+    """
+
+    times: np.ndarray
+    frames: list[dict[str, np.ndarray]]
+    wind_axes: list[np.ndarray]
+    wind: np.ndarray
+    arena_lower: np.ndarray
+    arena_upper: np.ndarray
+    resolution: float
+    source_positions: np.ndarray
+    source_rates: np.ndarray
+    occ: np.ndarray | None = field(default=None)
+
+    @property
+    def dim(self) -> int:
+        """Spatial dimension."""
+        return len(self.arena_lower)
+
+    @property
+    def model(self) -> str:
+        """Name of the recorded plume family."""
+        return str(self.frames[0]["model"])
+
+    def arena(self) -> Arena:
+        """The recorded arena."""
+        return Arena(
+            tuple(self.arena_lower), tuple(self.arena_upper), float(self.resolution), self.occ
+        )
+
+    def sources(self) -> list[Source]:
+        """The recorded sources (positions and nominal rates)."""
+        return [
+            Source(position=tuple(float(v) for v in p), rate=float(r))
+            for p, r in zip(self.source_positions, self.source_rates, strict=True)
+        ]
+
+    def index(self, t: float, loop: bool = False) -> int:
+        """Index of the latest frame with time ``<= t`` (the first frame before it)."""
+        times = self.times
+        if loop and len(times) > 1 and t > times[-1]:
+            period = times[-1] - times[0] + (times[-1] - times[-2])
+            t = times[0] + (t - times[0]) % period
+        k = int(np.searchsorted(times, t + 1e-9 * max(1.0, abs(t)), side="right")) - 1
+        return min(max(k, 0), len(times) - 1)
+
+    def concentration(self, k: int, points: np.ndarray) -> np.ndarray:
+        """Plume concentration of frame ``k`` at ``(Q, d)`` points, ``(Q,)``."""
+        frame = self.frames[k]
+        fn = _frame_functions().get(str(frame["model"]))
+        if fn is None:
+            raise ConfigError("movie", f"unknown plume model {frame['model']!s} in frame {k}")
+        return fn(frame, points)
+
+    def wind_velocity(self, k: int, points: np.ndarray) -> np.ndarray:
+        """Wind of frame ``k`` at ``(Q, d)`` points (multilinear on the node grid), ``(Q, d)``."""
+        return node_interpolate(self.wind[k], self.wind_axes, points)
+
+    # ------------------------------------------------------------------ files
+    def save(self, path: str | Path) -> None:
+        """Write the movie to an ``.npz`` file (no pickles)."""
+        data: dict[str, np.ndarray] = {
+            "times": self.times,
+            "wind": self.wind,
+            "arena_lower": self.arena_lower,
+            "arena_upper": self.arena_upper,
+            "resolution": np.array(self.resolution),
+            "source_positions": self.source_positions,
+            "source_rates": self.source_rates,
+        }
+        if self.occ is not None:
+            data["occ"] = self.occ
+        for a, ax in enumerate(self.wind_axes):
+            data[f"wind_axis_{a}"] = ax
+        for k, frame in enumerate(self.frames):
+            for name, arr in frame.items():
+                data[f"frame_{k:06d}__{name}"] = np.asarray(arr)
+        np.savez_compressed(path, **data)
+
+    @classmethod
+    def load(cls, path: str | Path) -> Movie:
+        """Read a movie written by :meth:`save`."""
+        try:
+            z = np.load(path, allow_pickle=False)
+        except (OSError, ValueError) as exc:
+            raise ConfigError("path", f"cannot read movie {path}: {exc}") from None
+        with z:
+            keys = set(z.files)
+            dim = len(z["arena_lower"])
+            frames: list[dict[str, np.ndarray]] = [{} for _ in range(len(z["times"]))]
+            for key in keys:
+                if key.startswith("frame_"):
+                    head, name = key.split("__", 1)
+                    frames[int(head[6:])][name] = z[key]
+            return cls(
+                times=z["times"],
+                frames=frames,
+                wind_axes=[z[f"wind_axis_{a}"] for a in range(dim)],
+                wind=z["wind"],
+                arena_lower=z["arena_lower"],
+                arena_upper=z["arena_upper"],
+                resolution=float(z["resolution"]),
+                source_positions=z["source_positions"],
+                source_rates=z["source_rates"],
+                occ=z["occ"] if "occ" in keys else None,
+            )
+
+
+def node_interpolate(
+    values: np.ndarray, axes: Sequence[np.ndarray], points: np.ndarray
+) -> np.ndarray:
+    """Multilinear interpolation of node values on a rectilinear grid (held at the edges).
+
+    Parameters
+    ----------
+    values : (n1, ..., nd, m) ndarray
+    axes : sequence of d increasing (n_a,) ndarrays, metres
+    points : (Q, d) ndarray, metres
+
+    Returns
+    -------
+    (Q, m) ndarray
+    """
+    dim = len(axes)
+    q = len(points)
+    m = values.shape[-1]
+    # One contiguous 1D array per component: 1D gathers are far cheaper than row gathers.
+    comps = [np.ascontiguousarray(values[..., c]).ravel() for c in range(m)]
+    strides = np.cumprod([1] + [len(ax) for ax in axes[:0:-1]])[::-1]
+    base = np.zeros(q, np.intp)
+    fs: list[np.ndarray | None] = []
+    steps = []
+    for a, ax in enumerate(axes):
+        n = len(ax)
+        if n == 1:
+            fs.append(None)
+            steps.append(0)
+            continue
+        h = (ax[-1] - ax[0]) / (n - 1)
+        if float(np.abs(ax[1:] - ax[:-1] - h).max()) <= 1e-12 * abs(h):
+            # Uniform axis: the cell index is arithmetic (no search).
+            g = (points[:, a] - ax[0]) * (1.0 / h)
+            i0 = np.clip(g, 0.0, n - 2).astype(np.intp)  # truncation == floor for g >= 0
+        else:
+            i0 = np.clip(np.searchsorted(ax, points[:, a], side="right") - 1, 0, n - 2)
+        # From the node coordinates, so that a point on a node gets exactly that node's value.
+        f = (points[:, a] - ax[i0]) / (ax[i0 + 1] - ax[i0])
+        np.clip(f, 0.0, 1.0, out=f)
+        base += i0 * int(strides[a])
+        fs.append(f)
+        steps.append(int(strides[a]))
+    out = np.zeros((q, m))
+    for corner in range(2**dim):
+        w = None
+        off = 0
+        skip = False
+        for a in range(dim):
+            hi = (corner >> a) & 1
+            fa = fs[a]
+            if fa is None:
+                skip = skip or bool(hi)
+                continue
+            wa = fa if hi else 1.0 - fa
+            w = wa if w is None else w * wa
+            off += hi * steps[a]
+        if skip:
+            continue
+        idx = base + off if off else base
+        for c in range(m):
+            vals = comps[c][idx]
+            out[:, c] += vals if w is None else w * vals
+    return out
+
+
+def record_movie(
+    target: World | tuple[PlumeModel, WindModel],
+    duration: float,
+    frame_dt: float,
+    rng: np.random.Generator,
+    *,
+    dt: float | None = None,
+    wind_shape: Sequence[int] | None = None,
+) -> Movie:
+    """Step a world (or a plume and its wind) and record a frame every ``frame_dt`` seconds.
+
+    The first frame is the current state (time ``plume.t``); then ``floor(duration / frame_dt)``
+    more frames follow. The wind is stepped before the plume, as in :class:`World`.
+
+    Parameters
+    ----------
+    target : World or (plume, wind)
+    duration : float, seconds
+    frame_dt : float, seconds
+        Frame interval; an integer multiple of ``dt``.
+    rng : numpy.random.Generator
+    dt : float, optional
+        Simulation step, seconds (default ``frame_dt``).
+    wind_shape : sequence of int, optional
+        Wind nodes per axis (default 15 per horizontal axis and 5 vertically).
+
+    Returns
+    -------
+    Movie
+    """
+    if isinstance(target, World):
+        plume, wind = target.plume, target.wind
+    else:
+        plume, wind = target
+    for name, v in (("duration", duration), ("frame_dt", frame_dt)):
+        if not (np.isfinite(v) and v > 0):
+            raise ConfigError(name, f"must be a finite number > 0, got {v}")
+    step = frame_dt if dt is None else float(dt)
+    if not (np.isfinite(step) and step > 0):
+        raise ConfigError("dt", f"must be a finite number > 0, got {dt}")
+    nsub = round(frame_dt / step)
+    if nsub < 1 or abs(nsub * step - frame_dt) > 1e-9 * frame_dt:
+        raise ConfigError("frame_dt", f"must be an integer multiple of dt={step:g}")
+    arena = plume.arena
+    dim = arena.dim
+    shape = tuple(wind_shape) if wind_shape is not None else (15, 15, 5)[:dim]
+    if len(shape) != dim or min(shape) < 1:
+        raise ConfigError("wind_shape", f"needs {dim} positive node counts")
+    bounds = zip(arena.lower, arena.upper, shape, strict=True)
+    axes = [np.linspace(lo, hi, n) for lo, hi, n in bounds]
+    nodes = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, dim)
+    times, frames, winds = [], [], []
+
+    def grab() -> None:
+        times.append(plume.t)
+        frames.append(plume.frame())
+        winds.append(wind.velocity(nodes).reshape(*shape, dim))
+
+    grab()
+    for _ in range(int(np.floor(duration / frame_dt + 1e-9))):
+        for _ in range(nsub):
+            wind.step(step, rng)
+            plume.step(step, rng)
+        grab()
+    return Movie(
+        times=np.asarray(times, float),
+        frames=frames,
+        wind_axes=axes,
+        wind=np.stack(winds),
+        arena_lower=arena.lo.copy(),
+        arena_upper=arena.hi.copy(),
+        resolution=arena.resolution,
+        source_positions=plume.source_positions,
+        source_rates=np.array([s.rate for s in plume.sources], float),
+        occ=None if arena.occ is None else np.array(arena.occ),
+    )
+
+
+class ReplayParams(Params):
+    """Parameters of :class:`ReplayPlume` and :class:`ReplayWind`.
+
+    Attributes
+    ----------
+    path : str or None
+        ``.npz`` movie file (required unless a :class:`Movie` is passed in code).
+    loop : bool
+        Past the last frame, start again from the first (else hold the last frame).
+    """
+
+    path: str | None = None
+    loop: bool = False
+
+
+def _movie(params: ReplayParams, movie: Movie | None, field: str) -> Movie:
+    if movie is not None:
+        return movie
+    if params.path is None:
+        raise ConfigError(f"{field}.path", "a movie file is required")
+    return Movie.load(params.path)
+
+
+@register("plume", "replay", ReplayParams, "plays back a recorded plume movie")
+class ReplayPlume(PlumeModel):
+    """Plays a :class:`Movie` back: the concentration at time ``t`` is that of the latest frame
+    ``<= t``, bit-identical to the recorded plume's at the frame times.
+
+    ``encounter_rate`` is the concentration (the movie stores no rate model).
+    """
+
+    def __init__(
+        self,
+        params: ReplayParams,
+        arena: Arena | None = None,
+        wind: WindModel | None = None,
+        sources: Sequence[Source] | None = None,
+        movie: Movie | None = None,
+    ) -> None:
+        mv = _movie(params, movie, "plume")
+        arena = arena if arena is not None else mv.arena()
+        if arena.dim != mv.dim:
+            raise ConfigError("plume.path", f"movie is {mv.dim}D but the arena is {arena.dim}D")
+        wind = wind if wind is not None else ReplayWind(params, arena, movie=mv)
+        super().__init__(arena, wind, sources if sources is not None else mv.sources())
+        self.params = params
+        self.movie = mv
+        self.t = float(mv.times[0])
+
+    @classmethod
+    def from_movie(cls, movie: Movie, loop: bool = False) -> ReplayPlume:
+        """A replay of ``movie`` in its own arena, with its sources and a :class:`ReplayWind`."""
+        return cls(ReplayParams(loop=loop), movie=movie)
+
+    def reset(self, rng: np.random.Generator) -> None:
+        super().reset(rng)
+        self.t = float(self.movie.times[0])
+
+    @property
+    def frame_index(self) -> int:
+        """Index of the frame shown at the current time."""
+        return self.movie.index(self.t, self.params.loop)
+
+    def _concentration(self, points: np.ndarray) -> np.ndarray:
+        return self.movie.concentration(self.frame_index, points)
+
+    def frame(self) -> dict[str, np.ndarray]:
+        return {k: np.array(v, copy=True) for k, v in self.movie.frames[self.frame_index].items()}
+
+
+@register("wind", "replay", ReplayParams, "plays back the wind of a recorded movie")
+class ReplayWind(WindModel):
+    """The wind of a :class:`Movie`: multilinear on its node grid, piecewise constant in time."""
+
+    deterministic = True
+
+    def __init__(
+        self, params: ReplayParams, arena: Arena | None = None, movie: Movie | None = None
+    ) -> None:
+        mv = _movie(params, movie, "wind")
+        arena = arena if arena is not None else mv.arena()
+        if arena.dim != mv.dim:
+            raise ConfigError("wind.path", f"movie is {mv.dim}D but the arena is {arena.dim}D")
+        super().__init__(arena)
+        self.params = params
+        self.movie = mv
+        self.t = float(mv.times[0])
+
+    def reset(self, rng: np.random.Generator) -> None:
+        super().reset(rng)
+        self.t = float(self.movie.times[0])
+
+    def _velocity(self, points: np.ndarray, t: float) -> np.ndarray:
+        return self.movie.wind_velocity(self.movie.index(t, self.params.loop), points)

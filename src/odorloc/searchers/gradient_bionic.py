@@ -1,0 +1,226 @@
+"""Gradient-bionic hybrid: concentration-gradient following with moth-inspired surge and cast.
+
+The baseline of the indoor PF paper ("gradient-bionic hybrid algorithm"; the paper gives no
+equations, so this is the standard combination from the literature it cites):
+
+- **Gradient** (signal present): the concentration gradient is estimated by a least-squares
+  plane fit ``c ≈ a + g · (x - x̄)`` of the last ``fit_readings`` (position, reading) pairs.
+  When the fit is well posed (positions spread over at least ``min_spread`` metres along both
+  principal axes) and ``|g| >= min_gradient``, the robot steps along ``g``; otherwise it steps
+  upwind (anemotaxis) to keep moving through the plume.
+- **Surge** (signal lost for ``lost_after`` steps): ``surge_steps`` steps straight upwind.
+- **Cast**: legs across the wind (at ``cast_angle_deg`` from upwind, alternating sides) whose
+  length starts at ``cast_amplitude`` and grows by ``cast_growth`` each leg. The same casting
+  is the plume-finding behaviour before the first detection.
+- **Declaration** (peak confirmed): over the last ``declare_steps`` steps the robot has stayed
+  within ``declare_radius`` of the mean of those positions (it circles a peak instead of
+  climbing), with a detection on at least ``declare_fraction`` of them, and the last fitted
+  gradient magnitude is below ``declare_gradient`` (default: no limit). The declared position is
+  the reading-weighted mean of those positions (readings clipped at 0; the plain mean if all are
+  0), which averages out the turbulent noise of single readings.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from collections.abc import Sequence
+
+import numpy as np
+from pydantic import Field
+
+from odorloc.params import NonNegative, Params, Positive
+from odorloc.registry import register
+from odorloc.searchers.base import (
+    Action,
+    Command,
+    Declaration,
+    Observation,
+    SearchContext,
+    Searcher,
+)
+
+__all__ = ["GradientBionicParams", "GradientBionicSearcher", "fit_gradient"]
+
+
+def fit_gradient(
+    positions: np.ndarray, readings: np.ndarray, min_spread: float = 0.0
+) -> np.ndarray | None:
+    """Least-squares plane fit ``c = a + g · (x - x̄)``; returns ``g`` or ``None``.
+
+    Parameters
+    ----------
+    positions : (K, d) ndarray, metres
+    readings : (K,) ndarray, concentration units
+    min_spread : float, metres
+        Minimum standard deviation of the positions along every principal axis; below it the
+        gradient is not identifiable and ``None`` is returned.
+
+    Returns
+    -------
+    (d,) ndarray, concentration units per metre, or None
+    """
+    x = np.asarray(positions, float)
+    c = np.asarray(readings, float)
+    if len(x) < x.shape[1] + 1:
+        return None
+    dx = x - x.mean(axis=0)
+    sv = np.linalg.svd(dx, compute_uv=False) / math.sqrt(len(x))
+    if sv.min() <= max(min_spread, 1e-12):
+        return None
+    g, *_ = np.linalg.lstsq(dx, c - c.mean(), rcond=None)
+    return g
+
+
+class GradientBionicParams(Params):
+    """Parameters of :class:`GradientBionicSearcher` (see the module docstring)."""
+
+    fit_readings: int = Field(6, ge=3)
+    min_spread: NonNegative = 0.03
+    min_gradient: NonNegative = 0.0
+    lost_after: int = Field(3, ge=1)
+    surge_steps: int = Field(4, ge=0)
+    cast_angle_deg: float = Field(80.0, ge=0.0, le=90.0)
+    cast_amplitude: Positive = 0.4
+    cast_growth: float = Field(1.5, ge=1.0)
+    cast_max: Positive = 3.0
+    step_length: Positive | None = None
+    declare_radius: Positive = 0.5
+    declare_steps: int = Field(20, ge=1)
+    declare_fraction: float = Field(0.5, ge=0.0, le=1.0)
+    declare_gradient: NonNegative = math.inf
+
+
+@register("searcher", "gradient-bionic", GradientBionicParams, "gradient following + surge/cast")
+class GradientBionicSearcher(Searcher):
+    """Gradient following while the signal holds, upwind surge then widening casts when it is
+    lost (moth-inspired); declares at a confirmed concentration peak. Single agent."""
+
+    def __init__(self, params: GradientBionicParams | None = None) -> None:
+        self.params = params or GradientBionicParams()
+
+    def reset(self, ctx: SearchContext, rng: np.random.Generator) -> None:
+        """Start casting (plume finding) with empty reading memory."""
+        super().reset(ctx, rng)
+        p = self.params
+        self.step = p.step_length if p.step_length is not None else ctx.max_speed * ctx.dt
+        self._readings: deque[tuple[np.ndarray, float]] = deque(maxlen=p.fit_readings)
+        self.mode = "cast"
+        self._since_detection = math.inf
+        self._surge_left = 0
+        self._cast_side = 1.0
+        self._cast_leg = p.cast_amplitude
+        self._cast_done = 0.0
+        self._best = -math.inf
+        self._best_pos: np.ndarray | None = None
+        self._recent: deque[tuple[np.ndarray, float, bool]] = deque(maxlen=p.declare_steps)
+        self._gradient: np.ndarray | None = None
+
+    def act(self, observations: Sequence[Observation], rng: np.random.Generator) -> Action:
+        """One control period: update memory and mode, maybe declare, else move."""
+        o = observations[0]
+        p = self.params
+        pos = np.asarray(o.position, float)
+        self._readings.append((pos.copy(), float(o.gas)))
+        if o.detection and o.gas > self._best:
+            self._best, self._best_pos = float(o.gas), pos.copy()
+        self._since_detection = 0 if o.detection else self._since_detection + 1
+        if len(self._readings) >= 3:
+            xs = np.array([r[0] for r in self._readings])
+            cs = np.array([r[1] for r in self._readings])
+            self._gradient = fit_gradient(xs, cs, p.min_spread)
+
+        # Peak confirmation.
+        self._recent.append((pos.copy(), float(o.gas), bool(o.detection)))
+        decl = self._peak_confirmed()
+        if decl is not None:
+            return Action([Command.hold()], declaration=Declaration(decl[None, :]))
+
+        # Mode transitions.
+        if o.detection:
+            self.mode = "gradient"
+        elif self.mode == "gradient" and self._since_detection >= p.lost_after:
+            self.mode, self._surge_left = "surge", p.surge_steps
+        if not o.ready:
+            return Action([None])
+        return Action([self._move(o, pos, rng)])
+
+    def _peak_confirmed(self) -> np.ndarray | None:
+        """The declared position if the peak-confirmation rule holds, else ``None``."""
+        p = self.params
+        if len(self._recent) < p.declare_steps:
+            return None
+        xs = np.array([r[0] for r in self._recent])
+        cs = np.clip([r[1] for r in self._recent], 0.0, None)
+        hits = sum(r[2] for r in self._recent)
+        centre = xs.mean(axis=0)
+        if np.linalg.norm(xs - centre, axis=1).max() > p.declare_radius:
+            return None
+        if hits < p.declare_fraction * len(xs) or hits == 0:
+            return None
+        g = self._gradient
+        if g is not None and float(np.linalg.norm(g)) >= p.declare_gradient:
+            return None
+        return (cs @ xs) / cs.sum() if cs.sum() > 0 else centre
+
+    # ----------------------------------------------------------------- motion
+    def _upwind(self, o: Observation) -> np.ndarray:
+        w = np.asarray(o.wind, float)
+        u = np.zeros(len(w))
+        if math.hypot(w[0], w[1]) > 1e-9:
+            u[:2] = -w[:2] / math.hypot(w[0], w[1])
+        else:
+            u[:2] = [math.cos(o.heading), math.sin(o.heading)]
+        return u
+
+    def _free_move(
+        self, pos: np.ndarray, direction: np.ndarray, rng: np.random.Generator
+    ) -> Command:
+        """Step along ``direction``, or the nearest free rotation of it (±45°, ±90°, ...)."""
+        arena = self.ctx.arena
+        for turn in (0, 45, -45, 90, -90, 135, -135, 180):
+            a = math.radians(turn)
+            c, s = math.cos(a), math.sin(a)
+            d = np.array(direction, float)
+            d[0], d[1] = c * direction[0] - s * direction[1], s * direction[0] + c * direction[1]
+            d = d / max(float(np.linalg.norm(d)), 1e-12) * self.step
+            if arena.segment_free(pos, pos + d)[0]:
+                return Command.move(d)
+        return Command.hold()
+
+    def _move(self, o: Observation, pos: np.ndarray, rng: np.random.Generator) -> Command:
+        p = self.params
+        up = self._upwind(o)
+        if self.mode == "gradient":
+            g = self._gradient
+            if g is not None and float(np.linalg.norm(g)) > max(p.min_gradient, 1e-12):
+                return self._free_move(pos, g, rng)
+            return self._free_move(pos, up, rng)
+        if self.mode == "surge" and self._surge_left > 0:
+            self._surge_left -= 1
+            if self._surge_left == 0:
+                self.mode, self._cast_leg, self._cast_done = "cast", p.cast_amplitude, 0.0
+            return self._free_move(pos, up, rng)
+        self.mode = "cast"
+        if self._cast_done >= self._cast_leg:
+            self._cast_side = -self._cast_side
+            self._cast_done = 0.0
+            self._cast_leg = min(self._cast_leg * p.cast_growth, p.cast_max)
+        a = math.radians(p.cast_angle_deg) * self._cast_side
+        d = np.array(up)
+        d[0], d[1] = math.cos(a) * up[0] - math.sin(a) * up[1], math.sin(a) * up[0] + math.cos(a) * up[1]
+        if not self.ctx.arena.segment_free(pos, pos + d * self.step)[0]:
+            # A wall ends the leg early: turn to the other side.
+            self._cast_done = self._cast_leg
+        self._cast_done += self.step
+        return self._free_move(pos, d, rng)
+
+    def diagnostics(self) -> dict[str, float]:
+        """``phase`` (0 cast, 1 gradient, 2 surge), ``best`` reading, ``gradient`` magnitude."""
+        code = {"cast": 0.0, "gradient": 1.0, "surge": 2.0}[self.mode]
+        g = self._gradient
+        return {
+            "phase": code,
+            "best": self._best if math.isfinite(self._best) else math.nan,
+            "gradient": math.nan if g is None else float(np.linalg.norm(g)),
+        }

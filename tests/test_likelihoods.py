@@ -1,0 +1,134 @@
+"""Pang & Farrell transport likelihood and the Poisson count likelihood."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pydantic
+import pytest
+from scipy.stats import poisson
+
+from odorloc.errors import ConfigError
+from odorloc.inference.likelihoods import (
+    PangFarrellLikelihood,
+    PangFarrellParams,
+    _reference_detection_probability,
+    log_likelihood,
+    poisson_log_likelihood,
+    wind_variance,
+)
+
+EXACT = PangFarrellParams(mu=0.9, sensor_area=0.01, min_wind_variance=0.0, p_floor=0.0)
+
+
+def test_hand_computed_one_particle_two_records() -> None:
+    # Records (oldest first): U_0 = (1.0, 0), U_1 = (0.5, 0); dt = 0.5 s; wind variance 0.02
+    # per axis (given); robot at (1.0, 0.1); source hypothesis at (0, 0).
+    # l = 0: s = (1.0 + 0.5) * 0.5 = 0.75 m in x, elapsed 1.0 s, var = 0.02 * 1.0 = 0.02 m^2
+    #   delta = (1.0 - 0 - 0.75, 0.1) = (0.25, 0.1)
+    #   p^R = exp(-(0.0625 + 0.01) / 0.04) / (2 pi 0.02) = 0.1632455 * 7.957747 = 1.2990665
+    # l = 1: s = 0.5 * 0.5 = 0.25 m, elapsed 0.5 s, var = 0.01 m^2
+    #   delta = (0.75, 0.1); p^R = exp(-0.5725 / 0.02) / (2 pi 0.01) = 5.8903e-12
+    # p(z=0) = (1 - 0.9 * 0.01 * 1.2990665) * (1 - 0.009 * 5.89e-12) = 0.98830840
+    # p(z=1) = 0.01169160
+    model = PangFarrellLikelihood(EXACT)
+    wind = np.array([[1.0, 0.0], [0.5, 0.0]])
+    robot = np.array([1.0, 0.1])
+    hyp = np.array([[0.0, 0.0]])
+    var = np.array([0.02, 0.02])
+    p1 = model.detection_probability(robot, wind, 0.5, hyp, wind_var=var)
+    assert p1.shape == (1,)
+    assert p1[0] == pytest.approx(0.011691598610, rel=1e-9)
+    ll1 = model.log_likelihood(True, robot, wind, 0.5, hyp, wind_var=var)
+    ll0 = model.log_likelihood(False, robot, wind, 0.5, hyp, wind_var=var)
+    assert ll1[0] == pytest.approx(math.log(0.011691598610), rel=1e-9)
+    assert ll0[0] == pytest.approx(math.log(0.98830840139), rel=1e-9)
+    shift, v = model.puff_geometry(wind, 0.5, var)
+    np.testing.assert_allclose(shift, [[0.75, 0.0], [0.25, 0.0]])
+    np.testing.assert_allclose(v, [[0.02, 0.02], [0.01, 0.01]])
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_vectorised_equals_reference_loop(dim: int) -> None:
+    rng = np.random.default_rng(3)
+    params = PangFarrellParams(sensor_area=0.05, initial_variance=0.01)
+    model = PangFarrellLikelihood(params)
+    wind = np.tile(np.r_[0.3, 0.4, 0.0][:dim], (20, 1)) + rng.normal(0, 0.05, (20, dim))
+    robot = np.r_[1.0, 1.5, 0.2][:dim]
+    hyp = robot - np.r_[0.3, 0.4, 0.0][:dim] * rng.uniform(0, 10, (200, 1)) * 0.5
+    hyp += rng.normal(0, 0.3, hyp.shape)
+    fast = model.detection_probability(robot, wind, 0.5, hyp)
+    ref = _reference_detection_probability(robot, wind, 0.5, hyp, params)
+    np.testing.assert_allclose(fast, ref, rtol=1e-12, atol=1e-15)
+    assert fast.max() > 10 * params.p_floor  # the comparison covers non-trivial values
+
+
+def test_several_sensor_positions_match_single_calls() -> None:
+    rng = np.random.default_rng(4)
+    model = PangFarrellLikelihood()
+    wind = rng.normal([0.2, 0.3], 0.05, (20, 2))
+    hyp = rng.uniform(0, 3, (50, 2))
+    sensors = rng.uniform(0, 3, (4, 2))
+    many = model.detection_probability(sensors, wind, 0.5, hyp)
+    assert many.shape == (4, 50)
+    for m, s in enumerate(sensors):
+        np.testing.assert_allclose(many[m], model.detection_probability(s, wind, 0.5, hyp))
+
+
+def test_upwind_hypothesis_is_more_likely_to_be_detected() -> None:
+    # Steady wind +x at 0.4 m/s: odor from a source 1 m upwind (-x) of the robot arrives after
+    # 2.5 s; a source 1 m crosswind never reaches it.
+    model = PangFarrellLikelihood(PangFarrellParams(p_floor=0.0))
+    wind = np.tile([0.4, 0.0], (20, 1))
+    robot = np.array([2.0, 1.0])
+    hyp = np.array([[1.0, 1.0], [2.0, 2.0], [3.0, 1.0]])  # upwind, crosswind, downwind
+    p = model.detection_probability(robot, wind, 0.5, hyp)
+    assert p[0] > 100 * max(p[1], p[2])
+    # Outcomes are complementary.
+    l1 = model.log_likelihood(True, robot, wind, 0.5, hyp)
+    l0 = model.log_likelihood(False, robot, wind, 0.5, hyp)
+    np.testing.assert_allclose(np.exp(l1) + np.exp(l0), 1.0)
+
+
+def test_floor_and_total_underflow_give_no_nan() -> None:
+    wind = np.tile([1.0, 0.0], (20, 1))
+    far = np.array([[-500.0, 300.0]])
+    exact = log_likelihood(True, np.zeros(2), wind, 0.5, far, PangFarrellParams(p_floor=0.0))
+    assert exact[0] == -np.inf
+    floored = log_likelihood(True, np.zeros(2), wind, 0.5, far, PangFarrellParams(p_floor=1e-3))
+    assert floored[0] == pytest.approx(math.log(1e-3))
+
+
+def test_bad_input() -> None:
+    model = PangFarrellLikelihood()
+    hyp = np.zeros((3, 2))
+    with pytest.raises(ConfigError, match="wind_window"):
+        model.detection_probability(np.zeros(2), np.zeros((5, 3)), 0.5, hyp)
+    with pytest.raises(ConfigError, match="dt"):
+        model.detection_probability(np.zeros(2), np.zeros((5, 2)), 0.0, hyp)
+    with pytest.raises(ConfigError, match="sensor_positions"):
+        model.detection_probability(np.zeros(3), np.zeros((5, 2)), 0.5, hyp)
+    with pytest.raises(pydantic.ValidationError, match="mu"):
+        PangFarrellParams(mu=1.5)
+
+
+def test_wind_variance() -> None:
+    w = np.array([[1.0, 0.0], [3.0, 0.0]])
+    np.testing.assert_allclose(wind_variance(w), [1.0, 0.0])
+    np.testing.assert_allclose(wind_variance(w, floor=0.01), [1.0, 0.01])
+    np.testing.assert_allclose(wind_variance(w[:1], floor=0.2), [0.2, 0.2])
+
+
+def test_poisson_matches_scipy_and_edge_cases() -> None:
+    k = np.array([0, 1, 3, 7])
+    lam = np.array([0.5, 2.0, 3.0, 0.1])
+    np.testing.assert_allclose(poisson_log_likelihood(k, lam), poisson.logpmf(k, lam))
+    assert poisson_log_likelihood(0, 0.0) == 0.0
+    assert poisson_log_likelihood(2, 0.0) == -np.inf
+    # One count against many hypotheses broadcasts to (N,).
+    assert poisson_log_likelihood(2, np.ones(5)).shape == (5,)
+    with pytest.raises(ConfigError, match="counts"):
+        poisson_log_likelihood(-1, 1.0)
+    with pytest.raises(ConfigError, match="expected_counts"):
+        poisson_log_likelihood(1, -1.0)

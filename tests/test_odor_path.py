@@ -1,0 +1,344 @@
+"""Tests of the dynamic-window odor-path estimator (odor-path paper)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pydantic
+import pytest
+
+from odorloc.errors import ConfigError
+from odorloc.inference.odor_path import (
+    HAVE_NUMBA,
+    CellGrid,
+    OdorPathEstimator,
+    OdorPathParams,
+    signal_intensity,
+)
+
+
+def feed(est: OdorPathEstimator, winds: np.ndarray, position=(8.0, 5.0), dt=0.5, signal=1.0):
+    for i, u in enumerate(winds):
+        est.update(i * dt, position, u, signal)
+
+
+def noisy_winds(rng: np.random.Generator, n=21, mean=(0.8, 0.1), sigma=0.05) -> np.ndarray:
+    return np.asarray(mean) + rng.normal(0.0, sigma, (n, 2))
+
+
+# ---------------------------------------------------------------------------------------- grid
+def test_grid_matches_paper_index_formulas():
+    g = CellGrid.from_extent((0.0, 0.0), (10.0, 10.0), 0.05)
+    assert g.shape == (200, 200) and g.n_cells == 40_000  # section V
+    # eq. (8-a): i = int(y / a), j = int(x / a); our index is (ix = j, iy = i)
+    np.testing.assert_array_equal(g.index([[0.07, 0.12]]), [[1, 2]])
+    np.testing.assert_allclose(g.center([[1, 2]]), [[0.075, 0.125]])  # eq. (8-b)
+    # eq. (9-a) with 1-based row i = iy + 1 = 3 and column j = ix + 1 = 2: k = 2 * 200 + 2
+    assert g.paper_k(1, 2) == 402
+    ix, iy = g.from_paper_k(np.array([402, 1, 40_000]))
+    np.testing.assert_array_equal(ix, [1, 0, 199])
+    np.testing.assert_array_equal(iy, [2, 0, 199])
+    with pytest.raises(ConfigError):
+        g.from_paper_k(0)
+    # eq. (7): m = int(extent / a) drops a partial strip
+    assert CellGrid.from_extent((0, 0), (1.03, 0.5), 0.1).shape == (10, 5)
+    with pytest.raises(ConfigError):
+        CellGrid.from_extent((0, 0), (0.05, 1.0), 0.1)
+    with pytest.raises(ConfigError):
+        CellGrid.from_extent((0, 0), (-1.0, 1.0), 0.1)
+
+
+# ------------------------------------------------------------------------------------ windows
+def test_windows_follow_constant_wind_and_closed_form_axes():
+    params = OdorPathParams(variance="fixed", fixed_variance=(1e-3, 4e-3))
+    est = OdorPathEstimator(params, (0, 0), (10, 10))
+    feed(est, np.tile([0.5, 0.0], (21, 1)), position=(8.01, 5.01))
+    wins = est.windows()
+    assert len(wins) == 20  # t_thr = 10 s at 0.5 s: 20 sub-windows
+    ref = np.array([8.025, 5.025])  # centre of the robot cell (eq. 11)
+    eta = 1.0 / 40_000
+    for w in wins:
+        age = 10.0 - w.t_r
+        # eq. (10), interval reading: displacement u * (t_c - t_r)
+        np.testing.assert_allclose(w.center, ref - [0.5 * age, 0.0], atol=1e-12)
+        var = age * np.array([1e-3, 4e-3])  # tau = 1 s
+        k = math.log(0.05**2 / (2 * math.pi * eta * math.sqrt(var[0] * var[1])))  # eq. (13)
+        np.testing.assert_allclose(w.variance, var)
+        np.testing.assert_allclose(w.semi_axes, np.sqrt(2 * k * var))
+        assert w.n_cells > 0
+    inclusive = OdorPathEstimator(
+        params.model_copy(update={"advection": "inclusive"}), (0, 0), (10, 10)
+    )
+    feed(inclusive, np.tile([0.5, 0.0], (21, 1)), position=(8.01, 5.01))
+    # the literal sum i = r..c has one more period of wind
+    np.testing.assert_allclose(inclusive.windows()[5].center, wins[5].center - [0.25, 0.0])
+
+
+def test_window_cells_satisfy_eta_and_outside_cells_do_not():
+    # A single sub-window (two records) and no normalisation: the map is S itself (eq. 14).
+    params = OdorPathParams(variance="fixed", fixed_variance=(2e-3, 5e-3), normalise=False)
+    est = OdorPathEstimator(params, (0, 0), (10, 10))
+    est.update(0.0, (5.0, 5.0), (0.7, 0.2))
+    est.update(2.0, (5.0, 5.0), (0.7, 0.2))  # one window, t_c - t_r = 2 s
+    pi = est.path_map()
+    (w,) = est.windows()
+    g = est.grid
+    gx, gy = np.meshgrid(g.x_centers(), g.y_centers(), indexing="ij")
+    var = w.variance
+    s = (
+        0.05**2
+        / (2 * math.pi * math.sqrt(var[0] * var[1]))
+        * np.exp(-((gx - w.center[0]) ** 2) / (2 * var[0]) - (gy - w.center[1]) ** 2 / (2 * var[1]))
+    )
+    inside = pi > 0
+    assert inside.sum() == w.n_cells > 50
+    assert np.all(s[inside] >= est.eta * (1 - 1e-9))
+    assert np.all(s[~inside] < est.eta * (1 + 1e-9))
+    np.testing.assert_allclose(pi[inside], s[inside], rtol=1e-12)
+    np.testing.assert_allclose(w.center, [5.025 - 1.4, 5.025 - 0.4])
+
+
+def test_single_window_is_normalised():
+    params = OdorPathParams(variance="fixed", fixed_variance=(2e-3, 5e-3))
+    est = OdorPathEstimator(params, (0, 0), (10, 10))
+    est.update(0.0, (5.0, 5.0), (0.7, 0.2))
+    est.update(2.0, (5.0, 5.0), (0.7, 0.2))
+    assert est.path_map().sum() == pytest.approx(1.0, abs=1e-12)
+
+
+@pytest.mark.parametrize("kernel", ["point", "cell"])
+@pytest.mark.parametrize("backend", ["numpy", "auto"])
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_dynamic_window_equals_full_grid_reference(kernel, backend, seed):
+    rng = np.random.default_rng(seed)
+    params = OdorPathParams(kernel=kernel, backend=backend)
+    est = OdorPathEstimator(params, (0, 0), (10, 10))
+    # robot near a corner as well, so windows are clipped by the grid
+    pos = (8.0, 5.0) if seed != 2 else (0.3, 9.7)
+    mean = (0.8, 0.1) if seed != 2 else (-0.3, 0.4)
+    feed(est, noisy_winds(rng, mean=mean, sigma=0.05 + 0.05 * seed), position=pos)
+    fast = est.path_map()
+    full = est.path_map_full()
+    np.testing.assert_array_equal(fast > 0, full > 0)
+    np.testing.assert_allclose(fast, full, rtol=1e-12, atol=1e-15)
+    # zero outside the union of the window ellipses
+    g = est.grid
+    gx, gy = np.meshgrid(g.x_centers(), g.y_centers(), indexing="ij")
+    union = np.zeros(g.shape, bool)
+    for w in est.windows():
+        if w.n_cells:
+            h = w.semi_axes
+            union |= ((gx - w.center[0]) / h[0]) ** 2 + ((gy - w.center[1]) / h[1]) ** 2 <= 1 + 1e-9
+    assert fast.any()
+    assert not np.any(fast[~union])
+    assert np.all(fast <= 1.0)
+
+
+@pytest.mark.skipif(not HAVE_NUMBA, reason="numba not installed")
+def test_compiled_kernel_matches_numpy_batch():
+    rng = np.random.default_rng(7)
+    a = OdorPathEstimator(OdorPathParams(backend="numpy"), (0, 0), (10, 10))
+    b = OdorPathEstimator(OdorPathParams(backend="numba"), (0, 0), (10, 10))
+    winds = noisy_winds(rng, n=40, sigma=0.1)
+    for e in (a, b):
+        feed(e, winds, position=(6.0, 4.0))
+    pa, pb = a.path_patch(), b.path_patch()
+    assert (pa.ix0, pa.iy0) == (pb.ix0, pb.iy0)
+    np.testing.assert_allclose(pa.values, pb.values, rtol=1e-12, atol=1e-15)
+    assert [w.box for w in a.windows()] == [w.box for w in b.windows()]
+    assert [w.n_cells for w in a.windows()] == [w.n_cells for w in b.windows()]
+
+
+def test_cost_follows_window_size_not_map_size():
+    rng = np.random.default_rng(3)
+    est = OdorPathEstimator(OdorPathParams(), (0, 0), (10, 10))
+    feed(est, noisy_winds(rng, sigma=0.03))
+    patch = est.path_patch()
+    n_win = sum(w.n_cells for w in est.windows())
+    assert patch.values.size < 0.2 * est.grid.n_cells
+    assert n_win < 0.02 * 20 * est.grid.n_cells
+
+
+# ------------------------------------------------------------------------------- behaviour
+def _crosswind_std(pi: np.ndarray, grid: CellGrid) -> float:
+    y = grid.y_centers()
+    w = pi.sum(axis=0)
+    m = (w * y).sum() / w.sum()
+    return float(np.sqrt((w * (y - m) ** 2).sum() / w.sum()))
+
+
+def test_smaller_wind_variance_gives_thinner_path():
+    widths, cells = [], []
+    for var in (1e-3, 1e-2):
+        params = OdorPathParams(variance="fixed", fixed_variance=(var, var))
+        est = OdorPathEstimator(params, (0, 0), (10, 10))
+        feed(est, np.tile([0.6, 0.0], (21, 1)), position=(8.0, 5.0))
+        pi = est.path_map()
+        widths.append(_crosswind_std(pi, est.grid))
+        cells.append(np.count_nonzero(pi))
+    # Gaussian cross-sections scale with sqrt(variance): ratio sqrt(10) ~ 3.2
+    assert 2.0 < widths[1] / widths[0] < 4.5
+    assert cells[1] > 3 * cells[0]
+
+
+def test_online_variance_is_sample_variance_of_the_window_records():
+    rng = np.random.default_rng(4)
+    winds = noisy_winds(rng, n=30, sigma=0.1)
+    est = OdorPathEstimator(OdorPathParams(), (0, 0), (10, 10))
+    feed(est, winds)
+    # interval reading: the 20 winds after the oldest window record
+    np.testing.assert_allclose(est.wind_variance(), winds[-20:].var(axis=0, ddof=1))
+    steady = OdorPathEstimator(OdorPathParams(min_variance=2e-4), (0, 0), (10, 10))
+    feed(steady, np.tile([0.5, 0.0], (5, 1)))
+    np.testing.assert_allclose(steady.wind_variance(), [2e-4, 2e-4])
+
+
+def test_detection_in_steady_plume_points_at_upwind_source():
+    """Source upwind of the robot, constant noisy wind, 20-step record."""
+    rng = np.random.default_rng(5)
+    source = np.array([2.0, 5.0])
+    est = OdorPathEstimator(OdorPathParams(), (0, 0), (10, 10))
+    robot = np.array([8.0, 5.1])
+    u_mean = np.array([0.8, 0.0])
+    for i in range(21):
+        u = u_mean + rng.normal(0, 0.05, 2)
+        # a simple Gaussian plume: detection when the robot is within the plume width
+        x = robot[0] - source[0]
+        conc = math.exp(-((robot[1] - source[1]) ** 2) / (2 * (0.1 * x) ** 2))
+        est.update(i * 0.5, robot, u, float(conc > 0.5))
+    pi = est.path_map(require_detection=True)
+    cell = tuple(est.grid.index(source)[0])
+    nz = pi[pi > 0]
+    assert pi[cell] > 0
+    assert pi[cell] >= np.median(nz)
+    # cells far crosswind of the source are not on the path
+    assert pi[tuple(est.grid.index([2.0, 7.0])[0])] == 0
+    assert pi[tuple(est.grid.index([2.0, 3.0])[0])] == 0
+
+
+def test_require_detection_applies_eq_17():
+    rng = np.random.default_rng(6)
+    est = OdorPathEstimator(OdorPathParams(), (0, 0), (10, 10))
+    feed(est, noisy_winds(rng), signal=0.0)
+    assert not est.path_map(require_detection=True).any()
+    assert est.path_map().any()  # the air-mass path itself exists
+    assert not est.detected()
+
+
+def test_records_are_trimmed_and_history_allows_earlier_maps():
+    rng = np.random.default_rng(8)
+    winds = noisy_winds(rng, n=100)
+    est = OdorPathEstimator(OdorPathParams(), (0, 0), (10, 10))
+    feed(est, winds)
+    assert est.n_records == 21
+    hist = OdorPathEstimator(OdorPathParams(history=5.0), (0, 0), (10, 10))
+    feed(hist, winds)
+    assert hist.n_records == 31
+    fresh = OdorPathEstimator(OdorPathParams(), (0, 0), (10, 10))
+    feed(fresh, winds[:95])
+    np.testing.assert_allclose(hist.path_map(t_c=94 * 0.5), fresh.path_map(), rtol=1e-12)
+    with pytest.raises(ConfigError):
+        est.path_map(t_c=10.0)  # trimmed away
+    with pytest.raises(ConfigError):
+        est.path_map(t_c=49.25)  # not a record time
+
+
+def test_first_records_give_empty_or_short_paths():
+    est = OdorPathEstimator(OdorPathParams(), (0, 0), (10, 10))
+    with pytest.raises(ConfigError):
+        est.path_map()
+    est.update(0.0, (5, 5), (1, 0), 1.0)
+    assert est.path_patch().empty and est.windows() == []
+    est.update(0.5, (5, 5), (1, 0), 1.0)
+    assert len(est.windows()) == 1 and est.path_map().sum() == pytest.approx(1.0)
+
+
+def test_determinism_same_input_same_map():
+    winds = noisy_winds(np.random.default_rng(9))
+    maps = []
+    for _ in range(2):
+        est = OdorPathEstimator(OdorPathParams(), (0, 0), (10, 10))
+        feed(est, winds)
+        maps.append(est.path_map())
+    np.testing.assert_array_equal(maps[0], maps[1])
+
+
+def test_bad_input_raises():
+    with pytest.raises(pydantic.ValidationError, match="eta"):
+        OdorPathParams(eta=2.0)
+    with pytest.raises(pydantic.ValidationError, match="cell_size"):
+        OdorPathParams(cell_size=-0.05)
+    with pytest.raises(pydantic.ValidationError, match="tthr"):
+        OdorPathParams(tthr=10.0)
+    with pytest.raises(pydantic.ValidationError, match="kernel"):
+        OdorPathParams(kernel="box")
+    est = OdorPathEstimator(OdorPathParams(), (0, 0), (10, 10))
+    est.update(1.0, (5, 5), (1, 0))
+    with pytest.raises(ConfigError, match="t"):
+        est.update(1.0, (5, 5), (1, 0))
+    with pytest.raises(ConfigError, match="position"):
+        est.update(2.0, (5, 5, 1), (1, 0))
+    with pytest.raises(ConfigError, match="wind"):
+        est.update(2.0, (5, 5), (np.nan, 0))
+    with pytest.raises(ConfigError, match="signal"):
+        est.update(2.0, (5, 5), (1, 0), float("inf"))
+
+
+def test_signal_intensity_by_hand():
+    # eq. (3): c_bar = 10, 11, 11, 15.5; eq. (5): s = K (c / c_bar_prev - 1) when c >= c_bar_prev
+    s = signal_intensity([10.0, 12.0, 11.0, 20.0], gain=2.0)
+    np.testing.assert_allclose(s, [0.0, 0.4, 0.0, 2.0 * (20.0 / 11.0 - 1.0)])
+    # eq. (2): with a one-step delay the reading at step i belongs to step i - 1
+    d = signal_intensity([10.0, 12.0, 11.0, 20.0], gain=2.0, delay_steps=1)
+    np.testing.assert_allclose(d, [0.4, 0.0, 2.0 * (20.0 / 11.0 - 1.0), 0.0])
+    with pytest.raises(ConfigError):
+        signal_intensity([1.0, 2.0], gain=0.0)
+
+
+def test_numpy_fallback_without_numba(monkeypatch):
+    import odorloc.inference.odor_path as op
+
+    rng = np.random.default_rng(10)
+    winds = noisy_winds(rng)
+    ref = OdorPathEstimator(OdorPathParams(backend="numpy"), (0, 0), (10, 10))
+    feed(ref, winds)
+    monkeypatch.setattr(op, "HAVE_NUMBA", False)
+    est = OdorPathEstimator(OdorPathParams(backend="auto"), (0, 0), (10, 10))
+    feed(est, winds)
+    np.testing.assert_array_equal(est.path_map(), ref.path_map())
+    forced = OdorPathEstimator(OdorPathParams(backend="numba"), (0, 0), (10, 10))
+    feed(forced, winds)
+    with pytest.raises(ConfigError, match="backend"):
+        forced.path_map()
+
+
+def test_python_loop_kernel_matches_compiled_form():
+    """The loop kernel run as plain Python (what numba compiles) equals the NumPy batch."""
+    import odorloc.inference.odor_path as op
+
+    rng = np.random.default_rng(11)
+    est = OdorPathEstimator(OdorPathParams(cell_size=0.2, backend="numpy"), (0, 0), (10, 10))
+    feed(est, noisy_winds(rng, sigma=0.1), position=(7.0, 3.0))
+    w = est._windows(None)
+    g = est.grid
+    boxes, n_cells, patch, ix0, iy0 = op._dw_kernel(
+        w.center[:, 0].copy(),
+        w.center[:, 1].copy(),
+        w.var[:, 0].copy(),
+        w.var[:, 1].copy(),
+        w.k.copy(),
+        g.lower[0],
+        g.lower[1],
+        g.cell_size,
+        g.nx,
+        g.ny,
+        False,
+        True,
+    )
+    ref = est.path_patch()
+    assert (ix0, iy0) == (ref.ix0, ref.iy0)
+    np.testing.assert_allclose(patch, ref.values, rtol=1e-12, atol=1e-15)
+    assert list(n_cells) == [x.n_cells for x in est.windows()]
+    kept = [tuple(b) for b, n in zip(boxes.tolist(), n_cells, strict=True) if n]
+    assert kept == [x.box for x in est.windows() if x.n_cells]

@@ -1,0 +1,154 @@
+"""Resampler invariants and the statistics of each scheme."""
+
+from __future__ import annotations
+
+import numpy as np
+import pydantic
+import pytest
+
+from odorloc.errors import ConfigError
+from odorloc.inference.resampling import (
+    LowVarianceResampler,
+    MultinomialResampler,
+    RouletteParams,
+    RouletteResampler,
+    StratifiedResampler,
+    SystematicParams,
+    SystematicResampler,
+    effective_sample_size,
+    make_resampler,
+)
+from odorloc.world.arena import Arena
+
+ALL = ["systematic", "low-variance", "stratified", "multinomial", "roulette"]
+
+
+def _cloud(n: int = 300, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    rng = np.random.default_rng(seed)
+    pos = rng.uniform(0, 4, (n, 2))
+    lw = -0.5 * np.sum((pos - 2.0) ** 2, axis=1) / 0.3
+    return pos, lw
+
+
+@pytest.mark.parametrize("name", ALL)
+def test_invariants(name: str) -> None:
+    r = make_resampler(name)
+    before = r.params.model_dump()
+    pos, lw = _cloud()
+    pos0, lw0 = pos.copy(), lw.copy()
+    out, olw = r.resample(pos, lw, np.random.default_rng(1))
+    assert out.shape == pos.shape  # count kept (roulette default count="keep")
+    assert np.all(np.isfinite(out))
+    np.testing.assert_allclose(np.exp(olw).sum(), 1.0)
+    np.testing.assert_allclose(olw, -np.log(len(out)))
+    np.testing.assert_array_equal(pos, pos0)  # inputs untouched
+    np.testing.assert_array_equal(lw, lw0)
+    assert r.params.model_dump() == before  # settings never change at run time
+    # Determinism per seed.
+    out2, _ = r.resample(pos, lw, np.random.default_rng(1))
+    np.testing.assert_array_equal(out, out2)
+    # Resampling concentrates the cloud where the weight was.
+    w = np.exp(lw - lw.max())
+    w /= w.sum()
+    assert np.linalg.norm(out.mean(axis=0) - w @ pos) < 0.3
+
+
+@pytest.mark.parametrize("name", ALL)
+def test_total_underflow_gives_no_nan(name: str) -> None:
+    pos, _ = _cloud(50)
+    lw = np.full(50, -np.inf)
+    out, olw = make_resampler(name).resample(pos, lw, np.random.default_rng(0))
+    assert np.all(np.isfinite(out)) and np.all(np.isfinite(olw))
+    np.testing.assert_allclose(np.exp(olw).sum(), 1.0)
+
+
+def test_systematic_counts_are_floor_or_ceil_and_equal_low_variance() -> None:
+    rng = np.random.default_rng(5)
+    w = rng.dirichlet(np.ones(40))
+    idx = SystematicResampler().indices(w, np.random.default_rng(9))
+    counts = np.bincount(idx, minlength=40)
+    assert np.all(counts >= np.floor(40 * w) - 1e-9) and np.all(counts <= np.ceil(40 * w) + 1e-9)
+    idx2 = LowVarianceResampler().indices(w, np.random.default_rng(9))
+    np.testing.assert_array_equal(idx, idx2)
+    idx3 = StratifiedResampler().indices(w, np.random.default_rng(9))
+    assert np.all(np.abs(np.bincount(idx3, minlength=40) - 40 * w) < 2.0 + 1e-9)
+
+
+def test_multinomial_counts_are_unbiased() -> None:
+    w = np.array([0.5, 0.3, 0.2])
+    r = MultinomialResampler()
+    rng = np.random.default_rng(2)
+    total = np.zeros(3)
+    for _ in range(200):
+        total += np.bincount(r.indices(w, rng), minlength=3)
+    # 600 draws: std of each frequency <= sqrt(0.25 / 600) = 0.02; allow 4 sigma.
+    np.testing.assert_allclose(total / total.sum(), w, atol=0.08)
+
+
+def test_roulette_children_have_the_stated_spread() -> None:
+    # All weight on one particle: it spawns min(floor(N), 5) = 5 children and the set is filled
+    # back to N with further children, so every particle ~ N(parent, 0.25 I).
+    n = 4000
+    pos = np.zeros((n, 2))
+    pos[1:] = 10.0
+    lw = np.full(n, -np.inf)
+    lw[0] = 0.0
+    r = RouletteResampler(RouletteParams(survival_floor=0.0))
+    out, _ = r.resample(pos, lw, np.random.default_rng(3))
+    assert out.shape == (n, 2)
+    # Sample variance of 4000 normals: relative std sqrt(2/4000) = 2.2 %; allow 10 %.
+    np.testing.assert_allclose(out.var(axis=0), 0.25, rtol=0.1)
+    np.testing.assert_allclose(out.mean(axis=0), 0.0, atol=0.05)
+
+
+def test_roulette_bounded_count_and_survival_floor() -> None:
+    n = 2000
+    pos = np.arange(2 * n, dtype=float).reshape(n, 2)
+    lw = np.full(n, -np.inf)
+    lw[0] = 0.0
+    p = RouletteParams(count="bounded", min_particles=1, max_particles=10_000, child_variance=0.0)
+    out, olw = RouletteResampler(p).resample(pos, lw, np.random.default_rng(4))
+    # Floor 0.5: each of the 1999 light particles survives with probability 0.5 (std 22);
+    # the heavy one is replaced by 5 children (exact copies with zero variance).
+    survivors = len(out) - 5
+    assert abs(survivors - 999.5) < 5 * 22.4
+    assert np.sum(np.all(out == pos[0], axis=1)) == 5
+    np.testing.assert_allclose(olw, -np.log(len(out)))
+    # Upper bound enforced.
+    p2 = p.model_copy(update={"max_particles": 300})
+    out2, _ = RouletteResampler(p2).resample(pos, lw, np.random.default_rng(4))
+    assert len(out2) == 300
+    # Lower bound enforced.
+    p3 = RouletteParams(count="bounded", min_particles=1500, survival_floor=0.0)
+    out3, _ = RouletteResampler(p3).resample(pos, lw, np.random.default_rng(4))
+    assert len(out3) == 1500
+
+
+def test_children_stay_in_free_space() -> None:
+    arena = Arena.box((0, 0), (3, 3), 0.1).with_boxes([((1.0, 0.0), (1.3, 3.0))])
+    pos = np.array([[0.9, 1.5], [0.1, 0.1], [2.0, 2.0]])
+    lw = np.log([0.9, 0.05, 0.05])
+    for r in (RouletteResampler(), SystematicResampler(SystematicParams(jitter_std=0.5))):
+        out, _ = r.resample(np.repeat(pos, 100, 0), np.repeat(lw, 100), np.random.default_rng(0), arena)
+        assert arena.is_free(out).all()
+
+
+def test_bad_input() -> None:
+    r = SystematicResampler()
+    with pytest.raises(ConfigError, match="positions"):
+        r.resample(np.zeros((0, 2)), np.zeros(0), np.random.default_rng(0))
+    with pytest.raises(ConfigError, match="log_weights"):
+        r.resample(np.zeros((3, 2)), np.zeros(2), np.random.default_rng(0))
+    with pytest.raises(ConfigError, match="resampler"):
+        make_resampler("nope")
+    with pytest.raises(pydantic.ValidationError, match="max_particles"):
+        RouletteParams(min_particles=10, max_particles=5)
+    with pytest.raises(pydantic.ValidationError, match="survival_floor"):
+        RouletteParams(survival_floor=1.5)
+
+
+def test_effective_sample_size() -> None:
+    assert effective_sample_size(np.zeros(10)) == pytest.approx(10.0)
+    assert effective_sample_size(np.array([0.0, -np.inf, -np.inf])) == pytest.approx(1.0)
+    assert effective_sample_size(np.full(4, -np.inf)) == pytest.approx(4.0)
+    assert effective_sample_size(np.log([0.5, 0.25, 0.25])) == pytest.approx(1 / 0.375)

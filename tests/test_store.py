@@ -1,0 +1,148 @@
+"""The SQLite results store: durability settings, uniqueness, round trips, exports, refusal."""
+
+from __future__ import annotations
+
+import math
+import sqlite3
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from _stub_episode import stub_episode
+from odorloc.errors import ConfigError
+from odorloc.experiments.store import ResultStore, open_results
+from odorloc.experiments.sweep import config_hash, expand_tasks, load_sweep
+
+SPEC = {
+    "seed": 3,
+    "episodes": 4,
+    "scenarios": [{"name": "toy", "grid": {"scale": [1.0, 2.0]}}],
+    "searchers": [{"name": "a", "params": {"trajectory": True}}, {"name": "b"}],
+}
+
+
+@pytest.fixture
+def filled(tmp_path):
+    spec = load_sweep(SPEC)
+    tasks = expand_tasks(spec)
+    st = ResultStore(tmp_path / "r.sqlite")
+    st.bind(config_hash(spec), spec)
+    for t in tasks:
+        st.add(t, {**stub_episode(t), "wall_time": 0.01})
+    yield st, tasks
+    st.close()
+
+
+def test_wal_mode_and_unique_episode(filled):
+    st, tasks = filled
+    mode = st._con.execute("PRAGMA journal_mode").fetchone()[0]
+    assert mode == "wal"
+    assert len(st) == 16
+    row = stub_episode(tasks[0])
+    # a second write of the same (cell, episode) is ignored: the first result stays
+    assert st.add(tasks[0], {**row, "search_time": -1.0}) is False
+    assert len(st) == 16
+    assert st.frame()["search_time"].iloc[0] == row["search_time"]
+    with pytest.raises(sqlite3.IntegrityError):
+        st._con.execute("INSERT INTO episodes SELECT * FROM episodes LIMIT 1")
+    assert st.done_keys() == {(t.cell_id, t.episode) for t in tasks}
+
+
+def test_row_round_trip(filled):
+    st, tasks = filled
+    df = st.frame()
+    t = tasks[5]
+    r = stub_episode(t)
+    got = df[(df["cell_id"] == t.cell_id) & (df["episode"] == t.episode)].iloc[0]
+    for k in ("search_time", "path_length", "energy", "start_distance", "difficulty"):
+        assert got[k] == pytest.approx(r[k], rel=0, abs=0)
+    assert bool(got["success"]) == r["success"]
+    assert int(got["bytes"]) == r["bytes"] and int(got["steps"]) == r["steps"]
+    if math.isnan(r["loc_error"]):
+        assert math.isnan(got["loc_error"])
+    assert got["world_seed"] == t.world_seed and got["agent_seed"] == t.agent_seed
+    assert got["config_hash"] == t.config_hash and got["status"] == "ok" and got["error"] == ""
+    assert got["scenario.scale"] == t.cell["scenario_params"]["scale"]
+    assert got["wall_time"] == 0.01
+    # arrays kept per episode as npz blobs
+    arr = st.arrays("toy[scale=1.0]/a", 2)
+    ref = stub_episode(next(x for x in tasks if x.cell_id == "toy[scale=1.0]/a" and x.episode == 2))
+    np.testing.assert_array_equal(arr["positions"], ref["arrays"]["positions"])
+    assert st.arrays("toy[scale=1.0]/b", 2) is None
+    assert st.episodes_with_arrays()[0] == ("toy[scale=1.0]/a", 0)
+
+
+def test_exports_equal_the_table(filled, tmp_path):
+    st, _ = filled
+    df = st.frame()
+    csv = open_results(st.to_csv(tmp_path / "r.csv"))
+    pq = open_results(st.to_parquet(tmp_path / "r.parquet"))
+    for other in (csv, pq):
+        assert list(other["cell_id"]) == list(df["cell_id"])
+        np.testing.assert_allclose(other["search_time"], df["search_time"])
+        np.testing.assert_array_equal(other["success"].astype(bool), df["success"].astype(bool))
+        np.testing.assert_array_equal(other["world_seed"], df["world_seed"])
+
+
+def test_duckdb_query(filled):
+    duckdb = pytest.importorskip("duckdb", reason="duckdb not installed (extra odorloc[duckdb])")
+    st, _ = filled
+    con = st.duckdb()
+    res = con.sql(
+        "select searcher, count(*) n, avg(success::int) rate from episodes group by 1 order by 1"
+    ).df()
+    df = st.frame()
+    assert list(res["n"]) == [8, 8]
+    exp = df.groupby("searcher")["success"].mean().astype(float).to_numpy()
+    np.testing.assert_allclose(res["rate"].to_numpy(float), exp)
+    assert duckdb.__version__
+
+
+def test_refuses_foreign_files_untouched(tmp_path):
+    junk = tmp_path / "notes.sqlite"
+    junk.write_bytes(b"this is not a database" * 100)
+    before = junk.read_bytes()
+    with pytest.raises(ConfigError, match="not an odorloc results store"):
+        ResultStore(junk)
+    assert junk.read_bytes() == before
+    other = tmp_path / "other.sqlite"
+    con = sqlite3.connect(other)
+    con.execute("CREATE TABLE t (x)")
+    con.commit()
+    con.close()
+    before = other.read_bytes()
+    with pytest.raises(ConfigError, match="not an odorloc results store"):
+        ResultStore(other)
+    assert other.read_bytes() == before
+    with pytest.raises(ConfigError, match="no results store"):
+        ResultStore(tmp_path / "missing.sqlite", readonly=True)
+
+
+def test_bind_refuses_other_hash(filled):
+    st, _ = filled
+    with pytest.raises(ConfigError) as ei:
+        st.bind("0123456789abcdef")
+    assert ei.value.field == "store"
+    assert len(st) == 16
+
+
+def test_retry_errors_deletes_only_errors(tmp_path):
+    spec = load_sweep(SPEC)
+    tasks = expand_tasks(spec)
+    with ResultStore(tmp_path / "e.sqlite") as st:
+        st.bind(config_hash(spec), spec)
+        for i, t in enumerate(tasks):
+            row = {"status": "error", "error": "boom"} if i % 5 == 0 else stub_episode(t)
+            st.add(t, row)
+        assert st.delete_errors() == 4
+        assert len(st) == 12
+        assert (st.frame()["status"] == "ok").all()
+        counts = st.cell_counts()
+        assert sum(v[0] for v in counts.values()) == 12
+
+
+def test_reader_sees_committed_rows_while_writer_open(filled):
+    st, tasks = filled
+    df = pd.read_sql_query("select count(*) n from episodes", sqlite3.connect(st.path))
+    assert int(df["n"].iloc[0]) == len(tasks)
