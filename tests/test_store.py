@@ -134,7 +134,15 @@ def test_retry_errors_deletes_only_errors(tmp_path):
         st.bind(config_hash(spec), spec)
         for i, t in enumerate(tasks):
             row = {"status": "error", "error": "boom"} if i % 5 == 0 else stub_episode(t)
+            if i == 5:  # a separate traceback is kept under the error line
+                row["traceback"] = "Traceback...\n  line 3"
             st.add(t, row)
+        t0 = tasks[0]
+        err = st.frame().set_index(["cell_id", "episode"]).loc[(t0.cell_id, t0.episode), "error"]
+        assert err == "boom"
+        t5 = tasks[5]
+        err = st.frame().set_index(["cell_id", "episode"]).loc[(t5.cell_id, t5.episode), "error"]
+        assert err.split("\n")[0] == "boom" and "line 3" in err
         assert st.delete_errors() == 4
         assert len(st) == 12
         assert (st.frame()["status"] == "ok").all()

@@ -358,3 +358,57 @@ def test_sigkill_then_resume_equals_uninterrupted_run(tmp_path):
     pd.testing.assert_frame_equal(_table(resumed), _table(clean))
     assert resumed.loc[resumed["status"] == "error", "episode"].tolist() == [40]
     assert np.isfinite(resumed["wall_time"]).all()
+
+
+def test_task_is_frozen_and_picklable():
+    import dataclasses
+    import pickle
+
+    t = expand_tasks(load_sweep(_spec()))[3]
+    assert pickle.loads(pickle.dumps(t)) == t
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        t.episode = 4  # type: ignore[misc]
+
+
+def test_progress_and_summary_table(tmp_path, capsys):
+    from rich.console import Console
+
+    from odorloc.experiments.progress import summary_table
+
+    spec = _spec(episodes=5, searchers=[{"name": "a", "params": {"fail_on": [1]}}])
+    df = run_sweep(spec, tmp_path / "p.sqlite", workers=1, episode_fn=stub_episode, progress=True)
+    out = capsys.readouterr().out
+    assert "all episodes" in out and "toy/a" in out and "Sweep summary" in out
+    console = Console(width=200, record=True, file=open(os.devnull, "w"))  # noqa: SIM115
+    console.print(summary_table(df))
+    text = console.export_text()
+    row = next(line for line in text.splitlines() if line.startswith("│ toy/a"))
+    cells = [c.strip() for c in row.strip().strip("│").split("│")]
+    # n excludes the failed episode, which is counted in the last column
+    assert cells[1] == "4" and cells[-1] == "1"
+    k = int(df.loc[df["status"] == "ok", "success"].sum())
+    assert cells[2].startswith(f"{100 * k / 4:.1f} [")
+
+
+def test_name_validation_hook(tmp_path):
+    scen = pytest.importorskip("odorloc.scenarios")
+    if not hasattr(scen, "get_scenario"):
+        pytest.skip("odorloc.scenarios.get_scenario not available")
+    from odorloc import registry
+    from odorloc.experiments.sweep import validate_names
+
+    known = registry.names("searcher")
+    if not known:
+        pytest.skip("no searcher registered yet")
+    with pytest.raises(ConfigError) as ei:
+        validate_names(load_sweep(_spec(scenarios=[{"name": "no-such-scenario"}])))
+    assert ei.value.field == "scenarios[0].name"
+    builtin = scen.builtin_names()[0]
+    bad = _spec(scenarios=[{"name": builtin}], searchers=[{"name": known[0]}, {"name": "nope"}])
+    with pytest.raises(ConfigError) as ei:
+        validate_names(load_sweep(bad))
+    assert ei.value.field == "searchers[1].name" and known[0] in str(ei.value)
+    # run_sweep validates by default with the real episode function: nothing is stored
+    with pytest.raises(ConfigError):
+        run_sweep(bad, tmp_path / "v.sqlite", progress=False)
+    assert not (tmp_path / "v.sqlite").exists()

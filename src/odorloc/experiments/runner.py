@@ -113,6 +113,7 @@ def run_cell_episode(
 
 def run_task(task: Any) -> dict[str, Any]:
     """Run an :class:`odorloc.experiments.sweep.EpisodeTask` (any object with ``cell``,
-    ``world_seed`` and ``agent_seed``); its recording is attached as ``arrays`` (the harness
-    drops it unless the sweep keeps arrays)."""
-    return run_cell_episode(task.cell, task.world_seed, task.agent_seed, keep_arrays=True)
+    ``world_seed`` and ``agent_seed``); the recording is attached as ``arrays`` only when the
+    task asks for it (``task.keep_arrays``), so ordinary sweeps pay nothing for recording."""
+    keep = bool(getattr(task, "keep_arrays", False))
+    return run_cell_episode(task.cell, task.world_seed, task.agent_seed, keep_arrays=keep)

@@ -82,7 +82,7 @@ COLUMNS = _ID_COLUMNS + list(STANDARD_METRICS) + _TAIL_COLUMNS
 VOLATILE_COLUMNS = ("wall_time", "finished_at")
 """Columns that legitimately differ between two runs of the same sweep."""
 
-_RESERVED = {"status", "error", "wall_time", "arrays"}
+_RESERVED = {"status", "error", "wall_time", "arrays", "traceback"}
 
 
 def _create_sql() -> str:
@@ -126,6 +126,15 @@ def _num(v: Any) -> Any:
     if isinstance(v, float) and not math.isfinite(v):
         return None if math.isnan(v) else v
     return v
+
+
+def _error_text(row: Mapping[str, Any]) -> str:
+    """The row's error line, followed by its traceback when the row carries one separately."""
+    err = str(row.get("error", "") or "")
+    tb = row.get("traceback")
+    if isinstance(tb, str) and tb.strip() and tb.strip() not in err:
+        err = f"{err}\n{tb.strip()}" if err else tb.strip()
+    return err
 
 
 def _finite_or_none(v: Any) -> Any:
@@ -292,7 +301,7 @@ class ResultStore:
             "world_seed": task.world_seed,
             "agent_seed": task.agent_seed,
             "status": str(row.get("status", "ok")),
-            "error": str(row.get("error", "") or ""),
+            "error": _error_text(row),
             "wall_time": _num(row.get("wall_time")),
             "extra": json.dumps(extra, sort_keys=True, allow_nan=False) if extra else None,
             "finished_at": time.time(),

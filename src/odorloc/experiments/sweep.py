@@ -549,7 +549,9 @@ def run_sweep(
     scheduler : str, optional
         ``"tcp://host:port"`` of a running Dask scheduler (implies ``backend="dask"``).
     episode_fn : callable, optional
-        ``episode_fn(task) -> row``; must be importable (top-level) for process backends.
+        ``episode_fn(task) -> row``; must be importable (a top-level function of a module) for
+        process backends, and a script calling ``run_sweep`` needs an
+        ``if __name__ == "__main__":`` guard (workers are started, not forked from the caller).
         Defaults to ``odorloc.experiments.runner.run_task``.
     progress : bool
         Show a live progress bar and print the summary table at the end.
