@@ -60,11 +60,13 @@ from odorloc.experiments.sweep import (  # noqa: E402
 
 def _spec(episodes: int, work_iters: int, real: bool) -> dict:
     if real:
-        # a very short built-in scenario once it exists; edit the names here if they change
+        # short real episodes: 10 s of the indoor room with the zigzag searcher
         return {
             "seed": 1,
             "episodes": episodes,
-            "scenarios": [{"name": "tiny"}],
+            "scenarios": [
+                {"name": "indoor-ventilated", "params": {"limits.time": 10.0, "world.warmup": 5.0}}
+            ],
             "searchers": [{"name": "zigzag"}],
         }
     return {

@@ -67,3 +67,32 @@ def test_malformed_yaml_exit_2(tmp_path) -> None:
 def test_unknown_scenario_exit_2() -> None:
     r = _cli("run", "does-not-exist")
     assert r.returncode == 2 and "unknown scenario" in r.stderr
+
+
+def test_batch_records_failing_episode_and_goes_on(tmp_path) -> None:
+    """A searcher parameter that makes one cell fail is stored as an error; others complete."""
+    sweep = {
+        "name": "t",
+        "seed": 1,
+        "episodes": 2,
+        "scenarios": [{"name": "indoor-ventilated", "params": {"limits.time": 5.0, "world.warmup": 1.0}}],
+        "searchers": [
+            {"name": "zigzag"},
+            # A rectangular wave whose margin leaves no area raises inside the episode.
+            {"name": "rectangular-wave", "params": {"margin": 10.0}},
+        ],
+    }
+    f = tmp_path / "sweep.yaml"
+    f.write_text(yaml.safe_dump(sweep))
+    out = tmp_path / "out"
+    r = _cli("batch", str(f), "--out", str(out), "--workers", "1", "--no-progress")
+    assert r.returncode == 0, r.stderr
+    import pandas as pd
+
+    df = pd.read_csv(out / "results.csv")
+    assert len(df) == 4
+    bad = df[df["status"] == "error"]
+    assert len(bad) == 2 and bad["error"].str.contains("margin").all()
+    assert (df[df["status"] == "ok"]["searcher"] == "zigzag").all()
+    assert (out / "results.parquet").exists()
+    assert "Traceback" in (out / "errors.log").read_text()

@@ -199,8 +199,14 @@ def batch(
     with ResultStore(store_path, readonly=True) as store:
         csv = store.to_csv(out / "results.csv")
         pq = store.to_parquet(out / "results.parquet")
-    n_err = int((df["status"] == "error").sum()) if len(df) else 0
-    console.print(f"{len(df)} episodes ({n_err} errors) -> {store_path}, {csv}, {pq}")
+    errors = df[df["status"] == "error"] if len(df) else df
+    if len(errors):
+        log = out / "errors.log"
+        with log.open("w") as fh:
+            for r in errors.itertuples():
+                fh.write(f"== {r.cell_id} episode {r.episode}\n{r.error}\n\n")
+        console.print(f"{len(errors)} episode(s) failed; tracebacks in {log}")
+    console.print(f"{len(df)} episodes -> {store_path}, {csv}, {pq}")
 
 
 @app.command()

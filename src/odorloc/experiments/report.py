@@ -329,7 +329,10 @@ def _distance_figure(df: Any, level: float, bins: int = 5) -> str | None:
         return None
     fig = _new_fig(6.5, 3.8)
     ax = fig.subplots()
-    for lab, g in ok.groupby("cell_id", sort=False):
+    # One curve per method (scenario + searcher): start distance is what varies along it.
+    keys = [c for c in ("scenario", "searcher") if c in ok.columns] or ["cell_id"]
+    for lab, g in ok.groupby(keys, sort=False):
+        lab = " / ".join(map(str, lab)) if isinstance(lab, tuple) else str(lab)
         gd = g["start_distance"].to_numpy(float)
         gs = g["success"].fillna(False).astype(bool).to_numpy()
         idx = np.clip(np.searchsorted(edges, gd, side="right") - 1, 0, edges.size - 2)
