@@ -71,7 +71,7 @@ def update_vectorised(case: dict, model: PangFarrellLikelihood, pf: ParticleFilt
 def update_loop(case: dict, params: PangFarrellParams) -> np.ndarray:
     """The same step written as a per-particle Python loop."""
     p1 = _reference_detection_probability(case["robot"], case["wind"], DT, case["hyp"], params)
-    new = [lw + math.log(p) for lw, p in zip(case["log_w"].tolist(), p1.tolist())]
+    new = [lw + math.log(p) for lw, p in zip(case["log_w"].tolist(), p1.tolist(), strict=True)]
     m = max(new)
     z = m + math.log(sum(math.exp(v - m) for v in new))
     out = [v - z for v in new]
@@ -107,7 +107,7 @@ def decision_loop(case: dict, params: PangFarrellParams) -> tuple[int, np.ndarra
         p1 = _reference_detection_probability(target, case["wind"], DT, case["hyp"], params)
         eh = 0.0
         for z in (0, 1):
-            joint = [wi * (pi if z else 1.0 - pi) for wi, pi in zip(w, p1.tolist())]
+            joint = [wi * (pi if z else 1.0 - pi) for wi, pi in zip(w, p1.tolist(), strict=True)]
             pz = sum(joint)
             if pz > 0:
                 eh -= sum(j * math.log(j / pz) for j in joint if j > 0)
@@ -178,12 +178,16 @@ def main(argv: list[str] | None = None) -> None:
         ("entropy decision", t_dec, t_dec_ref, 5.0, dec_ok),
     ]
     print(f"N = {N_PARTICLES} particles, window = {WINDOW} records, 4 candidate moves")
-    print(f"{'operation':<18} {'vector ms':>10} {'loop ms':>10} {'speed-up':>9} "
-          f"{'target ms':>10} {'agree':>6}")
+    print(
+        f"{'operation':<18} {'vector ms':>10} {'loop ms':>10} {'speed-up':>9} "
+        f"{'target ms':>10} {'agree':>6}"
+    )
     for name, tv, tl, target, ok in rows:
         flag = "" if tv <= target else "  (over target)"
-        print(f"{name:<18} {tv:10.3f} {tl:10.1f} {tl / tv:8.0f}x {target:10.1f} "
-              f"{'yes' if ok else 'NO':>6}{flag}")
+        print(
+            f"{name:<18} {tv:10.3f} {tl:10.1f} {tl / tv:8.0f}x {target:10.1f} "
+            f"{'yes' if ok else 'NO':>6}{flag}"
+        )
     t1 = math.nan if args.no_table1 else table1_wall_time()
     print(f"Table 1 wall time: {t1:.1f} s" if math.isfinite(t1) else "Table 1 wall time: n/a")
     print(f"RESULT pf_update_ms={t_upd:.3f} entropy_decision_ms={t_dec:.3f} table1_s={t1:.1f}")

@@ -172,7 +172,12 @@ def test_backtracking_respects_walls_and_obstacles() -> None:
     arena = Arena.box((0, 0), (4, 2), 0.1).with_boxes([((1.0, 0.0), (1.5, 1.0))])
     wind = np.tile([1.0, 0.0], (20, 1))  # back-track runs 0.5..10 m: mostly out of the room
     pos = backtrack_initialise(
-        np.array([3.5, 0.5]), wind, 0.5, 500, np.random.default_rng(1), arena=arena,
+        np.array([3.5, 0.5]),
+        wind,
+        0.5,
+        500,
+        np.random.default_rng(1),
+        arena=arena,
         uniform_fraction=0.1,
     )
     assert pos.shape == (500, 2) and arena.is_free(pos).all()

@@ -129,7 +129,9 @@ def test_children_stay_in_free_space() -> None:
     pos = np.array([[0.9, 1.5], [0.1, 0.1], [2.0, 2.0]])
     lw = np.log([0.9, 0.05, 0.05])
     for r in (RouletteResampler(), SystematicResampler(SystematicParams(jitter_std=0.5))):
-        out, _ = r.resample(np.repeat(pos, 100, 0), np.repeat(lw, 100), np.random.default_rng(0), arena)
+        out, _ = r.resample(
+            np.repeat(pos, 100, 0), np.repeat(lw, 100), np.random.default_rng(0), arena
+        )
         assert arena.is_free(out).all()
 
 

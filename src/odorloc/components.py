@@ -17,6 +17,7 @@ _MODULES = [
     "odorloc.sensors.gas",
     "odorloc.sensors.encounter",
     "odorloc.sensors.anemometer",
+    "odorloc.inference.resampling",
     "odorloc.platforms.wheeled",
     "odorloc.platforms.uav",
     "odorloc.searchers.simple",

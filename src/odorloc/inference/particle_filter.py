@@ -368,7 +368,7 @@ def backtrack_initialise(
     shift, var = model.puff_geometry(np.asarray(wind_window, float), dt, wind_var)
     std = np.sqrt(var + min_std**2)  # (W, d)
 
-    n_uni = int(round(uniform_fraction * n))
+    n_uni = round(uniform_fraction * n)
     n_bt = n - n_uni
 
     def draw(m: int) -> np.ndarray:

@@ -158,7 +158,11 @@ class Resampler(ABC):
 
     @abstractmethod
     def _resample(
-        self, positions: np.ndarray, weights: np.ndarray, rng: np.random.Generator, arena: Arena | None
+        self,
+        positions: np.ndarray,
+        weights: np.ndarray,
+        rng: np.random.Generator,
+        arena: Arena | None,
     ) -> np.ndarray: ...
 
 
@@ -168,7 +172,11 @@ class _IndexResampler(Resampler):
     params: SystematicParams
 
     def _resample(
-        self, positions: np.ndarray, weights: np.ndarray, rng: np.random.Generator, arena: Arena | None
+        self,
+        positions: np.ndarray,
+        weights: np.ndarray,
+        rng: np.random.Generator,
+        arena: Arena | None,
     ) -> np.ndarray:
         idx = self.indices(weights, rng)
         out = positions[idx]
@@ -337,12 +345,18 @@ class RouletteResampler(Resampler):
                 bad = ~arena.is_free(kids)
                 if not bad.any():
                     break
-                kids[bad] = parents[bad] + rng.normal(0.0, std, size=(int(bad.sum()), kids.shape[1]))
+                kids[bad] = parents[bad] + rng.normal(
+                    0.0, std, size=(int(bad.sum()), kids.shape[1])
+                )
             kids = place_in_free_space(kids, parents, arena)
         return kids
 
     def _resample(
-        self, positions: np.ndarray, weights: np.ndarray, rng: np.random.Generator, arena: Arena | None
+        self,
+        positions: np.ndarray,
+        weights: np.ndarray,
+        rng: np.random.Generator,
+        arena: Arena | None,
     ) -> np.ndarray:
         p = self.params
         n = len(weights)

@@ -23,14 +23,18 @@ __all__ = ["astar_path", "free_grid", "path_length", "smooth_path"]
 def free_grid(arena: Arena, clearance: float = 0.0) -> np.ndarray:
     """Free-cell mask of the arena, obstacles grown by ``clearance`` metres, ``grid_shape`` bool."""
     occ = np.zeros(arena.grid_shape, bool) if arena.occ is None else arena.occ.copy()
-    r = int(math.ceil(clearance / arena.resolution - 1e-9)) if clearance > 0 else 0
+    r = math.ceil(clearance / arena.resolution - 1e-9) if clearance > 0 else 0
     if r and occ.any():
         grown = occ.copy()
         for off in itertools.product(range(-r, r + 1), repeat=arena.dim):
             if sum(o * o for o in off) > r * r or not any(off):
                 continue
-            src = tuple(slice(max(0, -o), n - max(0, o)) for o, n in zip(off, occ.shape))
-            dst = tuple(slice(max(0, o), n - max(0, -o)) for o, n in zip(off, occ.shape))
+            src = tuple(
+                slice(max(0, -o), n - max(0, o)) for o, n in zip(off, occ.shape, strict=True)
+            )
+            dst = tuple(
+                slice(max(0, o), n - max(0, -o)) for o, n in zip(off, occ.shape, strict=True)
+            )
             grown[dst] |= occ[src]
         occ = grown
     return ~occ
@@ -103,7 +107,7 @@ def astar_path(
     costs = [math.sqrt(sum(v * v for v in o)) for o in offsets]
 
     def h(c: tuple[int, ...]) -> float:
-        return math.sqrt(sum((a - b) ** 2 for a, b in zip(c, gi)))
+        return math.sqrt(sum((a - b) ** 2 for a, b in zip(c, gi, strict=True)))
 
     best = {si: 0.0}
     parent: dict[tuple[int, ...], tuple[int, ...]] = {}
@@ -118,13 +122,18 @@ def astar_path(
             found = True
             break
         closed.add(cell)
-        for off, step in zip(offsets, costs):
-            nb = tuple(c + o for c, o in zip(cell, off))
-            if any(v < 0 or v >= n for v, n in zip(nb, shape)) or not free[nb]:
+        for off, step in zip(offsets, costs, strict=True):
+            nb = tuple(c + o for c, o in zip(cell, off, strict=True))
+            if any(v < 0 or v >= n for v, n in zip(nb, shape, strict=True)) or not free[nb]:
                 continue
             # No corner cutting: every axis-aligned neighbour spanned by a diagonal must be free.
             if sum(1 for o in off if o) > 1 and not all(
-                free[tuple(c + (o if a == b else 0) for b, (c, o) in enumerate(zip(cell, off)))]
+                free[
+                    tuple(
+                        c + (o if a == b else 0)
+                        for b, (c, o) in enumerate(zip(cell, off, strict=True))
+                    )
+                ]
                 for a in range(len(off))
                 if off[a]
             ):

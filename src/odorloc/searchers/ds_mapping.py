@@ -17,20 +17,30 @@ A recipe composed of three reusable parts:
 Readings of the paper (each configurable):
 
 * Map extent. The evidence grid covers the search region (``ctx.info["search_region"]``, else
-  the arena) grown by ``map_margin``; cells are ``cell_size`` metres. The paper's cell size is
-  not given; 0.25 m (4480 cells over the paper's 14 m x 20 m region) keeps the per-step cost
-  small while a 0.3 m source still falls in one or two cells. The residual uncertainty ``sum X``
-  scales with the number of cells, so it is reported together with its initial value
-  ``3 M`` (``q m(U) = 3`` per cell).
+  the arena) grown by ``map_margin``; cells are ``cell_size`` metres. The paper does not give
+  its cell size, but its residual sums do bound it: 1317.4 after 400 s and 1089.0 after one
+  round exceed ``3 M`` (the sum at total ignorance, ``q m(U) = 3`` per cell) unless the
+  14 m x 20 m region has ``M > 439`` cells, i.e. cells below about 0.8 m. 0.5 m (``M = 1120``,
+  ``3 M = 3360``) is the default: the residual sums are then on the paper's scale and a 0.3 m
+  source falls in one or two cells. Finer cells (e.g. 0.25 m, ``M = 4480``) make every reading
+  resolve a smaller area, so the route needs several times longer to finish. ``sum X`` is
+  reported together with its initial value ``3 M``.
 * Reading. ``obs.detection`` (the binarised gas reading) is the event ``D`` or ``notD``; the
   anemometer reading ``obs.wind`` is the air velocity in the world frame (eq. 1, odor-path
   paper). The map of a reading is computed at the reading's own record (no sensor delay: the
   simulated sensor has none unless configured).
-* Route. A new target is planned whenever the robot reached the previous one (``obs.ready``);
-  ``step_range`` defaults to the distance the robot covers in one control period.
-* Declaration. When the planner finds even the whole region below ``eta_E`` the searcher
-  declares the ``m(S)``-weighted centroids of the connected regions with
-  ``m(S) >= source_min_mass`` (:meth:`DSGrid.sources`). If no cell passes the threshold the
+* Route. A new target is planned whenever the robot reached the previous one (``obs.ready``).
+  The first candidates are the positions "within the access of the robot in the next time
+  step" (section 3): ``step_range`` defaults to the larger of the distance covered in one
+  control period and ``sqrt(2) cell_size``, so that the eight neighbouring cell centres are
+  candidates even when a cell is wider than one step (otherwise only the robot's own cell
+  would be, and the robot would wait there until its own path map is resolved).
+* Declaration. The paper leaves it open ("some other methods should be considered next to
+  declare the mapped odor sources"). When the planner finds even the whole region below
+  ``eta_E`` the searcher declares one position per connected region with
+  ``m(S) >= source_min_mass``: its ``m(S)``-weighted centroid (:meth:`DSGrid.sources`,
+  default) or, with ``source_rule="upwind"``, the centroid of its upwind end (a region is
+  the source plus the plume footprint downwind of it). If no cell passes the threshold the
   cell with the largest ``m(S)`` is declared with confidence 0, so an episode always scores.
 """
 
@@ -41,7 +51,9 @@ from collections.abc import Sequence
 from typing import Any, Literal
 
 import numpy as np
+from numpy.typing import NDArray
 from pydantic import Field, model_validator
+from scipy import ndimage
 
 from odorloc.errors import ConfigError
 from odorloc.inference.belief import GridBelief
@@ -75,6 +87,7 @@ __all__ = [
 ]
 
 Region = tuple[tuple[float, float], tuple[float, float]]
+FloatArray = NDArray[np.float64]
 
 
 def _check_region(region: Region | None) -> Region | None:
@@ -110,9 +123,17 @@ class DSMapperParams(Params):
         ``m(S)`` a cell needs to belong to a mapped source, in (0, 1].
     source_min_cells : int
         Smallest connected region counted as a mapped source.
+    source_rule : {"centroid", "upwind"}
+        Position declared for a mapped region: its ``m(S)``-weighted centroid (``"centroid"``,
+        the reading closest to the paper, whose maps are read by eye), or the weighted centroid
+        of its cells within ``upwind_depth`` of its most upwind cell along the mean recorded
+        wind (``"upwind"``: detections also mark the plume downwind of a source, so a region
+        stretches downwind and its centroid lies downwind of the source).
+    upwind_depth : float, metres
+        Depth of the upwind end used by ``source_rule="upwind"``.
     """
 
-    cell_size: Positive = 0.25
+    cell_size: Positive = 0.5
     map_margin: NonNegative = 0.0
     region: Region | None = None
     t_thr: Positive = 10.0
@@ -122,6 +143,8 @@ class DSMapperParams(Params):
     ds: DSParams = DSParams()
     source_min_mass: float = Field(0.5, gt=0.0, le=1.0)
     source_min_cells: int = Field(1, ge=1)
+    source_rule: Literal["centroid", "upwind"] = "centroid"
+    upwind_depth: Positive = 1.5
 
     @model_validator(mode="after")
     def _check(self) -> DSMapperParams:
@@ -139,7 +162,11 @@ def search_region(ctx: SearchContext, region: Region | None = None) -> Region:
         lo, hi = ctx.arena.lo[:2], ctx.arena.hi[:2]
     lo_t = (float(lo[0]), float(lo[1]))
     hi_t = (float(hi[0]), float(hi[1]))
-    if not all(math.isfinite(v) for v in (*lo_t, *hi_t)) or hi_t[0] <= lo_t[0] or hi_t[1] <= lo_t[1]:
+    if (
+        not all(math.isfinite(v) for v in (*lo_t, *hi_t))
+        or hi_t[0] <= lo_t[0]
+        or hi_t[1] <= lo_t[1]
+    ):
         raise ConfigError("info.search_region", f"invalid region {lo_t}, {hi_t}")
     return lo_t, hi_t
 
@@ -177,12 +204,11 @@ class DSMapper:
         self.grid = DSGrid(params.ds, self.estimator.grid)
         self.n_detections = 0
         self.n_readings = 0
+        self.wind_sum = np.zeros(2)
         self.initial_uncertainty = self.total_uncertainty()
         self.last_patch: PathPatch | None = None
 
-    def update(
-        self, t: float, position: np.ndarray, wind: np.ndarray, detected: bool
-    ) -> PathPatch:
+    def update(self, t: float, position: np.ndarray, wind: np.ndarray, detected: bool) -> PathPatch:
         """Fuse one reading: record it, compute its air-mass path map, update the grid.
 
         Parameters
@@ -208,6 +234,7 @@ class DSMapper:
         self.grid.update(patch, bool(detected))
         self.n_readings += 1
         self.n_detections += int(bool(detected))
+        self.wind_sum += u
         self.last_patch = patch
         return patch
 
@@ -216,25 +243,63 @@ class DSMapper:
         return self.grid.total_uncertainty(self.region)
 
     def sources(self) -> list[EvidenceSource]:
-        """Mapped sources inside the search region, heaviest first."""
+        """Mapped sources inside the search region, heaviest first (``m(S)`` centroids)."""
         return self.grid.sources(
             min_mass=self.params.source_min_mass,
             min_cells=self.params.source_min_cells,
             region=self.region,
         )
 
+    def upwind_ends(self) -> FloatArray:
+        """``(K, 2)`` upwind-end positions of the mapped regions, same order as :meth:`sources`.
+
+        For each connected region the ``m(S)``-weighted centroid of its cells within
+        ``upwind_depth`` metres (along the mean recorded wind) of its most upwind cell.
+        """
+        p = self.params
+        g = self.grid.grid
+        mask = (self.grid.m_s >= p.source_min_mass) & g.region_mask(self.region)
+        labels, n = ndimage.label(mask, structure=np.ones((3, 3), bool))
+        norm = float(np.hypot(*self.wind_sum))
+        u = self.wind_sum / norm if norm > 0 else np.array([1.0, 0.0])
+        centres = g.centers()
+        along = centres @ u  # metres downwind
+        out = []
+        for lab in range(1, n + 1):
+            cells = labels == lab
+            if np.count_nonzero(cells) < p.source_min_cells:
+                continue
+            w = np.where(cells, self.grid.m_s, 0.0)
+            tip = cells & (along <= along[cells].min() + p.upwind_depth)
+            wt = np.where(tip, w, 0.0)
+            out.append((float(w.sum()), (wt[..., None] * centres).sum((0, 1)) / wt.sum()))
+        out.sort(key=lambda v: -v[0])
+        return np.array([c for _, c in out]).reshape(-1, 2)
+
+    def source_positions(self) -> FloatArray:
+        """``(K, 2)`` mapped source positions by ``source_rule``, heaviest region first."""
+        if self.params.source_rule == "upwind":
+            return self.upwind_ends()
+        return np.array([s.position for s in self.sources()]).reshape(-1, 2)
+
     def declaration(self) -> Declaration:
         """The mapped sources as a declaration (see the module notes for the empty case)."""
-        found = self.sources()
-        if found:
-            return Declaration(np.array([s.position for s in found]), confidence=1.0)
+        found = self.source_positions()
+        if len(found):
+            return Declaration(found, confidence=1.0)
         ms = np.where(self.grid.grid.region_mask(self.region), self.grid.m_s, -1.0)
         best = np.unravel_index(int(np.argmax(ms)), ms.shape)
         return Declaration(self.grid.grid.center(np.array(best)), confidence=0.0)
 
     def final_metrics(self) -> dict[str, float]:
-        """Row fields: residual/initial uncertainty, mapped-source count and centroids."""
+        """Row fields: residual/initial uncertainty, mapped-source count and positions.
+
+        ``mapped_x_k, mapped_y_k`` follow ``source_rule``; ``upwind_x_k, upwind_y_k`` are the
+        upwind-end estimates of the same regions whatever the rule.
+        """
         found = self.sources()
+        pos = self.source_positions()
+        tips = self.upwind_ends()
         out: dict[str, float] = {
             "residual_uncertainty": self.total_uncertainty(),
             "initial_uncertainty": self.initial_uncertainty,
@@ -243,9 +308,11 @@ class DSMapper:
             "max_conflict": float(self.grid.max_conflict),
         }
         for k, s in enumerate(found):
-            out[f"mapped_x_{k}"] = float(s.position[0])
-            out[f"mapped_y_{k}"] = float(s.position[1])
+            out[f"mapped_x_{k}"] = float(pos[k, 0])
+            out[f"mapped_y_{k}"] = float(pos[k, 1])
             out[f"mapped_mass_{k}"] = float(s.total_mass)
+            out[f"upwind_x_{k}"] = float(tips[k, 0])
+            out[f"upwind_y_{k}"] = float(tips[k, 1])
         return out
 
 
@@ -262,7 +329,8 @@ class DSMappingParams(DSMapperParams):
     Attributes
     ----------
     step_range : float, metres, optional
-        First candidate radius; default the platform speed limit times the control period.
+        First candidate radius; default the larger of the platform speed limit times the
+        control period and ``sqrt(2) cell_size`` (the robot's cell and its 8 neighbours).
     widen_factor : float
         Radius multiplier while the best fitness is below ``eta_e`` (> 1).
     eta_e : float
@@ -293,7 +361,10 @@ class DSMappingSearcher(Searcher):
         super().reset(ctx, rng)
         p = self.params
         self.mapper = _reset_mapper(p, ctx)
-        step = p.step_range if p.step_range is not None else ctx.max_speed * ctx.dt
+        # The next step reaches max_speed * dt; with cells larger than that, the robot's own cell
+        # would be the only candidate, so the eight neighbouring cell centres count as reachable.
+        reach = max(ctx.max_speed * ctx.dt, math.sqrt(2.0) * p.cell_size + 1e-9)
+        step = p.step_range if p.step_range is not None else reach
         self.planner = UncertaintyRoutePlanner(
             UncertaintyRouteParams(
                 step_range=step,

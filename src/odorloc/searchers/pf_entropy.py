@@ -17,6 +17,8 @@ Recipe (indoor PF paper, section 2):
    with the wind window shifted by one record (the current wind appended). Moves blocked by walls
    or obstacles are excluded; when all are blocked the robot follows an A* path towards the
    current estimate.
+5. Optional (``approach_radius``, off by default): once converged, drive to the estimate (A*
+   around obstacles) and declare only within that distance of it.
 
 ``diagnostics()`` reports ``phase`` (0 zigzag, 1 tracking), ``ess``, ``entropy`` (Shannon
 entropy, nats, of the weighted particle histogram on ``entropy_cell`` cells -- unlike the weight
@@ -136,11 +138,12 @@ class PFEntropyParams(Params):
     mu : float
         Sensor detection probability of a present patch (paper: 0.9, eq. 10).
     sensor_area : float, m^2
-        ``S_p`` of eq. 10.
+        ``S_p`` of eq. 10 (not given in the paper; 0.1 was tuned on the indoor-ventilated
+        scenario).
     time_scale : float, s
         Turns wind variance x elapsed time into m^2 (see :mod:`odorloc.inference.likelihoods`).
     min_wind_variance : float, m^2/s^2
-        Floor on the recorded wind variance.
+        Floor on the recorded wind variance (not in the paper; 0.05 chosen as ``sensor_area``).
     p_floor : float
         Likelihood floor (false-alarm / miss probability).
     window : int
@@ -150,10 +153,19 @@ class PFEntropyParams(Params):
     pad_window : bool
         Pad a window shorter than ``window`` records (start of an episode) with its oldest
         reading, so odor released before recording started is accounted for.
-    r_conv, r_err : float
-        Convergence thresholds (paper: 0.5, 0.5), see :class:`ConvergenceParams`.
+    r_conv, r_err : float, metres
+        Convergence thresholds, see :class:`ConvergenceParams`. The paper gives 0.5 m for both.
+        Defaults here: ``r_conv = 0.5`` m read as a radius (``variance="radius"``: RMS particle
+        distance ``sqrt(trace) <= 0.5`` m) and ``r_err = 0.25`` m, i.e. the 20 estimates must
+        fit in a tolerance circle of 0.5 m *diameter*. With the literal reading (trace <= 0.5
+        read as a number, all estimates within 0.5 m of their mean) the filter declared while
+        its estimate was still trailing the robot upwind: 25 % success from (2.40, 4.55) in the
+        indoor-ventilated scenario versus 94 % with these defaults (16 episodes each).
     history : int
         Number of estimates kept and required (paper: 20).
+    history_on_detection : bool
+        Store an estimate only at steps with a detection (the flattened ``{P_j | z_j = 1}`` of
+        the paper read literally) instead of at every step.
     variance : {"trace", "radius", "max_axis"}
         Particle spread measure of the convergence test.
     resampler : {"roulette", "systematic"}
@@ -190,16 +202,17 @@ class PFEntropyParams(Params):
 
     n_particles: int = Field(1000, ge=2)
     mu: float = Field(0.9, gt=0.0, le=1.0)
-    sensor_area: Positive = 0.01
+    sensor_area: Positive = 0.1
     time_scale: Positive = 1.0
-    min_wind_variance: NonNegative = 0.01
+    min_wind_variance: NonNegative = 0.05
     p_floor: float = Field(1e-4, ge=0.0, lt=0.5)
     window: int = Field(20, ge=1)
     wind_var_window: Positive = 10.0
     r_conv: Positive = 0.5
-    r_err: Positive = 0.5
+    r_err: Positive = 0.25
     history: int = Field(20, ge=1)
-    variance: Literal["trace", "radius", "max_axis"] = "trace"
+    history_on_detection: bool = False
+    variance: Literal["trace", "radius", "max_axis"] = "radius"
     resampler: Literal["roulette", "systematic"] = "roulette"
     resample_threshold: float = Field(0.5, ge=0.0, le=1.0)
     roulette: RouletteParams = RouletteParams()
@@ -256,7 +269,7 @@ class PFEntropySearcher(Searcher):
         super().reset(ctx, rng)
         p = self.params
         self.step = p.step_length if p.step_length is not None else ctx.max_speed * ctx.dt
-        n_var = max(2, int(round(p.wind_var_window / ctx.dt)))
+        n_var = max(2, round(p.wind_var_window / ctx.dt))
         self._winds: deque[np.ndarray] = deque(maxlen=max(p.window, n_var, p.wind_average))
         self._zigzag = ZigzagLegs(math.radians(p.zigzag_angle_deg), p.zigzag_leg)
         self.pf: ParticleFilter | None = None
@@ -281,7 +294,8 @@ class PFEntropySearcher(Searcher):
             pf.update(
                 self.model.log_likelihood(
                     bool(o.detection), pos, window, self.ctx.dt, pf.positions, wvar
-                )
+                ),
+                record=bool(o.detection) or not self.params.history_on_detection,
             )
             status = pf.convergence(self.convergence_params)
             self._converged = status.converged
@@ -449,8 +463,8 @@ class PFEntropySearcher(Searcher):
 
 def histogram_entropy(belief: ParticleBelief, arena: Arena, cell: float) -> float:
     """Shannon entropy (nats) of the weighted particle histogram on ``cell``-sized bins."""
-    bins = [max(1, int(math.ceil(s / cell))) for s in arena.size]
-    rng_ = list(zip(arena.lower, arena.upper))
+    bins = [max(1, math.ceil(s / cell)) for s in arena.size]
+    rng_ = list(zip(arena.lower, arena.upper, strict=True))
     h, _ = np.histogramdd(belief.positions, bins=bins, range=rng_, weights=belief.weights)
     q = h.ravel()
     q = q[q > 0] / q.sum()

@@ -1,0 +1,338 @@
+"""Tests of the D-S mapping searchers (D-S multi-source paper) and their reproduction helpers."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pydantic
+import pytest
+
+from odorloc import registry
+from odorloc.engine.episode import episode_generators, run_episode
+from odorloc.errors import ConfigError
+from odorloc.experiments.reproduce_ds import map_errors, record_scenario_movie, replay_built
+from odorloc.inference.dempster_shafer import DSParams
+from odorloc.scenarios import Scenario, get_scenario
+from odorloc.scenarios.build import build_world
+from odorloc.searchers.base import Observation, SearchContext
+from odorloc.searchers.ds_mapping import (
+    DSMapper,
+    DSMapperParams,
+    DSMappingParams,
+    DSMappingSearcher,
+    DSRectangularWaveParams,
+)
+from odorloc.world.arena import Arena
+
+VOLATILE = ("wall_time", "wall_per_step_ms", "searcher_fraction", "world_fraction")
+
+
+def reduced_farrell(
+    time: float = 40.0,
+    searcher: dict | None = None,
+    region: list | None = None,
+) -> Scenario:
+    """The paper's scenario cut to a 6 m x 8 m region around the sources and a short time."""
+    sc = get_scenario("two-sources-farrell")
+    data = sc.to_dict()
+    data["world"]["warmup"] = 20.0
+    data["limits"]["time"] = time
+    data["agents"]["starts"] = [[25.0, 50.0]]
+    data["info"] = {"search_region": region or [[19.0, 48.0], [25.0, 56.0]]}
+    data["searcher"] = searcher or {"type": "ds-mapping"}
+    return Scenario.from_dict(data)
+
+
+def steady_world(searcher: dict, time: float = 400.0) -> Scenario:
+    """Uniform 1 m/s wind along +x, steady Gaussian plumes of two sources."""
+    return Scenario.from_dict(
+        {
+            "name": "steady-two-sources",
+            "world": {
+                "arena": {"lower": [0.0, 0.0], "upper": [14.0, 12.0], "resolution": 0.25},
+                "sources": [
+                    {"position": [3.0, 4.0], "rate": 1.0},
+                    {"position": [5.0, 8.0], "rate": 1.0},
+                ],
+                "wind": {"type": "uniform", "velocity": [1.0, 0.0]},
+                "plume": {"type": "gaussian"},
+                "dt": 0.5,
+            },
+            "sensors": {"gas": {"type": "concentration", "threshold": 0.3}},
+            "platform": {"type": "holonomic", "max_speed": 0.5},
+            "agents": {"starts": [[12.0, 2.0]]},
+            "searcher": searcher,
+            "limits": {"control_dt": 0.5, "time": time},
+            "success_radius": 1.5,
+            "info": {"search_region": [[1.0, 1.0], [13.0, 11.0]]},
+        }
+    )
+
+
+def _stable(m: dict) -> dict:
+    return {k: v for k, v in m.items() if k not in VOLATILE}
+
+
+# ------------------------------------------------------------------------------- the mapper
+def test_mapper_first_detection_follows_eq4() -> None:
+    """One detection puts m(S) = mu_D zeta pi and m(U) = 1 - m(S) on the path cells (eq. 4-a)."""
+    mp = DSMapper(DSMapperParams(cell_size=0.5), ((0.0, 0.0), (10.0, 10.0)), 0.5)
+    mp.update(0.0, np.array([8.0, 5.0]), np.array([1.0, 0.0]), False)
+    mp.update(0.5, np.array([8.0, 5.0]), np.array([1.0, 0.0]), False)
+    before = (mp.grid.m_s.copy(), mp.grid.m_n.copy(), mp.grid.m_u.copy())
+    patch = mp.update(1.0, np.array([8.0, 5.0]), np.array([1.0, 0.0]), True)
+    pi = patch.to_dense()
+    assert pi.max() > 0.1
+    # Dempster's rule of (S, notS, U) = before with (0.54 pi, 0, 1 - 0.54 pi), by hand
+    s1, n1, u1 = before
+    s2 = 0.9 * 0.6 * pi
+    u2 = 1.0 - s2
+    k = n1 * s2
+    exp_s = (s1 * s2 + s1 * u2 + u1 * s2) / (1 - k)
+    exp_n = (n1 * u2) / (1 - k)
+    np.testing.assert_allclose(mp.grid.m_s, exp_s, atol=1e-12)
+    np.testing.assert_allclose(mp.grid.m_n, exp_n, atol=1e-12)
+    np.testing.assert_allclose(mp.grid.m_s + mp.grid.m_n + mp.grid.m_u, 1.0, atol=1e-12)
+    # the air came from upwind (-x): evidence sits at x <= robot
+    cells = np.argwhere(pi > 0)
+    assert mp.grid.grid.center(cells)[:, 0].max() <= 8.0 + 0.5
+    m = mp.final_metrics()
+    assert m["initial_uncertainty"] == pytest.approx(3.0 * 20 * 20)
+    assert m["residual_uncertainty"] < m["initial_uncertainty"]
+    assert m["detections"] == 1.0
+
+
+def test_upwind_end_of_a_plume_shaped_region() -> None:
+    """A region stretching 4 m downwind of (2, 5): centroid 2 m downwind, upwind end at 2.5 m."""
+    p = DSMapperParams(cell_size=1.0, upwind_depth=1.0)
+    mp = DSMapper(p, ((0.0, 0.0), (10.0, 10.0)), 0.5)
+    mp.wind_sum[:] = (3.0, 0.0)  # the air moved towards +x
+    mp.grid.m_s[2:6, 5], mp.grid.m_u[2:6, 5] = 0.9, 0.1  # cells x in [2, 6), y in [5, 6)
+    np.testing.assert_allclose(mp.sources()[0].position, [4.0, 5.5])
+    # cells within 1 m of the most upwind centre (2.5) along +x: centres 2.5 and 3.5
+    np.testing.assert_allclose(mp.upwind_ends(), [[3.0, 5.5]])
+    mp.wind_sum[:] = (-3.0, 0.0)  # the other way round: the upwind end is at x = 5.5
+    np.testing.assert_allclose(mp.upwind_ends(), [[5.0, 5.5]])
+    up = DSMapper(p.model_copy(update={"source_rule": "upwind"}), mp.region, 0.5)
+    up.grid = mp.grid
+    up.wind_sum[:] = (3.0, 0.0)
+    np.testing.assert_allclose(up.declaration().positions, [[3.0, 5.5]])
+    m = up.final_metrics()
+    assert (m["mapped_x_0"], m["upwind_x_0"]) == (3.0, 3.0)
+
+
+def test_declaration_falls_back_to_strongest_cell() -> None:
+    mp = DSMapper(DSMapperParams(cell_size=1.0), ((0.0, 0.0), (5.0, 5.0)), 0.5)
+    mp.grid.m_s[2, 3], mp.grid.m_u[2, 3] = 0.3, 0.7  # below source_min_mass
+    d = mp.declaration()
+    assert d.confidence == 0.0
+    np.testing.assert_allclose(d.positions, [[2.5, 3.5]])
+    mp.grid.m_s[1, 1], mp.grid.m_u[1, 1] = 0.8, 0.2
+    d = mp.declaration()
+    assert d.confidence == 1.0
+    np.testing.assert_allclose(d.positions, [[1.5, 1.5]])
+
+
+# ---------------------------------------------------------------------------- stop rule
+def _ctx(region=((0.0, 0.0), (6.0, 6.0))) -> SearchContext:
+    arena = Arena((0.0, 0.0), (6.0, 6.0), 0.25)
+    return SearchContext(
+        arena=arena,
+        dt=0.5,
+        n_agents=1,
+        start=np.array([[3.0, 3.0]]),
+        max_speed=0.5,
+        info={"search_region": [list(region[0]), list(region[1])]},
+    )
+
+
+def _obs(t: float, det: bool = False) -> list[Observation]:
+    return [
+        Observation(
+            agent=0,
+            t=t,
+            position=np.array([3.0, 3.0]),
+            heading=0.0,
+            gas=0.0,
+            detection=det,
+            wind=np.array([1.0, 0.0]),
+            ready=True,
+        )
+    ]
+
+
+def test_declares_exactly_when_the_planner_stops() -> None:
+    rng = np.random.default_rng(0)
+    # eta_E above any reachable fitness: the first real plan finds nothing worth visiting
+    s = DSMappingSearcher(DSMappingParams(cell_size=0.5, eta_e=1e6))
+    s.reset(_ctx(), rng)
+    a0 = s.act(_obs(0.0), rng)  # a single record: no path map yet, no decision
+    assert a0.declaration is None and s.last_plan.reason == "empty_path_map"
+    a1 = s.act(_obs(0.5, det=True), rng)
+    assert s.last_plan.done and a1.declaration is not None
+    assert s.finished_at == 0.5
+    assert a1.declaration.positions.shape[1] == 2
+    # with the paper's eta_E the same map is far from finished
+    s2 = DSMappingSearcher(DSMappingParams(cell_size=0.5))
+    s2.reset(_ctx(), rng)
+    s2.act(_obs(0.0), rng)
+    a = s2.act(_obs(0.5, det=True), rng)
+    assert a.declaration is None and a.commands[0].kind == "waypoint"
+    assert math.hypot(*(a.commands[0].value - 3.0)) <= math.sqrt(2) * 0.5 + 1e-9
+
+
+def test_default_reach_includes_neighbour_cells() -> None:
+    s = DSMappingSearcher(DSMappingParams(cell_size=0.5))
+    s.reset(_ctx(), np.random.default_rng(0))
+    assert s.planner.params.step_range == pytest.approx(math.sqrt(2) * 0.5, abs=1e-6)
+    s = DSMappingSearcher(DSMappingParams(cell_size=0.1))
+    s.reset(_ctx(), np.random.default_rng(0))
+    assert s.planner.params.step_range == pytest.approx(0.25)  # 0.5 m/s x 0.5 s
+
+
+# --------------------------------------------------------------------------- episodes
+def test_reduced_episode_gives_row_and_map() -> None:
+    sc = reduced_farrell(40.0)
+    res = run_episode(sc, 11, 12, record=True)
+    m = res.metrics
+    assert m["termination"] in ("time_limit", "declared")
+    for k in ("residual_uncertainty", "initial_uncertainty", "mapped_sources", "plans"):
+        assert k in m and np.isfinite(m[k])
+    # 12 x 16 cells of 0.5 m, 3 units of uncertainty each at the start
+    assert m["initial_uncertainty"] == pytest.approx(3.0 * 12 * 16)
+    assert 0 < m["residual_uncertainty"] < m["initial_uncertainty"]
+    for k in range(int(m["mapped_sources"])):
+        assert 19.0 <= m[f"mapped_x_{k}"] <= 25.0 and 48.0 <= m[f"mapped_y_{k}"] <= 56.0
+    rec = res.recording
+    snaps = [b for _, b in rec.beliefs if "m_s" in b]
+    assert snaps and snaps[-1]["m_s"].shape == (12, 16)
+    total = snaps[-1]["m_s"] + snaps[-1]["m_n"] + snaps[-1]["m_u"]
+    np.testing.assert_allclose(total, 1.0, atol=1e-9)
+    assert "total_uncertainty" in rec.diagnostics
+    tu = rec.diagnostics["total_uncertainty"]
+    assert tu[0] == pytest.approx(m["initial_uncertainty"], rel=0.05)
+    assert tu[-1] == pytest.approx(m["residual_uncertainty"], rel=0.05)
+
+
+def test_same_seed_same_episode() -> None:
+    sc = reduced_farrell(25.0)
+    a = run_episode(sc, 3, 4, record=True)
+    b = run_episode(sc, 3, 4, record=True)
+    assert _stable(a.metrics) == _stable(b.metrics)
+    np.testing.assert_array_equal(a.recording.positions, b.recording.positions)
+    c = run_episode(sc, 3, 5, record=False)  # another agent seed: ties broken differently
+    assert c.metrics["initial_uncertainty"] == a.metrics["initial_uncertainty"]
+
+
+def test_rectangular_wave_variant_moves_like_the_baseline_and_declares() -> None:
+    base = {"lane_spacing": 2.0, "lanes_along": "y", "rounds": 1}
+    region = [[21.0, 48.0], [25.0, 52.0]]
+    sc_ds = reduced_farrell(200.0, {"type": "ds-rectangular-wave", **base}, region)
+    sc_rw = reduced_farrell(200.0, {"type": "rectangular-wave", **base}, region)
+    a = run_episode(sc_ds, 1, 2, record=True)
+    b = run_episode(sc_rw, 1, 2, record=True)
+    n = min(len(a.recording.t), len(b.recording.t))
+    np.testing.assert_allclose(a.recording.positions[:n], b.recording.positions[:n])
+    assert a.metrics["termination"] == "declared"
+    # 3 lanes 4 m long, 2 steps of 2 m across, plus the approach from (25, 50) to (25, 48)
+    assert a.metrics["path_length"] == pytest.approx(3 * 4 + 2 * 2 + 2, abs=0.3)
+    assert a.metrics["residual_uncertainty"] < a.metrics["initial_uncertainty"]
+
+
+@pytest.mark.slow
+def test_both_sources_mapped_in_a_steady_world() -> None:
+    sc = steady_world({"type": "ds-mapping", "t_thr": 4.0})
+    res = run_episode(sc, 0, 1, record=False)
+    m = res.metrics
+    row = dict(m)
+    err = map_errors(row, res.sources, sc.success_radius)
+    assert err["source_error_0"] <= 1.5 and err["source_error_1"] <= 1.5, (err, m)
+    assert err["map_false_sources"] == 0 and m["detections"] > 0
+
+
+def test_replay_reproduces_the_recorded_flow() -> None:
+    """The movie equals the live world frame by frame, and an episode on its replay reads the
+    same gas values as the live episode with the same seeds."""
+    sc = reduced_farrell(10.0, {"type": "ds-rectangular-wave", "rounds": 1})
+    movie = record_scenario_movie(sc, 7, duration=10.0)
+    assert len(movie.times) == 21  # one frame per control period, plus the first
+    world = build_world(sc)
+    rng = episode_generators(7, 0)[0]
+    world.reset(rng)
+    for _ in range(round(sc.world.warmup / sc.world.dt)):
+        world.step(sc.world.dt, rng)
+    gx, gy = np.meshgrid(np.linspace(19, 30, 12), np.linspace(46, 58, 13), indexing="ij")
+    pts = np.column_stack([gx.ravel(), gy.ravel()])
+    for k in range(len(movie.times)):
+        if k:
+            world.step(sc.world.dt, rng)
+            world.step(sc.world.dt, rng)
+        np.testing.assert_array_equal(movie.concentration(k, pts), world.plume.concentration(pts))
+        np.testing.assert_allclose(
+            movie.wind_velocity(k, pts), world.wind.velocity(pts), rtol=1e-12, atol=1e-12
+        )
+    sc_r, built = replay_built(sc, movie)
+    assert sc_r.world.warmup == 0.0 and sc_r.world.plume.type == "replay"
+    replay = run_episode(sc_r, 7, 8, built=built, record=True).recording
+    live = run_episode(sc, 7, 8, record=True).recording
+    np.testing.assert_allclose(replay.positions, live.positions, atol=1e-9)
+    np.testing.assert_allclose(replay.gas, live.gas, rtol=1e-12, atol=1e-12)
+    assert live.gas.max() > 0
+
+
+def test_map_errors_closed_form() -> None:
+    sources = np.array([[20.0, 50.0], [24.0, 55.0]])
+    row = {
+        "mapped_sources": 3,
+        "mapped_x_0": 20.0,
+        "mapped_y_0": 51.0,
+        "mapped_x_1": 27.0,
+        "mapped_y_1": 59.0,
+        "mapped_x_2": 30.0,
+        "mapped_y_2": 45.0,
+    }
+    e = map_errors(row, sources, 1.5)
+    assert e["source_error_0"] == pytest.approx(1.0)
+    assert e["source_error_1"] == pytest.approx(5.0)  # 3-4-5 triangle
+    assert e["map_false_sources"] == 2 and not e["map_success"]
+    e = map_errors({"mapped_sources": 0}, sources, 1.5)
+    assert math.isnan(e["source_error_0"]) and not e["map_success"]
+
+
+# --------------------------------------------------------------------------- bad input
+@pytest.mark.parametrize(
+    ("name", "values", "field"),
+    [
+        ("ds-mapping", {"cell_size": -0.5}, "cell_size"),
+        ("ds-mapping", {"eta_e": -1.0}, "eta_e"),
+        ("ds-mapping", {"widen_factor": 1.0}, "widen_factor"),
+        ("ds-mapping", {"ds": {"zeta": 1.5}}, "ds.zeta"),
+        ("ds-mapping", {"source_min_mass": 0.0}, "source_min_mass"),
+        ("ds-mapping", {"cel_size": 0.5}, "cel_size"),
+        ("ds-mapping", {"region": [[5.0, 0.0], [1.0, 1.0]]}, "region"),
+        ("ds-rectangular-wave", {"rounds": 0}, "rounds"),
+        ("ds-rectangular-wave", {"lane_spacing": 0.0}, "lane_spacing"),
+    ],
+)
+def test_bad_params_name_the_field(name: str, values: dict, field: str) -> None:
+    with pytest.raises(ConfigError) as info:
+        registry.make_params("searcher", name, values, field="searcher")
+    assert field in info.value.field or field in str(info.value)
+
+
+def test_params_models_reject_directly() -> None:
+    with pytest.raises(pydantic.ValidationError, match="cell_size"):
+        DSMappingParams(cell_size=0.0)
+    with pytest.raises(pydantic.ValidationError, match="rounds"):
+        DSRectangularWaveParams(rounds=0)
+    assert DSMappingParams().ds == DSParams()
+
+
+def test_multi_agent_is_refused() -> None:
+    ctx = _ctx()
+    ctx2 = SearchContext(
+        arena=ctx.arena, dt=0.5, n_agents=2, start=np.zeros((2, 2)), max_speed=0.5, info=ctx.info
+    )
+    with pytest.raises(ConfigError, match="single robot"):
+        DSMappingSearcher(DSMappingParams()).reset(ctx2, np.random.default_rng(0))
