@@ -276,6 +276,7 @@ class PFEntropySearcher(Searcher):
         self._path: list[np.ndarray] = []
         self._n_var = n_var
         self._last_entropy = math.nan
+        self._entropy_init = math.nan
         self._converged = False
 
     def act(self, observations: Sequence[Observation], rng: np.random.Generator) -> Action:
@@ -357,6 +358,7 @@ class PFEntropySearcher(Searcher):
             history=p.history,
             arena=self.ctx.arena,
         )
+        self._entropy_init = histogram_entropy(self.pf.belief(), self.ctx.arena, p.entropy_cell)
 
     def _next_command(
         self,
@@ -443,6 +445,16 @@ class PFEntropySearcher(Searcher):
     def belief(self) -> ParticleBelief | None:
         """The particle set, ``None`` during the zigzag phase."""
         return None if self.pf is None else self.pf.belief()
+
+    def final_metrics(self) -> dict[str, float]:
+        """Row fields: posterior entropy (nats) at initialisation and at the end of the episode,
+        so a sweep can check that entropy falls as the robot closes in."""
+        end = (
+            histogram_entropy(self.pf.belief(), self.ctx.arena, self.params.entropy_cell)
+            if self.pf is not None
+            else math.nan
+        )
+        return {"entropy_init": self._entropy_init, "entropy_end": end}
 
     def diagnostics(self) -> dict[str, float]:
         """``phase`` (0 zigzag / 1 tracking), ``ess``, ``entropy``, ``weight_entropy``,

@@ -232,11 +232,25 @@ def ffmpeg_available() -> bool:
     return shutil.which("ffmpeg") is not None
 
 
+#: Diagnostics drawn by :func:`plot_traces`, in this order, when a searcher reports them.
+TRACE_DIAGNOSTICS = {
+    "entropy": "posterior entropy (nats)",
+    "spread": "particle spread",
+    "ess": "effective sample size",
+    "uncertainty": "map uncertainty",
+}
+
+
 def plot_traces(rec: Recording, path: str | Path | None = None) -> Any:
-    """Gas reading, detections, wind speed/direction and searcher diagnostics over time."""
-    diag = {k: v for k, v in rec.diagnostics.items() if np.isfinite(v).any()}
-    n = 2 + (1 if diag else 0)
-    fig, axes = plt.subplots(n, 1, figsize=(8, 2.2 * n), sharex=True)
+    """Gas reading with detections, wind speed/direction, and the searcher's key diagnostics
+    (entropy, spread, ESS, ... each on its own axis) over time."""
+    diag = {
+        k: v
+        for k, v in rec.diagnostics.items()
+        if k in TRACE_DIAGNOSTICS and np.isfinite(v).any()
+    }
+    n = 2 + len(diag)
+    fig, axes = plt.subplots(n, 1, figsize=(8, 1.9 * n + 0.6), sharex=True)
     t = rec.t
     ax = axes[0]
     for a in range(rec.gas.shape[1]):
@@ -252,13 +266,10 @@ def plot_traces(rec: Recording, path: str | Path | None = None) -> Any:
     ax2 = ax.twinx()
     ax2.plot(t, np.degrees(np.arctan2(wind[:, 1], wind[:, 0])), color="tab:orange", lw=0.8)
     ax2.set_ylabel("wind dir (deg)", color="tab:orange")
-    if diag:
-        ax = axes[2]
-        for k, v in diag.items():
-            ax.plot(t[: len(v)], v, lw=1, label=k)
-        ax.set_yscale("symlog")
-        ax.legend(fontsize=7)
-        ax.set_ylabel("searcher")
+    for ax, (k, v) in zip(axes[2:], diag.items(), strict=True):
+        ax.plot(t[: len(v)], v, lw=1.2, color="tab:purple")
+        ax.set_ylabel(TRACE_DIAGNOSTICS[k], fontsize=8)
+        ax.grid(alpha=0.3)
     axes[-1].set_xlabel("time (s)")
     fig.tight_layout()
     if path is not None:
