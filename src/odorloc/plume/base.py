@@ -14,6 +14,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from odorloc.errors import ConfigError
+from odorloc.timestep import TimeStepped
 from odorloc.wind.base import WindModel
 from odorloc.world.arena import Arena, as_points
 from odorloc.world.sources import Source
@@ -34,7 +35,7 @@ def check_sources(sources: Sequence[Source], arena: Arena, field: str = "world.s
             raise ConfigError(f"{field}[{k}].position", f"{s.position} is inside an obstacle")
 
 
-class PlumeModel(ABC):
+class PlumeModel(TimeStepped, ABC):
     """Base class of plume models.
 
     Parameters
@@ -62,20 +63,6 @@ class PlumeModel(ABC):
     def source_positions(self) -> np.ndarray:
         """``(S, d)`` source positions, metres."""
         return np.array([s.pos for s in self.sources])
-
-    def reset(self, rng: np.random.Generator) -> None:
-        """Restart at ``t = 0`` with no released odor (or the steady state for steady models)."""
-        self.t = 0.0
-
-    def step(self, dt: float, rng: np.random.Generator) -> None:
-        """Advance the plume by ``dt`` seconds."""
-        if not (np.isfinite(dt) and dt > 0):
-            raise ConfigError("dt", f"must be a finite number > 0, got {dt}")
-        self._advance(dt, rng)
-        self.t += dt
-
-    def _advance(self, dt: float, rng: np.random.Generator) -> None:  # noqa: B027
-        """Evolve the plume state by ``dt`` (steady models do nothing)."""
 
     def concentration(self, points: ArrayLike) -> np.ndarray:
         """Instantaneous concentration at ``(Q, d)`` points, ``(Q,)`` (model units)."""

@@ -62,16 +62,10 @@ from odorloc.searchers.base import (
     SearchContext,
     Searcher,
 )
+from odorloc.searchers.simple import zigzag_leg
 from odorloc.world.arena import Arena
 
 __all__ = ["PFEntropyParams", "PFEntropySearcher", "ZigzagLegs"]
-
-
-def _rot(v: np.ndarray, angle: float) -> np.ndarray:
-    c, s = math.cos(angle), math.sin(angle)
-    out = np.array(v, float)
-    out[0], out[1] = c * v[0] - s * v[1], s * v[0] + c * v[1]
-    return out
 
 
 def _upwind_unit(wind: np.ndarray, fallback_heading: float) -> np.ndarray:
@@ -108,24 +102,15 @@ class ZigzagLegs:
         up = _upwind_unit(wind, heading)
         if self.max_leg is not None and self.travelled >= self.max_leg:
             self.side, self.travelled = -self.side, 0.0
-        # Current leg, the other side, then the same two pointing the other way along the wind.
-        options = [
-            (self.side, self.along),
-            (-self.side, self.along),
-            (self.side, -self.along),
-            (-self.side, -self.along),
-        ]
-        for side, along in options:
-            base = up if along > 0 else -up
-            # Mirror the angle when heading downwind so the Z keeps its crosswind drift.
-            d = _rot(base, side * along * self.angle) * step
-            if arena.segment_free(pos, pos + d)[0]:
-                if (side, along) != (self.side, self.along):
-                    self.travelled = 0.0
-                self.side, self.along = side, along
-                self.travelled += step
-                return d
-        return None
+        leg = zigzag_leg(arena, pos, up, self.angle, self.side, self.along, step)
+        if leg is None:
+            return None
+        d, side, along = leg
+        if (side, along) != (self.side, self.along):
+            self.travelled = 0.0
+        self.side, self.along = side, along
+        self.travelled += step
+        return d * step
 
 
 class PFEntropyParams(Params):

@@ -121,6 +121,34 @@ class ZigzagParams(Params):
     lookahead: Positive = 1.0
 
 
+def zigzag_leg(
+    arena: Arena,
+    pos: np.ndarray,
+    up: np.ndarray,
+    angle: float,
+    side: float,
+    along: float,
+    look: float,
+) -> tuple[np.ndarray, float, float] | None:
+    """The next free zigzag leg direction.
+
+    Legs run at ``angle`` (rad) either side of the upwind unit vector ``up``; ``side`` (+-1)
+    picks the side and ``along`` (+1 upwind, -1 downwind) the along-wind progress. The current
+    leg is kept while ``look`` metres ahead are free; otherwise the mirror leg (zig <-> zag),
+    then the two legs with reversed along-wind progress are tried.
+
+    Returns
+    -------
+    (direction (d,) unit ndarray, side, along), or ``None`` when all four legs are blocked.
+    """
+    for sg, al in ((side, along), (-side, along), (-side, -along), (side, -along)):
+        # A downwind leg mirrors the upwind one, so the Z keeps drifting crosswind.
+        d = rotate2(up, sg * (angle if al > 0 else math.pi - angle))
+        if free_step(arena, pos, d, look):
+            return d, sg, al
+    return None
+
+
 class ZigzagPlanner:
     """The zigzag motion rule on its own, reusable by searchers before their first detection.
 
@@ -149,22 +177,24 @@ class ZigzagPlanner:
             u[:2] = -mean[:2] / n
         return u
 
-    def _leg(self, up: np.ndarray, sign: float, along: float) -> np.ndarray:
-        a = math.radians(self.params.angle_deg)
-        return rotate2(up, sign * (a if along > 0 else math.pi - a))
-
     def command(self, ctx: SearchContext, o: Observation) -> Command:
         """Velocity command for agent ``o.agent`` this step."""
         k = o.agent
         speed = ctx.max_speed * self.params.speed_fraction
         look = max(speed * self.params.lookahead, 1.5 * ctx.arena.resolution)
         up = self.upwind(k, o.wind)
-        s, v = self.sign[k], self.along[k]
-        for sg, al in ((s, v), (-s, v), (-s, -v), (s, -v)):
-            d = self._leg(up, sg, al)
-            if free_step(ctx.arena, o.position, d, look):
-                self.sign[k], self.along[k] = sg, al
-                return Command.velocity(d * speed)
+        leg = zigzag_leg(
+            ctx.arena,
+            o.position,
+            up,
+            math.radians(self.params.angle_deg),
+            self.sign[k],
+            self.along[k],
+            look,
+        )
+        if leg is not None:
+            d, self.sign[k], self.along[k] = leg
+            return Command.velocity(d * speed)
         # Boxed in (a narrow gap): any free direction, checked at a shorter range.
         for ang in np.linspace(0.0, 2.0 * math.pi, 16, endpoint=False):
             d = rotate2(up, ang)
@@ -231,7 +261,7 @@ def rectangular_wave(
     lo, hi = np.asarray(lower, float), np.asarray(upper, float)
     across = 0 if along == "y" else 1
     long = 1 - across
-    n_lanes = int(math.floor((hi[across] - lo[across]) / spacing + 1e-9)) + 1
+    n_lanes = math.floor((hi[across] - lo[across]) / spacing + 1e-9) + 1
     lanes = lo[across] + spacing * np.arange(n_lanes)
     if start is not None and abs(start[across] - hi[across]) < abs(start[across] - lo[across]):
         lanes = lanes[::-1]

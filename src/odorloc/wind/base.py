@@ -13,10 +13,11 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from odorloc.errors import ConfigError
+from odorloc.timestep import TimeStepped
 from odorloc.world.arena import Arena, as_points
 
 
-class WindModel(ABC):
+class WindModel(TimeStepped, ABC):
     """Base class of wind models.
 
     Subclasses implement :meth:`_velocity`, and :meth:`_advance` when they evolve in time.
@@ -33,20 +34,6 @@ class WindModel(ABC):
     def dim(self) -> int:
         """Spatial dimension (that of the arena)."""
         return self.arena.dim
-
-    def reset(self, rng: np.random.Generator) -> None:
-        """Restart at ``t = 0`` drawing any random initial state from ``rng``."""
-        self.t = 0.0
-
-    def step(self, dt: float, rng: np.random.Generator) -> None:
-        """Advance the field by ``dt`` seconds."""
-        if not (np.isfinite(dt) and dt > 0):
-            raise ConfigError("dt", f"must be a finite number > 0, got {dt}")
-        self._advance(dt, rng)
-        self.t += dt
-
-    def _advance(self, dt: float, rng: np.random.Generator) -> None:  # noqa: B027
-        """Evolve the state by ``dt``; steady fields do nothing."""
 
     def velocity(self, points: ArrayLike, t: float | None = None) -> np.ndarray:
         """Air velocity at ``points``.
@@ -78,7 +65,7 @@ class WindModel(ABC):
 
     def mean_velocity(self) -> np.ndarray:
         """Current spatial-mean velocity over the arena (sampled on a coarse grid), ``(d,)`` m/s."""
-        axes = [np.linspace(lo, hi, 5) for lo, hi in zip(self.arena.lower, self.arena.upper)]
+        axes = [np.linspace(lo, hi, 5) for lo, hi in zip(self.arena.lower, self.arena.upper, strict=True)]
         pts = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, self.dim)
         return self.velocity(pts).mean(axis=0)
 

@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from odorloc.errors import ConfigError
+from odorloc.timestep import check_dt
 from odorloc.world.arena import Arena
 
 if TYPE_CHECKING:
@@ -52,7 +53,6 @@ class World:
 
     def step(self, dt: float, rng: np.random.Generator) -> None:
         """Advance the world by ``dt`` seconds."""
-        if not (np.isfinite(dt) and dt > 0):
-            raise ConfigError("dt", f"must be a finite number > 0, got {dt}")
+        check_dt(dt)
         self.wind.step(dt, rng)
         self.plume.step(dt, rng)
