@@ -84,17 +84,25 @@ def main() -> None:
                 "bare_s": bare,
             }
         )
-    print(f"machine: {platform.machine()}, {os.cpu_count()} cores, python {platform.python_version()}")
-    print(f"{'rep':>3} {'steps':>6} {'episode s':>10} {'steps/s':>9} {'world %':>8} {'searcher %':>11} {'bare loop s':>12}")
+    print(
+        f"machine: {platform.machine()}, {os.cpu_count()} cores, python {platform.python_version()}"
+    )
+    print(
+        f"{'rep':>3} {'steps':>6} {'episode s':>10} {'steps/s':>9} {'world %':>8} "
+        f"{'searcher %':>11} {'bare loop s':>12}"
+    )
     for i, r in enumerate(rows):
         print(
             f"{i:>3} {r['steps']:>6} {r['total_s']:>10.3f} {r['steps_per_s']:>9.0f} "
-            f"{100 * r['world_frac']:>7.1f}% {100 * r['searcher_frac']:>10.1f}% {r['bare_s']:>12.3f}"
+            f"{100 * r['world_frac']:>7.1f}% {100 * r['searcher_frac']:>10.1f}% "
+            f"{r['bare_s']:>12.3f}"
         )
     sps = statistics.median(r["steps_per_s"] for r in rows)
     overhead = statistics.median(1.0 - r["world_frac"] - r["searcher_frac"] for r in rows)
     ratio = statistics.median(r["total_s"] / r["bare_s"] for r in rows)
-    print(f"episode / bare-loop time ratio (includes plume warm-up inside the episode): {ratio:.2f}")
+    print(
+        f"episode / bare-loop time ratio (includes plume warm-up inside the episode): {ratio:.2f}"
+    )
     print(f"RESULT steps_per_s={sps:.0f} engine_overhead={overhead:.3f}")
 
 

@@ -75,7 +75,9 @@ def test_batch_records_failing_episode_and_goes_on(tmp_path) -> None:
         "name": "t",
         "seed": 1,
         "episodes": 2,
-        "scenarios": [{"name": "indoor-ventilated", "params": {"limits.time": 5.0, "world.warmup": 1.0}}],
+        "scenarios": [
+            {"name": "indoor-ventilated", "params": {"limits.time": 5.0, "world.warmup": 1.0}}
+        ],
         "searchers": [
             {"name": "zigzag"},
             # A rectangular wave whose margin leaves no area raises inside the episode.

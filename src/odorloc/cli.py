@@ -44,16 +44,22 @@ def _fmt(v: Any) -> str:
 def run(
     scenario: Annotated[
         str | None,
-        typer.Argument(help="Built-in scenario name or scenario YAML file (default: the main job)."),
+        typer.Argument(
+            help="Built-in scenario name or scenario YAML file (default: the main job)."
+        ),
     ] = None,
-    seed: Annotated[int | None, typer.Option(help="Episode seed (default: the scenario's).")] = None,
+    seed: Annotated[
+        int | None, typer.Option(help="Episode seed (default: the scenario's).")
+    ] = None,
     searcher: Annotated[
         str | None, typer.Option(help="Replace the scenario's searcher (registry name).")
     ] = None,
-    out: Annotated[Path, typer.Option(help="Output folder for figures, animation, recording.")] = Path(
-        "odorloc-out"
-    ),
-    animation: Annotated[bool, typer.Option(help="Write the animation (GIF, and MP4 with ffmpeg).")] = True,
+    out: Annotated[
+        Path, typer.Option(help="Output folder for figures, animation, recording.")
+    ] = Path("odorloc-out"),
+    animation: Annotated[
+        bool, typer.Option(help="Write the animation (GIF, and MP4 with ffmpeg).")
+    ] = True,
     frames: Annotated[int, typer.Option(help="Maximum number of animation frames.")] = 120,
 ) -> None:
     """Run one episode, print a summary and write the figures and the animation."""
@@ -70,7 +76,9 @@ def run(
         if seed is not None:
             sc = sc.model_copy(update={"seed": seed})
         world_seed, agent_seed = seeds_for(sc.seed, 0)
-        console.print(f"running [bold]{sc.name}[/] with searcher [bold]{sc.searcher.type}[/], seed {sc.seed}")
+        console.print(
+            f"running [bold]{sc.name}[/] with searcher [bold]{sc.searcher.type}[/], seed {sc.seed}"
+        )
         res = run_episode(sc, world_seed, agent_seed, record=True)
     except OdorlocError as exc:
         _fail(str(exc))
@@ -142,10 +150,12 @@ def batch(
         typer.Argument(help="Sweep YAML file (scenarios x searchers x grids x episodes)."),
     ] = None,
     scenario: Annotated[
-        list[str] | None, typer.Option("--scenario", "-s", help="Scenario(s), without a sweep file.")
+        list[str] | None,
+        typer.Option("--scenario", "-s", help="Scenario(s), without a sweep file."),
     ] = None,
     searcher: Annotated[
-        list[str] | None, typer.Option("--searcher", "-a", help="Searcher(s), without a sweep file.")
+        list[str] | None,
+        typer.Option("--searcher", "-a", help="Searcher(s), without a sweep file."),
     ] = None,
     episodes: Annotated[int, typer.Option(help="Episodes per cell, without a sweep file.")] = 10,
     seed: Annotated[int, typer.Option(help="Root seed, without a sweep file.")] = 0,
@@ -191,7 +201,12 @@ def batch(
     store_path = out / "results.sqlite"
     try:
         df = run_sweep(
-            spec, store_path, backend=backend, workers=workers, scheduler=scheduler, progress=progress
+            spec,
+            store_path,
+            backend=backend,
+            workers=workers,
+            scheduler=scheduler,
+            progress=progress,
         )
     except OdorlocError as exc:
         _fail(str(exc))
@@ -230,7 +245,9 @@ def report(
 def reproduce(
     paper: Annotated[str, typer.Argument(help="Reproduction name (see --list).")] = "",
     out: Annotated[Path | None, typer.Option(help="Output folder.")] = None,
-    episodes: Annotated[int | None, typer.Option(help="Episodes per cell (default: the paper's).")] = None,
+    episodes: Annotated[
+        int | None, typer.Option(help="Episodes per cell (default: the paper's).")
+    ] = None,
     workers: Annotated[int, typer.Option(help="Worker processes.")] = 2,
     seed: Annotated[int, typer.Option(help="Root seed.")] = 2024,
     list_: Annotated[bool, typer.Option("--list", help="List the reproductions.")] = False,

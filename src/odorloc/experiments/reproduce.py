@@ -134,8 +134,16 @@ def reproduce_indoor(
 
     # ---- Table 1 side by side with the paper
     t = Table(title="Indoor PF + entropy: Table 1 (simulation), ours vs paper")
-    for col in ("start", "method", "n", "success % [95 % CI]", "paper success %",
-                "mean time s [95 % CI]", "paper time s", "mean error m"):
+    for col in (
+        "start",
+        "method",
+        "n",
+        "success % [95 % CI]",
+        "paper success %",
+        "mean time s [95 % CI]",
+        "paper time s",
+        "mean error m",
+    ):
         t.add_column(col, justify="right")
     lines = []
     for idx, ref in INDOOR_TABLE1.items():
@@ -201,25 +209,37 @@ def _indoor_figures(summ: Any, out: Path) -> list[Path]:
     import matplotlib.pyplot as plt
 
     fig, axes = plt.subplots(1, 2, figsize=(10, 3.8))
-    styles = {"pf-entropy": ("tab:red", "o", "PF + entropy"),
-              "gradient-bionic": ("tab:blue", "s", "gradient-bionic hybrid")}
+    styles = {
+        "pf-entropy": ("tab:red", "o", "PF + entropy"),
+        "gradient-bionic": ("tab:blue", "s", "gradient-bionic hybrid"),
+    }
     for searcher, (col, mk, label) in styles.items():
         g = summ[summ.searcher == searcher].sort_values("mean_start_distance")
         d = g.mean_start_distance.to_numpy()
         axes[0].errorbar(
-            d, g.mean_time, yerr=[g.mean_time - g.mean_time_lo, g.mean_time_hi - g.mean_time],
-            color=col, marker=mk, capsize=3, label=label,
+            d,
+            g.mean_time,
+            yerr=[g.mean_time - g.mean_time_lo, g.mean_time_hi - g.mean_time],
+            color=col,
+            marker=mk,
+            capsize=3,
+            label=label,
         )
         axes[1].errorbar(
-            d, 100 * g.success_rate,
+            d,
+            100 * g.success_rate,
             yerr=[100 * (g.success_rate - g.success_lo), 100 * (g.success_hi - g.success_rate)],
-            color=col, marker=mk, capsize=3, label=label,
+            color=col,
+            marker=mk,
+            capsize=3,
+            label=label,
         )
     for i, ref in INDOOR_TABLE1.items():
         dist = float(np.hypot(*ref["start"]))
         axes[0].plot(dist, ref["mean_time"], "k*", ms=11, label="paper Table 1" if i == 2 else None)
-        axes[1].plot(dist, 100 * ref["success_rate"], "k*", ms=11,
-                     label="paper Table 1" if i == 2 else None)
+        axes[1].plot(
+            dist, 100 * ref["success_rate"], "k*", ms=11, label="paper Table 1" if i == 2 else None
+        )
     axes[0].set_xlabel("start distance to source (m)")
     axes[0].set_ylabel("mean search time of successes (s)")
     axes[1].set_xlabel("start distance to source (m)")
@@ -259,19 +279,45 @@ def _indoor_episode_figures(out: Path, seed: int) -> list[Path]:
     beliefs = [(t, b) for t, b in rec.beliefs if "positions" in b]
     if beliefs:
         picks = [beliefs[0], beliefs[len(beliefs) // 2], beliefs[-1]]
-        names_ = ["at first detection", "mid-search", "at declaration" if res.metrics["declared"] else "at the end"]
+        names_ = [
+            "at first detection",
+            "mid-search",
+            "at declaration" if res.metrics["declared"] else "at the end",
+        ]
         fig, axes = plt.subplots(1, 3, figsize=(12, 5.2), sharey=True)
         b = rec.arena_bounds
         for ax, (t, snap), nm in zip(axes, picks, names_, strict=True):
             k = int(np.searchsorted(rec.t, t, side="right"))
             w = snap["weights"]
-            sca = ax.scatter(snap["positions"][:, 0], snap["positions"][:, 1], c=w / w.max(),
-                             s=5, cmap="cool", vmin=0, vmax=1, zorder=3)
-            ax.plot(rec.positions[:k, 0, 0], rec.positions[:k, 0, 1], "-", color="tab:green",
-                    lw=1.5, label="robot path", zorder=4)
+            sca = ax.scatter(
+                snap["positions"][:, 0],
+                snap["positions"][:, 1],
+                c=w / w.max(),
+                s=5,
+                cmap="cool",
+                vmin=0,
+                vmax=1,
+                zorder=3,
+            )
+            ax.plot(
+                rec.positions[:k, 0, 0],
+                rec.positions[:k, 0, 1],
+                "-",
+                color="tab:green",
+                lw=1.5,
+                label="robot path",
+                zorder=4,
+            )
             ax.plot(*rec.positions[k - 1, 0, :2], "o", color="tab:green", mec="k", zorder=5)
-            ax.plot(*rec.sources[0, :2], "*", color="gold", mec="k", ms=15, label="true source",
-                    zorder=6)
+            ax.plot(
+                *rec.sources[0, :2],
+                "*",
+                color="gold",
+                mec="k",
+                ms=15,
+                label="true source",
+                zorder=6,
+            )
             mean = (w[:, None] * snap["positions"]).sum(0) / w.sum()
             ax.plot(*mean[:2], "X", color="red", mec="k", ms=11, label="estimate", zorder=6)
             ax.set_xlim(b[0, 0], b[1, 0])

@@ -95,7 +95,7 @@ class GridBelief:
         """Cell centres, ``(M, d)`` metres, in C order of :attr:`prob`."""
         axes = [
             lo + (np.arange(n) + 0.5) * (hi - lo) / n
-            for lo, hi, n in zip(self.lower, self.upper, self.prob.shape)
+            for lo, hi, n in zip(self.lower, self.upper, self.prob.shape, strict=True)
         ]
         return np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, len(axes))
 

@@ -123,7 +123,8 @@ class LimitsConfig(_Strict):
 
 class RecordingConfig(_Strict):
     """What the recorder keeps: every ``stride``-th step, beliefs every ``belief_stride`` steps,
-    a coarse plume frame every ``plume_stride`` steps on a grid of ``plume_grid`` cells per metre."""
+    a coarse plume frame every ``plume_stride`` steps on a grid of ``plume_grid`` cells per
+    metre."""
 
     stride: int = Field(1, ge=1)
     belief_stride: int = Field(4, ge=1)
@@ -160,7 +161,9 @@ class Scenario(_Strict):
         self.searcher.params("searcher", "searcher")
         d = len(self.world.arena.lower)
         if len(self.world.arena.upper) != d or d not in (2, 3):
-            raise ConfigError("world.arena.upper", "lower and upper need the same 2 or 3 components")
+            raise ConfigError(
+                "world.arena.upper", "lower and upper need the same 2 or 3 components"
+            )
         for k, s in enumerate(self.agents.starts):
             if len(s) != d:
                 raise ConfigError(f"agents.starts[{k}]", f"needs {d} components, got {len(s)}")

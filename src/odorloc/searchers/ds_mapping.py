@@ -31,10 +31,13 @@ Readings of the paper (each configurable):
   simulated sensor has none unless configured).
 * Route. A new target is planned whenever the robot reached the previous one (``obs.ready``).
   The first candidates are the positions "within the access of the robot in the next time
-  step" (section 3): ``step_range`` defaults to the larger of the distance covered in one
-  control period and ``sqrt(2) cell_size``, so that the eight neighbouring cell centres are
-  candidates even when a cell is wider than one step (otherwise only the robot's own cell
-  would be, and the robot would wait there until its own path map is resolved).
+  step" (section 3): ``step_range`` defaults to the platform speed limit times the control
+  period. With cells wider than that step (0.5 m cells, 0.25 m steps) the robot's own cell is
+  the only first candidate, so the robot stays and keeps reading while its own air-mass path
+  still covers enough uncertainty (``E >= eta_E``), then the range widens to the neighbours
+  and beyond. This literal reading gives the paper's pattern of a short route with long
+  stops (496.1 m in 2500 s); ``step_range = sqrt(2) cell_size`` makes the eight neighbouring
+  cells candidates at once, and the robot keeps moving (measured in the reproduction notes).
 * Declaration. The paper leaves it open ("some other methods should be considered next to
   declare the mapped odor sources"). When the planner finds even the whole region below
   ``eta_E`` the searcher declares one position per connected region with
@@ -329,8 +332,8 @@ class DSMappingParams(DSMapperParams):
     Attributes
     ----------
     step_range : float, metres, optional
-        First candidate radius; default the larger of the platform speed limit times the
-        control period and ``sqrt(2) cell_size`` (the robot's cell and its 8 neighbours).
+        First candidate radius; default the platform speed limit times the control period
+        (see the module notes).
     widen_factor : float
         Radius multiplier while the best fitness is below ``eta_e`` (> 1).
     eta_e : float
@@ -361,10 +364,8 @@ class DSMappingSearcher(Searcher):
         super().reset(ctx, rng)
         p = self.params
         self.mapper = _reset_mapper(p, ctx)
-        # The next step reaches max_speed * dt; with cells larger than that, the robot's own cell
-        # would be the only candidate, so the eight neighbouring cell centres count as reachable.
-        reach = max(ctx.max_speed * ctx.dt, math.sqrt(2.0) * p.cell_size + 1e-9)
-        step = p.step_range if p.step_range is not None else reach
+        # "within the access of the robot in the next time step" (section 3)
+        step = p.step_range if p.step_range is not None else ctx.max_speed * ctx.dt
         self.planner = UncertaintyRoutePlanner(
             UncertaintyRouteParams(
                 step_range=step,

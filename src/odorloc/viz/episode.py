@@ -14,12 +14,12 @@ import matplotlib
 
 matplotlib.use("Agg")
 
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from matplotlib import animation, colors  # noqa: E402
-from matplotlib.axes import Axes  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
+from matplotlib import animation, colors
+from matplotlib.axes import Axes
 
-from odorloc.engine.recorder import Recording  # noqa: E402
+from odorloc.engine.recorder import Recording
 
 AGENT_COLORS = ["tab:red", "tab:blue", "tab:green", "tab:orange", "tab:purple", "tab:brown"]
 
@@ -108,8 +108,19 @@ def plot_trajectory(rec: Recording, path: str | Path | None = None, ax: Axes | N
     for a in range(rec.positions.shape[1]):
         col = AGENT_COLORS[a % len(AGENT_COLORS)]
         p = rec.positions[:, a, :]
-        ax.plot(p[:, 0], p[:, 1], "-", color=col, lw=1.6, zorder=4, label="path" if a == 0 else None)
-        ax.plot(p[0, 0], p[0, 1], "o", color=col, mec="k", ms=8, zorder=5, label="start" if a == 0 else None)
+        ax.plot(
+            p[:, 0], p[:, 1], "-", color=col, lw=1.6, zorder=4, label="path" if a == 0 else None
+        )
+        ax.plot(
+            p[0, 0],
+            p[0, 1],
+            "o",
+            color=col,
+            mec="k",
+            ms=8,
+            zorder=5,
+            label="start" if a == 0 else None,
+        )
         det = rec.detection[:, a]
         if det.any():
             ax.plot(
@@ -182,7 +193,8 @@ def animate(
     _draw_static(ax, rec)
     n_agents = rec.positions.shape[1]
     trails = [
-        ax.plot([], [], "-", color=AGENT_COLORS[a % 6], lw=1.4, zorder=4)[0] for a in range(n_agents)
+        ax.plot([], [], "-", color=AGENT_COLORS[a % 6], lw=1.4, zorder=4)[0]
+        for a in range(n_agents)
     ]
     heads = [
         ax.plot([], [], "o", color=AGENT_COLORS[a % 6], mec="k", ms=8, zorder=6)[0]
@@ -245,9 +257,7 @@ def plot_traces(rec: Recording, path: str | Path | None = None) -> Any:
     """Gas reading with detections, wind speed/direction, and the searcher's key diagnostics
     (entropy, spread, ESS, ... each on its own axis) over time."""
     diag = {
-        k: v
-        for k, v in rec.diagnostics.items()
-        if k in TRACE_DIAGNOSTICS and np.isfinite(v).any()
+        k: v for k, v in rec.diagnostics.items() if k in TRACE_DIAGNOSTICS and np.isfinite(v).any()
     }
     n = 2 + len(diag)
     fig, axes = plt.subplots(n, 1, figsize=(8, 1.9 * n + 0.6), sharex=True)

@@ -65,7 +65,10 @@ class WindModel(TimeStepped, ABC):
 
     def mean_velocity(self) -> np.ndarray:
         """Current spatial-mean velocity over the arena (sampled on a coarse grid), ``(d,)`` m/s."""
-        axes = [np.linspace(lo, hi, 5) for lo, hi in zip(self.arena.lower, self.arena.upper, strict=True)]
+        axes = [
+            np.linspace(lo, hi, 5)
+            for lo, hi in zip(self.arena.lower, self.arena.upper, strict=True)
+        ]
         pts = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, self.dim)
         return self.velocity(pts).mean(axis=0)
 

@@ -7,8 +7,8 @@ import numpy as np
 from odorloc.errors import ConfigError
 from odorloc.params import Params, Vector
 from odorloc.registry import register
-from odorloc.world.arena import Arena
 from odorloc.wind.base import WindModel
+from odorloc.world.arena import Arena
 
 
 class UniformWindParams(Params):

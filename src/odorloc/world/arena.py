@@ -183,9 +183,7 @@ class Arena:
 
     # ------------------------------------------------------------------ constructors
     @classmethod
-    def box(
-        cls, lower: Sequence[float], upper: Sequence[float], resolution: float = 0.1
-    ) -> Arena:
+    def box(cls, lower: Sequence[float], upper: Sequence[float], resolution: float = 0.1) -> Arena:
         """An empty box arena."""
         return cls(tuple(lower), tuple(upper), resolution)
 
@@ -245,7 +243,10 @@ class Arena:
     def from_csv(
         cls, path: str | Path, resolution: float, origin: Sequence[float] = (0.0, 0.0)
     ) -> Arena:
-        """Load a 2D occupancy grid from CSV: rows are y (top row = largest y), non-zero = obstacle."""
+        """Load a 2D occupancy grid from CSV.
+
+        Rows are y (the top row is the largest y), columns x; non-zero cells are obstacles.
+        """
         with open(path, newline="") as fh:
             rows = [[float(c) for c in r] for r in csv.reader(fh) if r]
         if not rows or len({len(r) for r in rows}) != 1:
