@@ -165,7 +165,7 @@ def _obs(t: float, det: bool = False) -> list[Observation]:
 def test_declares_exactly_when_the_planner_stops() -> None:
     rng = np.random.default_rng(0)
     # eta_E above any reachable fitness: the first real plan finds nothing worth visiting
-    s = DSMappingSearcher(DSMappingParams(cell_size=0.5, eta_e=1e6))
+    s = DSMappingSearcher(DSMappingParams(cell_size=0.5, eta_e=1e6, dwell_periods=0))
     s.reset(_ctx(), rng)
     a0 = s.act(_obs(0.0), rng)  # a single record: no path map yet, no decision
     assert a0.declaration is None and s.last_plan.reason == "empty_path_map"
@@ -174,7 +174,7 @@ def test_declares_exactly_when_the_planner_stops() -> None:
     assert s.finished_at == 0.5
     assert a1.declaration.positions.shape[1] == 2
     # with the paper's eta_E the same map is far from finished
-    s2 = DSMappingSearcher(DSMappingParams(cell_size=0.5))
+    s2 = DSMappingSearcher(DSMappingParams(cell_size=0.5, dwell_periods=0))
     s2.reset(_ctx(), rng)
     s2.act(_obs(0.0), rng)
     a = s2.act(_obs(0.5, det=True), rng)
@@ -182,20 +182,110 @@ def test_declares_exactly_when_the_planner_stops() -> None:
     assert math.hypot(*(a.commands[0].value - 3.0)) <= 0.5
 
 
-def test_default_reach_is_one_step_and_widens() -> None:
-    """First candidates: positions within max_speed * dt; here only the robot's own cell."""
+def test_default_candidates_are_the_neighbours_not_the_own_cell() -> None:
+    """Default: the first ring holds the neighbouring cell centres and excludes the robot's own
+    cell; the move towards the chosen one is one step (max_speed * dt) long."""
     rng = np.random.default_rng(0)
-    s = DSMappingSearcher(DSMappingParams(cell_size=0.5))
+    s = DSMappingSearcher(DSMappingParams(cell_size=0.5, dwell_periods=0))
     s.reset(_ctx(), rng)
-    assert s.planner.params.step_range == pytest.approx(0.25)  # 0.5 m/s x 0.5 s
+    assert s.planner.params.step_range == pytest.approx(math.sqrt(2) * 0.5)
+    assert not s.planner.params.include_current
+    s.act(_obs(0.0), rng)  # no path map yet
+    a = s.act(_obs(0.5, det=True), rng)
+    target = s.motion.goal
+    assert s.last_plan.reason == "ok"
+    # a cell centre next to the robot at (3, 3), not the robot's own cell (3.25, 3.25)
+    assert not np.allclose(target, [3.25, 3.25])
+    assert math.hypot(*(target - 3.0)) <= math.sqrt(2) * 0.5
+    k = (target - 0.25) / 0.5
+    np.testing.assert_allclose(k, np.round(k), atol=1e-9)
+    step = a.commands[0].value[:2] - 3.0
+    assert math.hypot(*step) == pytest.approx(min(0.25, math.hypot(*(target - 3.0))))
+
+
+def test_stay_candidate_is_the_literal_one_step_reach() -> None:
+    """stay_candidate=True: radius max_speed * dt = 0.25 m, so only the own cell is in reach."""
+    rng = np.random.default_rng(0)
+    s = DSMappingSearcher(DSMappingParams(cell_size=0.5, stay_candidate=True, dwell_periods=0))
+    s.reset(_ctx(), rng)
+    assert s.planner.params.step_range == pytest.approx(0.25)
     s.act(_obs(0.0), rng)
     a = s.act(_obs(0.5, det=True), rng)
-    # the own cell covers plenty of uncertainty: stay (target = centre of the robot's cell)
     assert s.last_plan.reason == "ok" and s.last_plan.radius == pytest.approx(0.25)
+    np.testing.assert_allclose(s.motion.goal, [3.25, 3.25])
     np.testing.assert_allclose(a.commands[0].value, [3.25, 3.25])
     wide = DSMappingSearcher(DSMappingParams(cell_size=0.5, step_range=0.75))
     wide.reset(_ctx(), rng)
     assert wide.planner.params.step_range == 0.75
+
+
+def test_planner_without_current_cell_never_stays() -> None:
+    """With include_current=False the own cell is never chosen, even when it is the most
+    uncertain: the planner widens to the neighbours instead."""
+    from odorloc.inference.dempster_shafer import DSGrid
+    from odorloc.planning.uncertainty_route import UncertaintyRouteParams, UncertaintyRoutePlanner
+
+    g = DSGrid.from_extent(DSParams(), (0.0, 0.0), (5.0, 5.0), 1.0)
+    g.m_n[:], g.m_u[:] = 1.0, 0.0  # everything known free (X = 0) ...
+    g.m_n[2, 2], g.m_u[2, 2] = 0.0, 1.0  # ... but the robot's own cell (X = 3)
+    g.m_n[2, 4], g.m_u[2, 4] = 0.0, 1.0  # and one cell two rows up
+    pi = np.zeros((5, 5))
+    pi[2, 2] = 1.0  # the path map covers the robot's cell only
+    rng = np.random.default_rng(0)
+    stay = UncertaintyRoutePlanner(UncertaintyRouteParams(step_range=1.0))
+    np.testing.assert_allclose(stay.plan(g, pi, (2.5, 2.5), rng), [[2.5, 2.5]])
+    move = UncertaintyRoutePlanner(UncertaintyRouteParams(step_range=1.0, include_current=False))
+    plan = move.plan_detailed(g, pi, (2.5, 2.5), rng)
+    # E = X at the candidate itself: only (2, 4) scores, reached after widening 1 -> 2 m
+    np.testing.assert_allclose(plan.target, [[2.5, 4.5]])
+    assert plan.reason == "widened" and plan.fitness == pytest.approx(3.0)
+
+
+def test_stop_and_go_moves_one_step_then_dwells() -> None:
+    """dwell_periods=1: a move of at most max_speed * dt, then a period standing still."""
+    from odorloc.searchers.ds_mapping import _StopAndGo
+
+    m = _StopAndGo(0.25, 1)
+    m.set_goal((1.0, 0.0))
+    pos = np.array([0.0, 0.0])
+    kinds, visited = [], []
+    for _ in range(12):
+        if m.arrived(pos):
+            break
+        c = m.command(pos)
+        kinds.append(c.kind)
+        if c.kind == "waypoint":
+            pos = c.value.copy()
+        visited.append(pos.copy())
+    assert kinds == ["waypoint", "hold"] * 4
+    np.testing.assert_allclose(visited[-1], [1.0, 0.0])
+    np.testing.assert_allclose(np.diff(np.array(visited)[::2, 0]), 0.25)
+    # a blocked robot (no progress) gives the goal up instead of pushing forever
+    m.set_goal((5.0, 0.0))
+    m.command(pos)
+    m.hold_left = 0
+    assert m.arrived(pos) and m.goal is None
+
+
+def test_wave_rounds_restart_like_the_paper() -> None:
+    """The paper's region and start: round 1 = 0.42 m approach + 8 lanes of 20 m + 7 shifts of
+    2 m + the last lane back up to the left-top corner (194.4 m vs the paper's 193.5 m); each
+    further round adds the 24.4 m return diagonal (five rounds: 1067.7 m vs 1060.8 m)."""
+    from odorloc.searchers.ds_mapping import wave_waypoints
+
+    region = ((18.7, 40.3), (32.7, 60.3))
+    start = np.array([33.0, 40.0])
+    wp = wave_waypoints(region, 2.0, "y", 5, start)
+    n = len(wp) // 5
+    np.testing.assert_allclose(wp[0], [32.7, 40.3])
+    np.testing.assert_allclose(wp[n - 1], [18.7, 60.3])
+    path = np.vstack([start, wp])
+    legs = np.linalg.norm(np.diff(path, axis=0), axis=1)
+    first = math.hypot(0.3, 0.3) + 8 * 20.0 + 7 * 2.0 + 20.0
+    assert legs[:n].sum() == pytest.approx(first)
+    assert legs.sum() == pytest.approx(first + 4 * (math.hypot(14.0, 20.0) + first - 0.3 * 2**0.5))
+    alt = wave_waypoints(region, 2.0, "y", 2, start, round_order="alternate")
+    np.testing.assert_allclose(alt[len(alt) // 2 :], alt[: len(alt) // 2][::-1])
 
 
 # --------------------------------------------------------------------------- episodes
@@ -235,7 +325,8 @@ def test_same_seed_same_episode() -> None:
 def test_rectangular_wave_variant_moves_like_the_baseline_and_declares() -> None:
     base = {"lane_spacing": 2.0, "lanes_along": "y", "rounds": 1}
     region = [[21.0, 48.0], [25.0, 52.0]]
-    sc_ds = reduced_farrell(200.0, {"type": "ds-rectangular-wave", **base}, region)
+    ds = {"type": "ds-rectangular-wave", "dwell_periods": 0, **base}
+    sc_ds = reduced_farrell(200.0, ds, region)
     sc_rw = reduced_farrell(200.0, {"type": "rectangular-wave", **base}, region)
     a = run_episode(sc_ds, 1, 2, record=True)
     b = run_episode(sc_rw, 1, 2, record=True)
@@ -245,6 +336,10 @@ def test_rectangular_wave_variant_moves_like_the_baseline_and_declares() -> None
     # 3 lanes 4 m long, 2 steps of 2 m across, plus the approach from (25, 50) to (25, 48)
     assert a.metrics["path_length"] == pytest.approx(3 * 4 + 2 * 2 + 2, abs=0.3)
     assert a.metrics["residual_uncertainty"] < a.metrics["initial_uncertainty"]
+    # stop-and-go (the default): the same path, about twice the time
+    c = run_episode(reduced_farrell(200.0, {**ds, "dwell_periods": 1}, region), 1, 2)
+    assert c.metrics["path_length"] == pytest.approx(a.metrics["path_length"], abs=1e-6)
+    assert c.metrics["search_time"] == pytest.approx(2 * a.metrics["search_time"], abs=3.0)
 
 
 @pytest.mark.slow

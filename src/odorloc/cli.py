@@ -284,7 +284,7 @@ def components() -> None:
     table.add_column("family")
     table.add_column("name")
     table.add_column("summary")
-    for fam in ("wind", "plume", "gas_sensor", "anemometer", "platform", "searcher"):
+    for fam in ("wind", "plume", "gas_sensor", "anemometer", "platform", "resampler", "searcher"):
         for e in registry.entries(fam):
             table.add_row(fam, e.name, e.summary)
     console.print(table)

@@ -217,6 +217,7 @@ def _seed_job(args: tuple[int, int, float | None, bool, float | None]) -> dict[s
         row = dict(res.metrics)
         row.update(map_errors(row, res.sources, sc.success_radius))
         row.update(map_errors(row, res.sources, sc.success_radius, "upwind", "_upwind"))
+        row.update(map_errors(row, res.sources, sc.success_radius, "peak", "_peak"))
         if label == "ds-rectangular-wave":
             baseline_residual = float(row["residual_uncertainty"])
         elif res.recording is not None:
@@ -370,6 +371,7 @@ def reproduce_ds(
         "false srcs",
         "upwind-end err 1/2 m",
         "both (upwind)",
+        "both (peak)",
     )
     for c in cols:
         t.add_column(c, justify="right")
@@ -379,6 +381,7 @@ def reproduce_ds(
         ref = DS_PAPER[label]
         both = int(g["map_success"].fillna(False).astype(bool).sum())
         both_up = int(g["map_success_upwind"].fillna(False).astype(bool).sum())
+        both_pk = int(g["map_success_peak"].fillna(False).astype(bool).sum())
         row = {
             "method": label,
             "n": len(g),
@@ -394,6 +397,9 @@ def reproduce_ds(
             "err0_upwind": _mean_sd(g.source_error_0_upwind),
             "err1_upwind": _mean_sd(g.source_error_1_upwind),
             "both_found_upwind": both_up,
+            "err0_peak": _mean_sd(g.source_error_0_peak),
+            "err1_peak": _mean_sd(g.source_error_1_peak),
+            "both_found_peak": both_pk,
         }
         summary_rows.append(row)
         t.add_row(
@@ -413,6 +419,7 @@ def reproduce_ds(
             _ms(g.map_false_sources),
             f"{_fmt(row['err0_upwind'][0], 2)} / {_fmt(row['err1_upwind'][0], 2)}",
             f"{both_up}/{len(g)}",
+            f"{both_pk}/{len(g)}",
         )
     console.print(t)
     console.print(f"wall time {wall:.0f} s on {workers} worker(s)")

@@ -18,7 +18,10 @@ Readings of the paper:
   a cross-correlation of ``X`` with the path map's bounding box (:func:`scipy.signal.correlate`,
   direct or FFT), so no shifted map is ever built.
 * Candidates. First the cell centres within ``step_range`` of the robot (the reach of the next
-  step, max speed times period) plus the robot's own cell; while the best ``E_P < eta_E`` the
+  step, max speed times period), plus the robot's own cell when ``include_current`` (the
+  paper evaluates "a number of positions around the robot"; ``include_current=False`` reads
+  that as excluding the robot's own cell, so the robot always moves on); while the best
+  ``E_P < eta_E`` the
   radius is multiplied by ``widen_factor`` until it covers the whole area; if even then the best
   ``E_P < eta_E`` the mission is finished and :meth:`UncertaintyRoutePlanner.plan` returns
   ``None``.
@@ -66,6 +69,8 @@ class UncertaintyRouteParams(Params):
         Search region, metres; ``None`` is the whole grid.
     tie_rtol : float
         Candidates within this relative tolerance of the best fitness count as ties.
+    include_current : bool
+        Whether the robot's own cell is always a candidate (staying put); see the module notes.
     """
 
     step_range: Positive = 0.25
@@ -73,6 +78,7 @@ class UncertaintyRouteParams(Params):
     eta_e: NonNegative = 0.5
     region: tuple[tuple[float, float], tuple[float, float]] | None = None
     tie_rtol: NonNegative = 1e-9
+    include_current: bool = True
 
     @model_validator(mode="after")
     def _check(self) -> UncertaintyRouteParams:
@@ -290,7 +296,8 @@ class UncertaintyRoutePlanner:
             in_range = (dx * dx)[:, None] + (dy * dy)[None, :] <= r_eff * r_eff
             rcx, rcy = robot_cell[0] - ix0, robot_cell[1] - iy0
             if 0 <= rcx < ix1 - ix0 and 0 <= rcy < iy1 - iy0:
-                in_range[rcx, rcy] = True  # staying put is always a candidate
+                # staying put is a candidate only when allowed
+                in_range[rcx, rcy] = p.include_current
             cand = in_range & cand_mask[ix0:ix1, iy0:iy1]
             n_cand = int(np.count_nonzero(cand))
             if n_cand:

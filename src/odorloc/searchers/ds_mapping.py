@@ -29,15 +29,33 @@ Readings of the paper (each configurable):
   anemometer reading ``obs.wind`` is the air velocity in the world frame (eq. 1, odor-path
   paper). The map of a reading is computed at the reading's own record (no sensor delay: the
   simulated sensor has none unless configured).
-* Route. A new target is planned whenever the robot reached the previous one (``obs.ready``).
-  The first candidates are the positions "within the access of the robot in the next time
-  step" (section 3): ``step_range`` defaults to the platform speed limit times the control
-  period. With cells wider than that step (0.5 m cells, 0.25 m steps) the robot's own cell is
-  the only first candidate, so the robot stays and keeps reading while its own air-mass path
-  still covers enough uncertainty (``E >= eta_E``), then the range widens to the neighbours
-  and beyond. This literal reading gives the paper's pattern of a short route with long
-  stops (496.1 m in 2500 s); ``step_range = sqrt(2) cell_size`` makes the eight neighbouring
-  cells candidates at once, and the robot keeps moving (measured in the reproduction notes).
+* Motion (both routes alike). The paper's robot has a 0.5 m/s speed limit yet both of its
+  routes average about half of it: the rectangular wave covers 193.5 m in 781.5 s, 627.1 m in
+  2532.5 s and 1060.8 m in 4283.5 s (0.248 m/s at a constant pace over the rounds) and the
+  dynamic route 97.4 m in its first 400 s (0.244 m/s). A constant half speed on a predefined
+  path means the robot does not move in every time step: it samples at discrete points.
+  ``dwell_periods = 1`` (default) reads this as stop-and-go: a move of at most one control
+  period at full speed (0.25 m), then one period standing still while reading (an anemometer
+  at rest reads the air velocity itself); ``dwell_periods = 0`` drives continuously at full
+  speed. Every period's reading is fused either way ("at each time step, the robot collects
+  the odor concentration, airflow speed and direction", section 4.1).
+* Route. A new target is planned whenever the robot reached the previous one. The candidates
+  are "a number of positions around the robot" (section 3), cell centres (eq. 7), "within the
+  access of the robot in the next time step". The default reads this as the neighbouring
+  cells, excluding the robot's own (``stay_candidate=False``): the first ring is
+  ``max(max_speed * dt, sqrt(2) cell_size)``, i.e. the eight neighbours of a 0.5 m cell,
+  the positions the robot reaches by its next sample point(s). The paper's dynamic robot
+  kept almost the wave's pace early on (0.244 vs 0.248 m/s), so it seldom stood still
+  between decisions. ``stay_candidate=True`` with ``step_range = max_speed * dt`` is the
+  literal alternative in which, with cells wider than one step, the robot's own cell is the
+  only first candidate: the robot then stays and keeps reading while its own air-mass path
+  covers ``E >= eta_E`` -- long stops that make the route slower than the wave.
+* Wave rounds. "When the robot arrives at the left-top corner (called 1 round) ... the robot
+  comes back to the right-bottom corner, and starts a new round" (section 4.2):
+  ``round_order="restart"`` (default) ends each round at the corner diagonally opposite its
+  first one (extending the last lane if needed) and goes straight back to the first corner;
+  this gives the paper's lengths (193.5 m for round 1, 1060.8 m for five rounds; ours
+  194.4 m and 1067.7 m). ``round_order="alternate"`` runs every other round backwards.
 * Declaration. The paper leaves it open ("some other methods should be considered next to
   declare the mapped odor sources"). When the planner finds even the whole region below
   ``eta_E`` the searcher declares one position per connected region with
@@ -54,7 +72,7 @@ from collections.abc import Sequence
 from typing import Any, Literal
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 from pydantic import Field, model_validator
 from scipy import ndimage
 
@@ -77,7 +95,7 @@ from odorloc.searchers.base import (
     SearchContext,
     Searcher,
 )
-from odorloc.searchers.simple import RectangularWaveParams, RectangularWaveSearcher
+from odorloc.searchers.simple import rectangular_wave
 
 __all__ = [
     "DSMapper",
@@ -87,10 +105,12 @@ __all__ = [
     "DSRectangularWaveParams",
     "DSRectangularWaveSearcher",
     "search_region",
+    "wave_waypoints",
 ]
 
 Region = tuple[tuple[float, float], tuple[float, float]]
 FloatArray = NDArray[np.float64]
+_REACHED = 1e-6  # metres: a goal this close counts as reached
 
 
 def _check_region(region: Region | None) -> Region | None:
@@ -126,14 +146,18 @@ class DSMapperParams(Params):
         ``m(S)`` a cell needs to belong to a mapped source, in (0, 1].
     source_min_cells : int
         Smallest connected region counted as a mapped source.
-    source_rule : {"centroid", "upwind"}
+    source_rule : {"centroid", "upwind", "peak"}
         Position declared for a mapped region: its ``m(S)``-weighted centroid (``"centroid"``,
         the reading closest to the paper, whose maps are read by eye), or the weighted centroid
         of its cells within ``upwind_depth`` of its most upwind cell along the mean recorded
         wind (``"upwind"``: detections also mark the plume downwind of a source, so a region
-        stretches downwind and its centroid lies downwind of the source).
+        stretches downwind and its centroid lies downwind of the source), or the centre of its
+        cell with the largest ``m(S)`` (``"peak"``).
     upwind_depth : float, metres
         Depth of the upwind end used by ``source_rule="upwind"``.
+    dwell_periods : int
+        Control periods the robot stands still reading after each move of at most one period
+        (stop-and-go sampling, see the module notes; 0 drives continuously).
     """
 
     cell_size: Positive = 0.5
@@ -146,8 +170,9 @@ class DSMapperParams(Params):
     ds: DSParams = DSParams()
     source_min_mass: float = Field(0.5, gt=0.0, le=1.0)
     source_min_cells: int = Field(1, ge=1)
-    source_rule: Literal["centroid", "upwind"] = "centroid"
+    source_rule: Literal["centroid", "upwind", "peak"] = "centroid"
     upwind_depth: Positive = 1.5
+    dwell_periods: int = Field(1, ge=0)
 
     @model_validator(mode="after")
     def _check(self) -> DSMapperParams:
@@ -253,36 +278,56 @@ class DSMapper:
             region=self.region,
         )
 
+    def _regions(self) -> tuple[NDArray[np.intp], list[int]]:
+        """Connected ``m(S) >= source_min_mass`` regions in the search region: the label image
+        and the labels of those with ``source_min_cells`` cells or more, heaviest first (the
+        order of :meth:`sources`)."""
+        p = self.params
+        mask = (self.grid.m_s >= p.source_min_mass) & self.grid.grid.region_mask(self.region)
+        labels, n = ndimage.label(mask, structure=np.ones((3, 3), bool))
+        kept = []
+        for lab in range(1, n + 1):
+            cells = labels == lab
+            if np.count_nonzero(cells) >= p.source_min_cells:
+                kept.append((float(self.grid.m_s[cells].sum()), lab))
+        kept.sort(key=lambda v: -v[0])
+        return labels, [lab for _, lab in kept]
+
     def upwind_ends(self) -> FloatArray:
         """``(K, 2)`` upwind-end positions of the mapped regions, same order as :meth:`sources`.
 
         For each connected region the ``m(S)``-weighted centroid of its cells within
         ``upwind_depth`` metres (along the mean recorded wind) of its most upwind cell.
         """
-        p = self.params
         g = self.grid.grid
-        mask = (self.grid.m_s >= p.source_min_mass) & g.region_mask(self.region)
-        labels, n = ndimage.label(mask, structure=np.ones((3, 3), bool))
+        labels, kept = self._regions()
         norm = float(np.hypot(*self.wind_sum))
         u = self.wind_sum / norm if norm > 0 else np.array([1.0, 0.0])
         centres = g.centers()
         along = centres @ u  # metres downwind
         out = []
-        for lab in range(1, n + 1):
+        for lab in kept:
             cells = labels == lab
-            if np.count_nonzero(cells) < p.source_min_cells:
-                continue
-            w = np.where(cells, self.grid.m_s, 0.0)
-            tip = cells & (along <= along[cells].min() + p.upwind_depth)
-            wt = np.where(tip, w, 0.0)
-            out.append((float(w.sum()), (wt[..., None] * centres).sum((0, 1)) / wt.sum()))
-        out.sort(key=lambda v: -v[0])
-        return np.array([c for _, c in out]).reshape(-1, 2)
+            tip = cells & (along <= along[cells].min() + self.params.upwind_depth)
+            wt = np.where(tip, self.grid.m_s, 0.0)
+            out.append((wt[..., None] * centres).sum((0, 1)) / wt.sum())
+        return np.array(out).reshape(-1, 2)
+
+    def peaks(self) -> FloatArray:
+        """``(K, 2)`` centre of the cell with the largest ``m(S)`` of each mapped region, same
+        order as :meth:`sources` (ties: the first cell in index order)."""
+        labels, kept = self._regions()
+        if not kept:
+            return np.zeros((0, 2))
+        pos = ndimage.maximum_position(self.grid.m_s, labels, kept)
+        return self.grid.grid.center(np.array(pos)).reshape(-1, 2)
 
     def source_positions(self) -> FloatArray:
         """``(K, 2)`` mapped source positions by ``source_rule``, heaviest region first."""
         if self.params.source_rule == "upwind":
             return self.upwind_ends()
+        if self.params.source_rule == "peak":
+            return self.peaks()
         return np.array([s.position for s in self.sources()]).reshape(-1, 2)
 
     def declaration(self) -> Declaration:
@@ -297,12 +342,14 @@ class DSMapper:
     def final_metrics(self) -> dict[str, float]:
         """Row fields: residual/initial uncertainty, mapped-source count and positions.
 
-        ``mapped_x_k, mapped_y_k`` follow ``source_rule``; ``upwind_x_k, upwind_y_k`` are the
-        upwind-end estimates of the same regions whatever the rule.
+        ``mapped_x_k, mapped_y_k`` follow ``source_rule``; ``upwind_x_k, upwind_y_k`` and
+        ``peak_x_k, peak_y_k`` are the upwind-end and peak estimates of the same regions
+        whatever the rule.
         """
         found = self.sources()
         pos = self.source_positions()
         tips = self.upwind_ends()
+        tops = self.peaks()
         out: dict[str, float] = {
             "residual_uncertainty": self.total_uncertainty(),
             "initial_uncertainty": self.initial_uncertainty,
@@ -316,7 +363,61 @@ class DSMapper:
             out[f"mapped_mass_{k}"] = float(s.total_mass)
             out[f"upwind_x_{k}"] = float(tips[k, 0])
             out[f"upwind_y_{k}"] = float(tips[k, 1])
+            out[f"peak_x_{k}"] = float(tops[k, 0])
+            out[f"peak_y_{k}"] = float(tops[k, 1])
         return out
+
+
+class _StopAndGo:
+    """Stop-and-go motion towards a goal: a move of at most ``step`` metres, then ``dwell``
+    periods standing still (see the module notes).
+
+    Parameters
+    ----------
+    step : float, metres
+        Longest move per control period (speed limit times period).
+    dwell : int
+        Periods held after each move.
+    """
+
+    def __init__(self, step: float, dwell: int) -> None:
+        self.step = float(step)
+        self.dwell = int(dwell)
+        self.goal: FloatArray | None = None
+        self.hold_left = 0
+        self._last_dist = math.inf
+
+    def set_goal(self, goal: ArrayLike) -> None:
+        """Head for ``goal`` (2,), metres."""
+        self.goal = np.asarray(goal, float)[:2].copy()
+        self._last_dist = math.inf
+
+    def arrived(self, position: ArrayLike) -> bool:
+        """``True`` when there is no goal, it was reached, or the last move made no progress
+        (e.g. blocked), once the dwell after the last move is over."""
+        if self.hold_left > 0:
+            return False
+        if self.goal is None:
+            return True
+        dist = float(np.hypot(*(np.asarray(position, float)[:2] - self.goal)))
+        if dist <= _REACHED or dist >= self._last_dist - _REACHED:
+            self.goal = None
+            return True
+        return False
+
+    def command(self, position: ArrayLike) -> Command:
+        """The command of this period: hold while dwelling, else one move towards the goal."""
+        if self.hold_left > 0 or self.goal is None:
+            self.hold_left = max(self.hold_left - 1, 0)
+            return Command.hold()
+        pos = np.asarray(position, float)
+        d = self.goal - pos[:2]
+        dist = float(np.hypot(*d))
+        self._last_dist = dist
+        target = pos.copy()
+        target[:2] = pos[:2] + d * min(1.0, self.step / dist) if dist > 0 else self.goal
+        self.hold_left = self.dwell
+        return Command.waypoint(target)
 
 
 def _reset_mapper(params: DSMapperParams, ctx: SearchContext) -> DSMapper:
@@ -332,8 +433,11 @@ class DSMappingParams(DSMapperParams):
     Attributes
     ----------
     step_range : float, metres, optional
-        First candidate radius; default the platform speed limit times the control period
-        (see the module notes).
+        First candidate radius; default ``max(max_speed * dt, sqrt(2) cell_size)`` (the
+        neighbouring cells), or ``max_speed * dt`` with ``stay_candidate`` (see the module
+        notes).
+    stay_candidate : bool
+        Whether the robot's own cell is a candidate (staying put); default ``False``.
     widen_factor : float
         Radius multiplier while the best fitness is below ``eta_e`` (> 1).
     eta_e : float
@@ -341,6 +445,7 @@ class DSMappingParams(DSMapperParams):
     """
 
     step_range: Positive | None = None
+    stay_candidate: bool = False
     widen_factor: float = Field(2.0, gt=1.0)
     eta_e: NonNegative = 0.5
 
@@ -365,15 +470,24 @@ class DSMappingSearcher(Searcher):
         p = self.params
         self.mapper = _reset_mapper(p, ctx)
         # "within the access of the robot in the next time step" (section 3)
-        step = p.step_range if p.step_range is not None else ctx.max_speed * ctx.dt
+        reach = ctx.max_speed * ctx.dt
+        if p.step_range is not None:
+            step = p.step_range
+        elif p.stay_candidate:
+            step = reach
+        else:
+            # the eight neighbouring cell centres (the tolerance keeps the diagonals in)
+            step = max(reach, math.sqrt(2.0) * p.cell_size * (1.0 + 1e-9))
         self.planner = UncertaintyRoutePlanner(
             UncertaintyRouteParams(
                 step_range=step,
                 widen_factor=p.widen_factor,
                 eta_e=p.eta_e,
                 region=self.mapper.region,
+                include_current=p.stay_candidate,
             )
         )
+        self.motion = _StopAndGo(reach, p.dwell_periods)
         self.last_plan: RoutePlan | None = None
         self.n_plans = 0
         self.finished_at = math.nan
@@ -381,17 +495,16 @@ class DSMappingSearcher(Searcher):
     def act(self, observations: Sequence[Observation], rng: np.random.Generator) -> Action:
         o = observations[0]
         patch = self.mapper.update(o.t, o.position, o.wind, o.detection)
-        if not o.ready:
-            return Action([None])
+        if not self.motion.arrived(o.position):
+            return Action([self.motion.command(o.position)])
         plan = self.planner.plan_detailed(self.mapper.grid, patch, o.position[:2], rng)
         self.last_plan = plan
         self.n_plans += 1
         if plan.target is None:
             self.finished_at = o.t
             return Action([Command.hold()], declaration=self.mapper.declaration())
-        target = np.array(o.position, float)
-        target[:2] = plan.target
-        return Action([Command.waypoint(target)])
+        self.motion.set_goal(plan.target)
+        return Action([self.motion.command(o.position)])
 
     def belief(self) -> GridBelief:
         return self.mapper.grid.belief()
@@ -409,6 +522,45 @@ class DSMappingSearcher(Searcher):
         return {**self.mapper.final_metrics(), "plans": float(self.n_plans)}
 
 
+def wave_waypoints(
+    region: Region,
+    lane_spacing: float,
+    lanes_along: str,
+    rounds: int,
+    start: ArrayLike,
+    margin: float = 0.0,
+    round_order: str = "restart",
+) -> FloatArray:
+    """Corners of the rectangular-wave path over all rounds, ``(W, 2)`` metres.
+
+    Parameters
+    ----------
+    region : ((x0, y0), (x1, y1)), metres
+    lane_spacing : float, metres
+    lanes_along : {"x", "y"}
+    rounds : int
+    start : (2,) array_like, metres
+        The first round starts at the region corner nearest to it.
+    margin : float, metres
+        Distance kept from the region's edges.
+    round_order : {"restart", "alternate"}
+        See :class:`DSRectangularWaveParams`.
+    """
+    lo = np.asarray(region[0], float) + margin
+    hi = np.asarray(region[1], float) - margin
+    if np.any(hi <= lo):
+        raise ConfigError("searcher.margin", "leaves no area to cover")
+    one = rectangular_wave(lo, hi, lane_spacing, lanes_along, np.asarray(start, float)[:2])
+    if round_order == "alternate":
+        return np.concatenate([one if r % 2 == 0 else one[::-1] for r in range(rounds)])
+    # "arrives at the left-top corner (called 1 round) ... comes back to the right-bottom
+    # corner, and starts a new round" (section 4.2)
+    opposite = lo + hi - one[0]
+    if not np.allclose(one[-1], opposite):
+        one = np.vstack([one, opposite])
+    return np.concatenate([one] * rounds)
+
+
 # ------------------------------------------------------------------- rectangular wave
 class DSRectangularWaveParams(DSMapperParams):
     """Parameters of :class:`DSRectangularWaveSearcher` (the map's plus the path's).
@@ -423,12 +575,17 @@ class DSRectangularWaveParams(DSMapperParams):
         Passes over the region (5 in the paper).
     margin : float, metres
         Distance kept from the region's edges.
+    round_order : {"restart", "alternate"}
+        ``"restart"``: every round ends at the corner diagonally opposite its first corner and
+        the robot goes straight back to start the next (the paper, section 4.2);
+        ``"alternate"``: every other round is run backwards (see the module notes).
     """
 
     lane_spacing: Positive = 2.0
     lanes_along: Literal["x", "y"] = "y"
     rounds: int = Field(5, ge=1)
     margin: NonNegative = 0.0
+    round_order: Literal["restart", "alternate"] = "restart"
 
 
 @register(
@@ -440,8 +597,10 @@ class DSRectangularWaveParams(DSMapperParams):
 class DSRectangularWaveSearcher(Searcher):
     """The D-S paper's baseline: a predefined rectangular-wave path, the same D-S map.
 
-    The motion is :class:`~odorloc.searchers.simple.RectangularWaveSearcher`'s; after the last
-    round the mapped sources are declared.
+    The lanes are those of :class:`~odorloc.searchers.simple.RectangularWaveSearcher`
+    (:func:`~odorloc.searchers.simple.rectangular_wave`); rounds follow ``round_order`` and the
+    robot moves stop-and-go like the dynamic route (``dwell_periods``). After the last round the
+    mapped sources are declared.
     """
 
     def __init__(self, params: DSRectangularWaveParams) -> None:
@@ -451,30 +610,34 @@ class DSRectangularWaveSearcher(Searcher):
         super().reset(ctx, rng)
         p = self.params
         self.mapper = _reset_mapper(p, ctx)
-        self.wave = RectangularWaveSearcher(
-            RectangularWaveParams(
-                lane_spacing=p.lane_spacing,
-                lanes_along=p.lanes_along,
-                region=self.mapper.region,
-                rounds=p.rounds,
-                margin=p.margin,
-                declare_at_max=False,
-            )
+        self.waypoints = wave_waypoints(
+            self.mapper.region,
+            p.lane_spacing,
+            p.lanes_along,
+            p.rounds,
+            ctx.start[0, :2],
+            p.margin,
+            p.round_order,
         )
-        self.wave.reset(ctx, rng)
+        self.index = 0
+        self.motion = _StopAndGo(ctx.max_speed * ctx.dt, p.dwell_periods)
+        self.motion.set_goal(self.waypoints[0])
 
     @property
     def done(self) -> bool:
         """``True`` once the last waypoint of the last round was reached."""
-        return self.wave.index[0] >= len(self.wave.waypoints)
+        return self.index >= len(self.waypoints)
 
     def act(self, observations: Sequence[Observation], rng: np.random.Generator) -> Action:
         o = observations[0]
         self.mapper.update(o.t, o.position, o.wind, o.detection)
-        action = self.wave.act(observations, rng)
+        if not self.done and self.motion.arrived(o.position):
+            self.index += 1
+            if not self.done:
+                self.motion.set_goal(self.waypoints[self.index])
         if self.done:
-            return Action(action.commands, declaration=self.mapper.declaration())
-        return action
+            return Action([Command.hold()], declaration=self.mapper.declaration())
+        return Action([self.motion.command(o.position)])
 
     def belief(self) -> GridBelief:
         return self.mapper.grid.belief()
@@ -483,7 +646,7 @@ class DSRectangularWaveSearcher(Searcher):
         return {
             "total_uncertainty": self.mapper.total_uncertainty(),
             "mapped_sources": float(len(self.mapper.sources())),
-            "waypoint": float(self.wave.index[0]),
+            "waypoint": float(self.index),
         }
 
     def final_metrics(self) -> dict[str, Any]:
