@@ -122,6 +122,21 @@ def test_upwind_end_of_a_plume_shaped_region() -> None:
     assert (m["mapped_x_0"], m["upwind_x_0"]) == (3.0, 3.0)
 
 
+def test_peak_rule_takes_the_strongest_cell_of_each_region() -> None:
+    """Two regions; each one's peak is its largest-m(S) cell, in the order of sources()."""
+    p = DSMapperParams(cell_size=1.0, source_rule="peak")
+    mp = DSMapper(p, ((0.0, 0.0), (10.0, 10.0)), 0.5)
+    mp.grid.m_s[2:6, 5], mp.grid.m_u[2:6, 5] = 0.9, 0.1  # heavier region, peak at ix = 3
+    mp.grid.m_s[3, 5], mp.grid.m_u[3, 5] = 0.97, 0.03
+    mp.grid.m_s[8, 1:3], mp.grid.m_u[8, 1:3] = (0.6, 0.7), (0.4, 0.3)  # lighter, peak iy = 2
+    np.testing.assert_allclose(mp.peaks(), [[3.5, 5.5], [8.5, 2.5]])
+    np.testing.assert_allclose(mp.declaration().positions, [[3.5, 5.5], [8.5, 2.5]])
+    m = mp.final_metrics()
+    assert (m["peak_x_1"], m["peak_y_1"]) == (8.5, 2.5) and m["mapped_sources"] == 2.0
+    empty = DSMapper(p, ((0.0, 0.0), (10.0, 10.0)), 0.5)
+    assert empty.peaks().shape == (0, 2)
+
+
 def test_declaration_falls_back_to_strongest_cell() -> None:
     mp = DSMapper(DSMapperParams(cell_size=1.0), ((0.0, 0.0), (5.0, 5.0)), 0.5)
     mp.grid.m_s[2, 3], mp.grid.m_u[2, 3] = 0.3, 0.7  # below source_min_mass

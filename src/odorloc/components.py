@@ -24,6 +24,7 @@ _MODULES = [
     "odorloc.searchers.pf_entropy",
     "odorloc.searchers.gradient_bionic",
     "odorloc.searchers.ds_mapping",
+    "odorloc.searchers.team",
 ]
 
 for _name in _MODULES:

@@ -4,7 +4,12 @@ Dynamic route (``ds-mapping``) versus the predefined rectangular wave (``ds-rect
 5 rounds, 2 m lanes), both building the same Dempster-Shafer map, in the ``two-sources-farrell``
 scenario. As in the paper (section 4.1), the flow is recorded once per episode as a movie (plume
 frames and the 15 x 15 wind every control period, :func:`odorloc.plume.replay.record_movie`)
-and both routes run on its replay, so they face exactly the same plume and wind.
+and both routes run on its replay, so they face exactly the same plume and wind. Both routes
+share the map parameters and the motion protocol of :mod:`odorloc.searchers.ds_mapping`
+(stop-and-go sampling: one period moving at up to 0.5 m/s, one period standing still, which
+gives the paper's 0.25 m/s average on the wave); the wave restarts every round from its first
+corner like the paper's (1060.8 m for five rounds), and the dynamic route moves to one of the
+neighbouring cells at each decision.
 
 Per episode the table reports the time, the distance travelled, the residual uncertainty
 ``sum X_i`` over the search region (eq. 5), the distance from each true source to the nearest

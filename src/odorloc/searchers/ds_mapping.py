@@ -35,9 +35,9 @@ Readings of the paper (each configurable):
   dynamic route 97.4 m in its first 400 s (0.244 m/s). A constant half speed on a predefined
   path means the robot does not move in every time step: it samples at discrete points.
   ``dwell_periods = 1`` (default) reads this as stop-and-go: a move of at most one control
-  period at full speed (0.25 m), then one period standing still while reading (an anemometer
-  at rest reads the air velocity itself); ``dwell_periods = 0`` drives continuously at full
-  speed. Every period's reading is fused either way ("at each time step, the robot collects
+  period at full speed (0.25 m), then one period standing still while reading (on a real
+  robot a reading at rest needs no correction for the robot's own motion);
+  ``dwell_periods = 0`` drives continuously at full speed. Every period's reading is fused either way ("at each time step, the robot collects
   the odor concentration, airflow speed and direction", section 4.1).
 * Route. A new target is planned whenever the robot reached the previous one. The candidates
   are "a number of positions around the robot" (section 3), cell centres (eq. 7), "within the
