@@ -156,4 +156,9 @@ def print_summary(df: Any, console: Any = None, **kw: Any) -> None:
 
     if len(df) == 0:
         return
-    (console or Console()).print(summary_table(df, **kw))
+    if console is None:
+        console = Console()
+        if not console.is_terminal:
+            # Logs and pipes: do not squeeze the table into 80 columns.
+            console = Console(width=160)
+    console.print(summary_table(df, **kw))

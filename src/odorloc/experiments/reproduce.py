@@ -297,7 +297,7 @@ def _indoor_episode_figures(out: Path, seed: int) -> list[Path]:
             "mid-search",
             "at declaration" if res.metrics["declared"] else "at the end",
         ]
-        fig, axes = plt.subplots(1, 3, figsize=(12, 5.2), sharey=True)
+        fig, axes = plt.subplots(1, 3, figsize=(9.5, 5.2), sharey=True)
         b = rec.arena_bounds
         for ax, (t, snap), nm in zip(axes, picks, names_, strict=True):
             k = int(np.searchsorted(rec.t, t, side="right"))
