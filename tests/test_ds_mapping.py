@@ -103,6 +103,22 @@ def test_mapper_first_detection_follows_eq4() -> None:
     assert m["detections"] == 1.0
 
 
+def test_total_normalised_path_map_sums_to_one() -> None:
+    """path_normalise="total": the reading's map is divided by its sum before eq. 4-a."""
+    maps = []
+    for how in ("window", "total"):
+        mp = DSMapper(DSMapperParams(cell_size=0.5, path_normalise=how), ((0, 0), (10, 10)), 0.5)
+        for i, det in enumerate((False, False, True)):
+            patch = mp.update(0.5 * i, np.array([8.0, 5.0]), np.array([1.0, 0.2 * i]), det)
+        maps.append((patch.to_dense(), mp.grid.m_s.copy()))
+    (pi_w, _), (pi_t, ms_t) = maps
+    assert pi_w.sum() > 1.5  # the max over window-normalised maps is not a distribution
+    np.testing.assert_allclose(pi_t, pi_w / pi_w.sum())
+    assert pi_t.sum() == pytest.approx(1.0)
+    # the first two records give no path map yet, so m(S) = mu_D zeta pi exactly (eq. 4-a)
+    np.testing.assert_allclose(ms_t, 0.54 * pi_t, atol=1e-12)
+
+
 def test_upwind_end_of_a_plume_shaped_region() -> None:
     """A region stretching 4 m downwind of (2, 5): centroid 2 m downwind, upwind end at 2.5 m."""
     p = DSMapperParams(cell_size=1.0, upwind_depth=1.0)
@@ -133,6 +149,9 @@ def test_peak_rule_takes_the_strongest_cell_of_each_region() -> None:
     np.testing.assert_allclose(mp.declaration().positions, [[3.5, 5.5], [8.5, 2.5]])
     m = mp.final_metrics()
     assert (m["peak_x_1"], m["peak_y_1"]) == (8.5, 2.5) and m["mapped_sources"] == 2.0
+    w = np.array([0.9, 0.97, 0.9, 0.9])
+    assert m["centroid_x_0"] == pytest.approx(w @ [2.5, 3.5, 4.5, 5.5] / w.sum())
+    assert DSMapperParams().source_rule == "peak"
     empty = DSMapper(p, ((0.0, 0.0), (10.0, 10.0)), 0.5)
     assert empty.peaks().shape == (0, 2)
 
@@ -228,7 +247,8 @@ def test_stay_candidate_is_the_literal_one_step_reach() -> None:
     a = s.act(_obs(0.5, det=True), rng)
     assert s.last_plan.reason == "ok" and s.last_plan.radius == pytest.approx(0.25)
     np.testing.assert_allclose(s.motion.goal, [3.25, 3.25])
-    np.testing.assert_allclose(a.commands[0].value, [3.25, 3.25])
+    # one 0.25 m step along the diagonal towards the cell centre
+    np.testing.assert_allclose(a.commands[0].value, 3.0 + 0.25 / math.sqrt(2))
     wide = DSMappingSearcher(DSMappingParams(cell_size=0.5, step_range=0.75))
     wide.reset(_ctx(), rng)
     assert wide.planner.params.step_range == 0.75
@@ -248,11 +268,11 @@ def test_planner_without_current_cell_never_stays() -> None:
     pi[2, 2] = 1.0  # the path map covers the robot's cell only
     rng = np.random.default_rng(0)
     stay = UncertaintyRoutePlanner(UncertaintyRouteParams(step_range=1.0))
-    np.testing.assert_allclose(stay.plan(g, pi, (2.5, 2.5), rng), [[2.5, 2.5]])
+    np.testing.assert_allclose(stay.plan(g, pi, (2.5, 2.5), rng), [2.5, 2.5])
     move = UncertaintyRoutePlanner(UncertaintyRouteParams(step_range=1.0, include_current=False))
     plan = move.plan_detailed(g, pi, (2.5, 2.5), rng)
     # E = X at the candidate itself: only (2, 4) scores, reached after widening 1 -> 2 m
-    np.testing.assert_allclose(plan.target, [[2.5, 4.5]])
+    np.testing.assert_allclose(plan.target, [2.5, 4.5])
     assert plan.reason == "widened" and plan.fitness == pytest.approx(3.0)
 
 
