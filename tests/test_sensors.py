@@ -52,6 +52,9 @@ class StubPlume(PlumeModel):
         r2 = np.sum((points - self.source_positions[0]) ** 2, axis=1)
         return self.level * np.exp(-0.5 * r2 / self.sigma**2)
 
+    def frame(self) -> dict[str, np.ndarray]:
+        return {"level": np.array(self.level), "sigma": np.array(self.sigma)}
+
 
 def _sensor(**kw: object) -> ConcentrationSensor:
     s = ConcentrationSensor(ConcentrationSensorParams(**kw))  # type: ignore[arg-type]

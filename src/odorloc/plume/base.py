@@ -79,6 +79,6 @@ class PlumeModel(TimeStepped, ABC):
         """Default: concentration read as a rate (override where the model defines one)."""
         return self._concentration(points)
 
+    @abstractmethod
     def frame(self) -> dict[str, np.ndarray]:
         """A copy of the state needed to reproduce :meth:`concentration` (for recording)."""
-        raise NotImplementedError(f"{type(self).__name__} cannot be recorded")
