@@ -121,7 +121,7 @@ def test_total_normalised_path_map_sums_to_one() -> None:
 
 def test_upwind_end_of_a_plume_shaped_region() -> None:
     """A region stretching 4 m downwind of (2, 5): centroid 2 m downwind, upwind end at 2.5 m."""
-    p = DSMapperParams(cell_size=1.0, upwind_depth=1.0)
+    p = DSMapperParams(cell_size=1.0, map_margin=0.0, upwind_depth=1.0)
     mp = DSMapper(p, ((0.0, 0.0), (10.0, 10.0)), 0.5)
     mp.wind_sum[:] = (3.0, 0.0)  # the air moved towards +x
     mp.grid.m_s[2:6, 5], mp.grid.m_u[2:6, 5] = 0.9, 0.1  # cells x in [2, 6), y in [5, 6)
@@ -140,7 +140,7 @@ def test_upwind_end_of_a_plume_shaped_region() -> None:
 
 def test_peak_rule_takes_the_strongest_cell_of_each_region() -> None:
     """Two regions; each one's peak is its largest-m(S) cell, in the order of sources()."""
-    p = DSMapperParams(cell_size=1.0, source_rule="peak")
+    p = DSMapperParams(cell_size=1.0, map_margin=0.0, source_rule="peak")
     mp = DSMapper(p, ((0.0, 0.0), (10.0, 10.0)), 0.5)
     mp.grid.m_s[2:6, 5], mp.grid.m_u[2:6, 5] = 0.9, 0.1  # heavier region, peak at ix = 3
     mp.grid.m_s[3, 5], mp.grid.m_u[3, 5] = 0.97, 0.03
@@ -157,7 +157,7 @@ def test_peak_rule_takes_the_strongest_cell_of_each_region() -> None:
 
 
 def test_declaration_falls_back_to_strongest_cell() -> None:
-    mp = DSMapper(DSMapperParams(cell_size=1.0), ((0.0, 0.0), (5.0, 5.0)), 0.5)
+    mp = DSMapper(DSMapperParams(cell_size=1.0, map_margin=0.0), ((0.0, 0.0), (5.0, 5.0)), 0.5)
     mp.grid.m_s[2, 3], mp.grid.m_u[2, 3] = 0.3, 0.7  # below source_min_mass
     d = mp.declaration()
     assert d.confidence == 0.0
@@ -338,7 +338,8 @@ def test_reduced_episode_gives_row_and_map() -> None:
         assert 19.0 <= m[f"mapped_x_{k}"] <= 25.0 and 48.0 <= m[f"mapped_y_{k}"] <= 56.0
     rec = res.recording
     snaps = [b for _, b in rec.beliefs if "m_s" in b]
-    assert snaps and snaps[-1]["m_s"].shape == (12, 16)
+    # the 6 m x 8 m region at 0.5 m plus the default one-cell margin on every side
+    assert snaps and snaps[-1]["m_s"].shape == (14, 18)
     total = snaps[-1]["m_s"] + snaps[-1]["m_n"] + snaps[-1]["m_u"]
     np.testing.assert_allclose(total, 1.0, atol=1e-9)
     assert "total_uncertainty" in rec.diagnostics

@@ -129,6 +129,32 @@ def test_region_limits_candidates_and_counted_uncertainty():
     )
 
 
+def test_edge_reach_covers_the_downwind_edge_of_the_region():
+    """Readings cover the cells upwind of the sensor only, so the region's downwind-most column
+    is out of reach from the region's cell centres; edge_reach lets the robot stand on the edge.
+    """
+    region = ((1.0, 1.0), (6.0, 9.0))  # cells 1..5 along x; the margin column 6 lies outside
+    ds = certain_grid([(5, 4)])  # the unknown cell is in the region's last column
+    pi = PathPatch(4, 4, np.array([[1.0], [0.0]]), GRID, np.array([5, 4]))  # one cell upwind
+    rng = np.random.default_rng(0)
+    inside = UncertaintyRoutePlanner(UncertaintyRouteParams(step_range=1.5, region=region))
+    plan = inside.plan_detailed(ds, pi, (4.5, 3.5), rng)
+    # no candidate centre in the region has (5, 4) one cell upwind: the cell can never be read
+    assert plan.done and plan.target is None and plan.fitness == 0.0
+    edge = UncertaintyRoutePlanner(
+        UncertaintyRouteParams(step_range=1.5, region=region, edge_reach=0.5)
+    )
+    plan = edge.plan_detailed(ds, pi, (4.5, 3.5), rng)
+    # the margin cell (6, 4) has it one cell upwind; its centre (6.5, 4.5) is clamped onto the
+    # region's edge x = 6
+    assert plan.fitness == pytest.approx(3.0)
+    np.testing.assert_allclose(plan.target, [6.0, 4.5])
+    # cells further out than edge_reach stay excluded, and uncertainty outside never counts
+    ds2 = certain_grid([(6, 4)])
+    far = edge.plan_detailed(ds2, pi, (4.5, 3.5), rng)
+    assert far.done
+
+
 def test_empty_path_map_holds_position():
     planner = UncertaintyRoutePlanner(UncertaintyRouteParams())
     empty = PathPatch(0, 0, np.zeros((0, 0)), GRID, np.array([5, 5]))

@@ -554,6 +554,12 @@ def _state_map_figure(recs: dict[str, Any], out: Path) -> Path:
             ax.add_patch(Rectangle((rx0, ry0), rx1 - rx0, ry1 - ry0, fill=False, ec="gold", lw=2))
             d = float(np.sum(np.linalg.norm(np.diff(pos[:, :2], axis=0), axis=1)))
             x = cell_uncertainty(ms, mn, snap["m_u"])
+            # only the region's cells count (those of the map's margin are ignored, as in
+            # the paper and in the table)
+            xc = lo[0] + (np.arange(ms.shape[0]) + 0.5) * (hi[0] - lo[0]) / ms.shape[0]
+            yc = lo[1] + (np.arange(ms.shape[1]) + 0.5) * (hi[1] - lo[1]) / ms.shape[1]
+            inside = ((xc >= rx0) & (xc <= rx1))[:, None] & ((yc >= ry0) & (yc <= ry1))[None, :]
+            x = np.where(inside, x, 0.0)
             ax.set_title(f"{label}\nt = {t:.0f} s, {d:.0f} m, ΣX = {x.sum():.0f}", fontsize=9)
             ax.set_xlim(rx0 - 1.0, rx1 + 1.0)
             ax.set_ylim(ry0 - 1.0, ry1 + 1.0)

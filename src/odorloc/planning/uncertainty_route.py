@@ -28,6 +28,14 @@ Readings of the paper:
 * Search region. With ``region`` set, only cells whose centre lies in it are candidates and only
   their uncertainty counts in ``E_P`` (the paper's planner "never considered" cells outside the
   work area). Cells excluded by ``allowed`` (e.g. obstacles) are never candidates.
+* Region edge. A reading covers the cells *upwind* of the sensor only (the nearest sub-window
+  is one record period of travel upwind), so a robot confined to the centres of the region's
+  cells can never cover the region's downwind-most cells: their ``X`` stays at ``q`` and,
+  since the predicted path of a nearby position can still brush them when the wind swings,
+  they keep ``E_P`` above ``eta_E`` for good. ``edge_reach`` (metres) also makes the cells
+  whose centre lies up to that far outside the region candidates (the grid must extend that
+  far); such a target is clamped onto the region's edge, where the rectangular wave drives
+  too. Half a cell lets the robot stand on the edge, as the wave does.
 * Ties are broken uniformly at random with the caller's generator.
 * No path yet. If the path map is empty (e.g. before a second wind record exists) there is no
   evidence to weigh; the plan keeps the robot where it is (``reason="empty_path_map"``) rather
@@ -71,6 +79,9 @@ class UncertaintyRouteParams(Params):
         Candidates within this relative tolerance of the best fitness count as ties.
     include_current : bool
         Whether the robot's own cell is always a candidate (staying put); see the module notes.
+    edge_reach : float, metres
+        Candidates may lie this far outside ``region`` (targets are clamped onto it); see the
+        module notes. 0 keeps every candidate inside.
     """
 
     step_range: Positive = 0.25
@@ -79,6 +90,7 @@ class UncertaintyRouteParams(Params):
     region: tuple[tuple[float, float], tuple[float, float]] | None = None
     tie_rtol: NonNegative = 1e-9
     include_current: bool = True
+    edge_reach: NonNegative = 0.0
 
     @model_validator(mode="after")
     def _check(self) -> UncertaintyRouteParams:
@@ -250,7 +262,13 @@ class UncertaintyRoutePlanner:
         robot_cell = grid.index(pos)[0]
         patch = _as_patch(path_model, grid, robot_cell)
 
-        cand_mask = grid.region_mask(p.region)
+        if p.region is not None and p.edge_reach > 0:
+            (rx0, ry0), (rx1, ry1) = p.region
+            # a hair of tolerance keeps centres lying exactly edge_reach outside
+            e = p.edge_reach * (1.0 + 1e-9) + 1e-12
+            cand_mask = grid.region_mask(((rx0 - e, ry0 - e), (rx1 + e, ry1 + e)))
+        else:
+            cand_mask = grid.region_mask(p.region)
         if allowed is not None:
             allowed = np.asarray(allowed, bool)
             if allowed.shape != grid.shape:
@@ -308,6 +326,8 @@ class UncertaintyRoutePlanner:
                     ties = np.argwhere(e_c >= best_e - p.tie_rtol * abs(best_e))
                     pick = ties[rng.integers(len(ties))] if len(ties) > 1 else ties[0]
                     target = grid.center(pick + np.array([ix0, iy0]))[0]
+                    if p.region is not None:
+                        target = np.clip(target, p.region[0], p.region[1])
                     reason = "widened" if widened else "ok"
                     return RoutePlan(target, best_e, r_eff, n_cand, False, reason)
             if whole:

@@ -17,7 +17,9 @@ A recipe composed of three reusable parts:
 Readings of the paper (each configurable):
 
 * Map extent. The evidence grid covers the search region (``ctx.info["search_region"]``, else
-  the arena) grown by ``map_margin``; cells are ``cell_size`` metres. The paper does not give
+  the arena) grown by ``map_margin`` (default one cell: the paper's maps mark cells outside the
+  work area too, which "should be ignored"; only the region's cells count in ``sum X``, in the
+  planner and in the mapped sources); cells are ``cell_size`` metres. The paper does not give
   its cell size, but its residual sums do bound it: 1317.4 after 400 s and 1089.0 after one
   round exceed ``3 M`` (the sum at total ignorance, ``q m(U) = 3`` per cell) unless the
   14 m x 20 m region has ``M > 439`` cells, i.e. cells below about 0.8 m. 0.5 m (``M = 1120``,
@@ -138,8 +140,9 @@ class DSMapperParams(Params):
     ----------
     cell_size : float, metres
         Side of an evidence/path-map cell (see the module notes; 0.5 m).
-    map_margin : float, metres
-        The map covers the search region grown by this margin on every side.
+    map_margin : float, metres, optional
+        The map covers the search region grown by this margin on every side; default one cell
+        (see the module notes).
     region : ((x0, y0), (x1, y1)), optional
         Search region, metres; default ``ctx.info["search_region"]``, else the arena bounds.
     t_thr : float, seconds
@@ -179,7 +182,7 @@ class DSMapperParams(Params):
     """
 
     cell_size: Positive = 0.5
-    map_margin: NonNegative = 0.0
+    map_margin: NonNegative | None = None
     region: Region | None = None
     t_thr: Positive = 10.0
     noise_time_scale: Positive = 1.0
@@ -233,7 +236,7 @@ class DSMapper:
     def __init__(self, params: DSMapperParams, region: Region, dt: float) -> None:
         self.params = params
         self.region = region
-        m = params.map_margin
+        m = params.cell_size if params.map_margin is None else params.map_margin
         lower = (region[0][0] - m, region[0][1] - m)
         upper = (region[1][0] + m, region[1][1] + m)
         self.estimator = OdorPathEstimator(
@@ -464,6 +467,11 @@ class DSMappingParams(DSMapperParams):
         notes).
     stay_candidate : bool
         Whether the robot's own cell is a candidate (staying put); default ``False``.
+    edge_reach : float, metres, optional
+        Candidate cells may have centres this far outside the region, their targets clamped
+        onto its edge (:class:`~odorloc.planning.uncertainty_route.UncertaintyRouteParams`);
+        default half a cell, so the robot can stand on the region's edge like the wave and
+        cover the downwind-most cells (see the module notes).
     widen_factor : float
         Radius multiplier while the best fitness is below ``eta_e`` (> 1).
     eta_e : float
@@ -472,6 +480,8 @@ class DSMappingParams(DSMapperParams):
 
     step_range: Positive | None = None
     stay_candidate: bool = False
+    edge_reach: NonNegative | None = None
+    fitness_path: Literal["map", "distribution"] = "map"
     widen_factor: float = Field(2.0, gt=1.0)
     eta_e: NonNegative = 0.5
 
@@ -511,6 +521,7 @@ class DSMappingSearcher(Searcher):
                 eta_e=p.eta_e,
                 region=self.mapper.region,
                 include_current=p.stay_candidate,
+                edge_reach=0.5 * p.cell_size if p.edge_reach is None else p.edge_reach,
             )
         )
         self.motion = _StopAndGo(reach, p.dwell_periods)
@@ -523,6 +534,12 @@ class DSMappingSearcher(Searcher):
         patch = self.mapper.update(o.t, o.position, o.wind, o.detection)
         if not self.motion.arrived(o.position):
             return Action([self.motion.command(o.position)])
+        if self.params.fitness_path == "distribution" and patch.values.size:
+            total = float(patch.values.sum())
+            if total > 0:
+                patch = PathPatch(
+                    patch.ix0, patch.iy0, patch.values / total, patch.grid, patch.ref_cell
+                )
         plan = self.planner.plan_detailed(self.mapper.grid, patch, o.position[:2], rng)
         self.last_plan = plan
         self.n_plans += 1
