@@ -156,6 +156,25 @@ def test_peak_rule_takes_the_strongest_cell_of_each_region() -> None:
     assert empty.peaks().shape == (0, 2)
 
 
+def test_peak_rule_ranks_saturated_cells_by_their_doubt() -> None:
+    """After long runs of detections m(S) rounds to exactly 1.0 in several cells; the peak is
+    still the cell with the most evidence (smallest m(notS) + m(U)), not the first in index
+    order."""
+    p = DSMapperParams(cell_size=1.0, map_margin=0.0, t_thr=1.0)
+    mp = DSMapper(p, ((0.0, 0.0), (10.0, 10.0)), 0.5)
+    g = mp.grid
+    pi = np.zeros(g.grid.shape)
+    for n, ix in ((60, 2), (80, 4)):  # 60 and 80 full-weight detections on cells 2 and 4
+        pi[:] = 0.0
+        pi[ix, 5] = 1.0
+        for _ in range(n):
+            g.update(pi, True)
+    assert g.m_s[2, 5] == 1.0 and g.m_s[4, 5] == 1.0  # indistinguishable by m(S)
+    assert g.m_u[4, 5] < g.m_u[2, 5]  # but not by the doubt left
+    g.m_s[3, 5], g.m_u[3, 5] = 0.9, 0.1  # join them into one region
+    np.testing.assert_allclose(mp.peaks(), [[4.5, 5.5]])
+
+
 def test_declaration_falls_back_to_strongest_cell() -> None:
     mp = DSMapper(DSMapperParams(cell_size=1.0, map_margin=0.0), ((0.0, 0.0), (5.0, 5.0)), 0.5)
     mp.grid.m_s[2, 3], mp.grid.m_u[2, 3] = 0.3, 0.7  # below source_min_mass
@@ -476,3 +495,22 @@ def test_multi_agent_is_refused() -> None:
     )
     with pytest.raises(ConfigError, match="single robot"):
         DSMappingSearcher(DSMappingParams()).reset(ctx2, np.random.default_rng(0))
+
+
+def test_fitness_path_distribution_divides_the_map_by_its_sum() -> None:
+    """fitness_path="distribution" weighs X with pi / sum(pi) in eq. 7: on the same readings
+    and map the best fitness is the default's divided by the path map's sum (same target)."""
+    fits, sums = [], []
+    for how in ("map", "distribution"):
+        rng = np.random.default_rng(3)
+        s = DSMappingSearcher(DSMappingParams(cell_size=0.5, dwell_periods=0, fitness_path=how))
+        s.reset(_ctx(), rng)
+        for i in range(6):  # uniform wind: every plan sees the same map shape
+            s.act(_obs(0.5 * i, det=i % 2 == 0), rng)
+        fits.append((s.last_plan.fitness, tuple(s.motion.goal)))
+        sums.append(float(s.mapper.last_patch.values.sum()))
+    (f_map, goal_map), (f_dist, goal_dist) = fits
+    assert sums[0] == pytest.approx(sums[1]) and sums[0] > 1.5
+    assert goal_map == goal_dist
+    assert f_dist == pytest.approx(f_map / sums[0], rel=1e-9)
+    assert f_dist <= 3.0 + 1e-12  # a weighted mean of X <= q

@@ -191,6 +191,15 @@ def time_to_residual(rec: Any, target: float) -> tuple[float, float]:
     return float(rec.t[k]), float(steps.sum())
 
 
+def residual_at(rec: Any, t: float) -> float:
+    """``sum X`` of a recording at time ``t``, seconds (its last value if it ended before)."""
+    tu = rec.diagnostics.get("total_uncertainty")
+    if tu is None or len(tu) == 0:
+        return math.nan
+    k = int(np.searchsorted(rec.t, t, side="right")) - 1
+    return float(tu[min(max(k, 0), len(tu) - 1)])
+
+
 def _seed_job(args: tuple[int, int, float | None, bool, float | None]) -> dict[str, Any]:
     """Record one movie and run both searchers on it; returns rows (and recordings)."""
     from odorloc.engine.episode import run_episode
@@ -224,6 +233,9 @@ def _seed_job(args: tuple[int, int, float | None, bool, float | None]) -> dict[s
         row.update(map_errors(row, res.sources, sc.success_radius, "upwind", "_upwind"))
         row.update(map_errors(row, res.sources, sc.success_radius, "peak", "_peak"))
         row.update(map_errors(row, res.sources, sc.success_radius, "centroid", "_centroid"))
+        if res.recording is not None:
+            for k, (t_scene, _, _) in enumerate(DS_PAPER_SCENES[label]):
+                row[f"scene_residual_{k}"] = residual_at(res.recording, t_scene)
         if label == "ds-rectangular-wave":
             baseline_residual = float(row["residual_uncertainty"])
         elif res.recording is not None:
@@ -451,6 +463,29 @@ def reproduce_ds(
         + ", ".join(f"{c} {_ms(paired[c], 2)}" for c in paired.columns)
         + "; paper: time 0.58, distance 0.47, residual 0.62"
     )
+
+    if "time_to_baseline_residual" in dyn:
+        eq_t = paired["equal_residual_time_ratio"]
+        eq_d = paired["equal_residual_distance_ratio"]
+        console.print(
+            "at the wave's final residual ΣX "
+            f"({_ms(rw.residual_uncertainty)}) the dynamic route had used "
+            f"{_ms(eq_t, 2)} of the wave's time and {_ms(eq_d, 2)} of its distance "
+            f"(below 1 in {int((eq_t < 1).sum())}/{len(eq_t)} flows; never reached in "
+            f"{int(eq_t.isna().sum())})"
+        )
+
+    # ---- residual uncertainty at the paper's scenes (Figs. 1-2)
+    st = Table(title="ΣX over the search region at the paper's scenes (mean ± sd over flows)")
+    for c in ("method", "scene", "time s", "ours ΣX", "paper ΣX"):
+        st.add_column(c, justify="right")
+    for label in SEARCHERS:
+        g = df[df.searcher == label]
+        for k, (t_scene, _, x_paper) in enumerate(DS_PAPER_SCENES[label]):
+            col = f"scene_residual_{k}"
+            ours = _ms(g[col], 1) if col in g else "-"
+            st.add_row(label, "abc"[k], _fmt(t_scene), ours, _fmt(x_paper))
+    console.print(st)
 
     # ---- figures
     figs: list[Path] = []

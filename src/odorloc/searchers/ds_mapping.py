@@ -53,6 +53,19 @@ Readings of the paper (each configurable):
   literal alternative in which, with cells wider than one step, the robot's own cell is the
   only first candidate: the robot then stays and keeps reading while its own air-mass path
   covers ``E >= eta_E`` -- long stops that make the route slower than the wave.
+* Region edge. A reading covers only cells upwind of the sensor, so from the centres of the
+  region's own cells the downwind-most column can never be read; its cells would keep
+  ``X = q`` and keep the stop rule from firing (measured before this was handled: they made
+  up 85 % of the dynamic route's residual). The candidates therefore reach half a cell
+  past the region (``edge_reach``), clamped onto its edge, where the wave drives anyway.
+* Fitness map. Eq. 7 weighs ``X`` with the same ``pi`` that eq. 4 uses (``fitness_path=
+  "map"``, default). That map is the maximum over about 20 window-normalised sub-windows, so
+  it sums to far more than 1 (about 16 on the paper's scenario) and ``E_P >= eta_E`` holds
+  wherever a little uncertainty lies upwind: the route runs on until the map is nearly
+  certain. ``fitness_path="distribution"`` divides the map by its sum for eq. 7 only
+  (``pi^{P*}`` read as "the probability that the air mass ... comes from the cell C_i", one
+  distribution); measured over 5 flows it stops far too early (0.18 of the wave's time,
+  3.3 times its residual), so it is not the default.
 * Wave rounds. "When the robot arrives at the left-top corner (called 1 round) ... the robot
   comes back to the right-bottom corner, and starts a new round" (section 4.2):
   ``round_order="restart"`` (default) ends each round at the corner diagonally opposite its
@@ -71,10 +84,13 @@ Readings of the paper (each configurable):
   falls downwind as the filaments meander and dilute. So the ``m(S)`` maximum marks the
   source while the ``m(S)``-weighted centroid (``"centroid"``, :meth:`DSGrid.sources`) is
   pulled downwind by the footprint; ``"upwind"`` takes the centroid of the region's upwind
-  end instead. Measured over 10 recorded flows (root seeds 2024 and 7, both routes, 20
-  maps): both sources within 1.5 m in 16/20 maps with ``"peak"``, 13/20 with ``"upwind"``,
-  4/20 with ``"centroid"``. If no cell passes the threshold the cell with the largest
-  ``m(S)`` is declared with confidence 0, so an episode always scores.
+  end instead. Long runs of detections round ``m(S)`` to exactly 1.0 in many cells, so the
+  peak is ranked by ``m(notS) + m(U)`` (stored apart, exact), i.e. by the evidence itself.
+  Measured over 10 recorded flows (root seeds 2024 and 7, final maps of both routes): both
+  sources within 1.5 m in 10/10 wave and 8/10 dynamic maps with ``"peak"`` (3/10 dynamic
+  when ties went by index order), 9/10 and 2/10 with ``"upwind"``, 2/10 and 6/10 with
+  ``"centroid"``. If no cell passes the threshold the cell with the largest ``m(S)`` is
+  declared with confidence 0, so an episode always scores.
 """
 
 from __future__ import annotations
@@ -343,11 +359,16 @@ class DSMapper:
 
     def peaks(self) -> FloatArray:
         """``(K, 2)`` centre of the cell with the largest ``m(S)`` of each mapped region, same
-        order as :meth:`sources` (ties: the first cell in index order)."""
+        order as :meth:`sources` (ranked by ``m(notS) + m(U)``, see below; exact ties: the
+        first cell in index order)."""
         labels, kept = self._regions()
         if not kept:
             return np.zeros((0, 2))
-        pos = ndimage.maximum_position(self.grid.m_s, labels, kept)
+        # m(S) = 1 - (m(notS) + m(U)) rounds to exactly 1.0 in every cell of a long run of
+        # detections, which would leave the choice to index order; the doubt m(notS) + m(U) is
+        # stored separately and keeps ranking those cells by their evidence
+        doubt = self.grid.m_n + self.grid.m_u
+        pos = ndimage.minimum_position(doubt, labels, kept)
         return self.grid.grid.center(np.array(pos)).reshape(-1, 2)
 
     def source_positions(self) -> FloatArray:
@@ -467,6 +488,9 @@ class DSMappingParams(DSMapperParams):
         notes).
     stay_candidate : bool
         Whether the robot's own cell is a candidate (staying put); default ``False``.
+    fitness_path : {"map", "distribution"}
+        ``pi`` weighing ``X`` in eq. 7: the reading's path map as eq. 4 uses it (default), or
+        that map divided by its sum (see the module notes).
     edge_reach : float, metres, optional
         Candidate cells may have centres this far outside the region, their targets clamped
         onto its edge (:class:`~odorloc.planning.uncertainty_route.UncertaintyRouteParams`);
