@@ -514,3 +514,36 @@ def test_fitness_path_distribution_divides_the_map_by_its_sum() -> None:
     assert goal_map == goal_dist
     assert f_dist == pytest.approx(f_map / sums[0], rel=1e-9)
     assert f_dist <= 3.0 + 1e-12  # a weighted mean of X <= q
+
+
+def test_reproduction_commits_each_flow_and_resumes(tmp_path, monkeypatch) -> None:
+    """A short ds-multi-source run writes rows, scene residuals and figures; running it again
+    reruns nothing, and more episodes add only the missing flows."""
+    from odorloc.experiments import reproduce_ds as rds
+
+    calls: list[int] = []
+    real = rds._seed_job
+
+    def counted(args):
+        calls.append(args[0])
+        return real(args)
+
+    monkeypatch.setattr(rds, "_seed_job", counted)
+    kw = dict(workers=1, progress=False, time_limit=20.0)
+    first = rds.reproduce_ds(tmp_path, episodes=1, **kw)
+    assert calls == [0]
+    df = first["results"]
+    assert sorted(df.searcher) == ["ds-mapping", "ds-rectangular-wave"]
+    assert df["scene_residual_0"].notna().all()
+    assert (df.residual_uncertainty <= df.initial_uncertainty).all()
+    for name in ("state_maps.png", "uncertainty_vs_time.png", "report.html", "paired.csv"):
+        assert (tmp_path / name).is_file()
+    again = rds.reproduce_ds(tmp_path, episodes=1, **kw)
+    assert calls == [0]  # resumed: flow 0 and its figure inputs were on disk
+    pd_cols = ["search_time", "residual_uncertainty", "path_length"]
+    np.testing.assert_array_equal(again["results"][pd_cols], df[pd_cols])
+    more = rds.reproduce_ds(tmp_path, episodes=2, **kw)
+    assert calls == [0, 1] and len(more["results"]) == 4
+    # a store of other settings is refused, not overwritten
+    with pytest.raises(ConfigError, match="store"):
+        rds.reproduce_ds(tmp_path, episodes=1, workers=1, progress=False, time_limit=25.0)

@@ -25,7 +25,7 @@ import json
 import math
 import time
 import warnings
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -256,6 +256,43 @@ def _seed_job(args: tuple[int, int, float | None, bool, float | None]) -> dict[s
     return out
 
 
+def _save_flow0(out: Path, recs: dict[str, Any]) -> None:
+    """Keep flow 0's recordings and final maps on disk (the figures of a resumed run)."""
+    for label, e in recs.items():
+        e["recording"].save(out / f"flow0-{label}.npz")
+        t_final, snap = e["final"]
+        np.savez_compressed(
+            out / f"flow0-{label}-map.npz",
+            t_final=np.float64(t_final),
+            lower=np.asarray(e["lower"], float),
+            upper=np.asarray(e["upper"], float),
+            region=np.asarray(e["region"], float),
+            **snap,
+        )
+
+
+def _load_flow0(out: Path) -> dict[str, Any]:
+    """What :func:`_save_flow0` wrote, or ``{}`` if any file is missing."""
+    from odorloc.engine.recorder import Recording
+
+    recs: dict[str, Any] = {}
+    for label in SEARCHERS:
+        rp, mp = out / f"flow0-{label}.npz", out / f"flow0-{label}-map.npz"
+        if not (rp.is_file() and mp.is_file()):
+            return {}
+        with np.load(mp) as z:
+            snap = {k: z[k] for k in ("m_s", "m_n", "m_u")}
+            region = z["region"]
+            recs[label] = {
+                "recording": Recording.load(rp),
+                "final": (float(z["t_final"]), snap),
+                "lower": tuple(z["lower"]),
+                "upper": tuple(z["upper"]),
+                "region": ((region[0, 0], region[0, 1]), (region[1, 0], region[1, 1])),
+            }
+    return recs
+
+
 def _mean_sd(x: Any) -> tuple[float, float]:
     a = np.asarray(x, float)
     a = a[np.isfinite(a)]
@@ -276,7 +313,7 @@ def _ms(x: Any, d: int = 1) -> str:
 )
 def reproduce_ds(
     out: Path,
-    episodes: int = 5,
+    episodes: int = 10,
     workers: int = 2,
     seed: int = 2024,
     progress: bool = True,
@@ -288,7 +325,9 @@ def reproduce_ds(
     Parameters
     ----------
     out : Path
-        Output folder (``results.sqlite`` there is rebuilt from scratch).
+        Output folder. Each finished flow is committed to ``results.sqlite`` there at once;
+        running again with the same settings resumes (flows already stored are kept; more
+        ``episodes`` extends the run).
     episodes : int
         Recorded flows (seeds); both routes run on each.
     workers : int
@@ -315,40 +354,32 @@ def reproduce_ds(
     out.mkdir(parents=True, exist_ok=True)
     console = Console(width=230)
     t_start = time.perf_counter()
-    jobs = [(ep, seed, max_speed, ep == 0, time_limit) for ep in range(episodes)]
-    results: list[dict[str, Any]] = []
-    if workers <= 1 or episodes == 1:
-        for j in jobs:
-            results.append(_seed_job(j))
-            if progress:
-                console.print(f"flow {j[0]} done ({time.perf_counter() - t_start:.0f} s)")
-    else:
-        with ProcessPoolExecutor(max_workers=workers) as pool:
-            for r in pool.map(_seed_job, jobs):
-                results.append(r)
-                if progress:
-                    console.print(
-                        f"flow {r['episode']} done ({time.perf_counter() - t_start:.0f} s)"
-                    )
-    wall = time.perf_counter() - t_start
-
-    # ---- durable rows
+    # ---- durable rows: every flow is committed as soon as it finishes; a rerun resumes
     store_path = out / "results.sqlite"
-    for suffix in ("", "-wal", "-shm"):
-        Path(f"{store_path}{suffix}").unlink(missing_ok=True)
     spec = {
         "name": "ds-multi-source reproduction",
         "seed": seed,
-        "episodes": episodes,
         "scenario": SCENARIO,
         "searchers": SEARCHERS,
         "time_limit": time_limit,
         "max_speed": max_speed,
     }
     chash = hashlib.sha256(json.dumps(spec, sort_keys=True).encode()).hexdigest()[:16]
+    cell_ids = {label: f"{SCENARIO}/{label}" for label in SEARCHERS}
     with ResultStore(store_path) as store:
         store.bind(chash)
-        for r in results:
+        done = store.done_keys()
+        recs = _load_flow0(out) if all((c, 0) in done for c in cell_ids.values()) else {}
+        todo = [
+            ep
+            for ep in range(episodes)
+            if not all((c, ep) in done for c in cell_ids.values()) or (ep == 0 and not recs)
+        ]
+        if progress and episodes - len(todo):
+            console.print(f"resuming: {episodes - len(todo)} flow(s) already stored")
+        jobs = [(ep, seed, max_speed, ep == 0, time_limit) for ep in todo]
+
+        def _file(r: dict[str, Any]) -> None:
             for ci, (label, (sp, row)) in enumerate(r["rows"].items()):
                 cell = {
                     "scenario": SCENARIO,
@@ -356,19 +387,28 @@ def reproduce_ds(
                     "searcher_params": sp,
                     "replay": True,
                 }
-                task = _Task(
-                    cell,
-                    ci,
-                    f"{SCENARIO}/{label}",
-                    str(r["episode"]),
-                    r["episode"],
-                    chash,
-                    *r["seeds"],
-                )
-                store.add(task, row)
+                ep = r["episode"]
+                task = _Task(cell, ci, cell_ids[label], str(ep), ep, chash, *r["seeds"])
+                store.add(task, row)  # an episode already stored is kept as it was
+            if r["recordings"]:
+                _save_flow0(out, r["recordings"])
+                recs.update(r["recordings"])
+            if progress:
+                console.print(f"flow {r['episode']} done ({time.perf_counter() - t_start:.0f} s)")
+
+        if workers <= 1 or len(jobs) <= 1:
+            for j in jobs:
+                _file(_seed_job(j))
+        else:
+            with ProcessPoolExecutor(max_workers=workers) as pool:
+                # committed in the order they finish, so a kill loses only running flows
+                for fut in as_completed([pool.submit(_seed_job, j) for j in jobs]):
+                    _file(fut.result())
+        wall = time.perf_counter() - t_start
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # pandas fragmentation notice on wide extras
             df = store.frame()
+    df = df[df.episode < episodes]
     df = df.sort_values(["searcher", "episode"])
 
     # ---- table beside the paper
@@ -489,7 +529,6 @@ def reproduce_ds(
 
     # ---- figures
     figs: list[Path] = []
-    recs = results[0]["recordings"] if results else {}
     if recs:
         figs.append(_state_map_figure(recs, out))
         figs.append(_uncertainty_figure(recs, out))
@@ -532,10 +571,12 @@ def _snapshots(entry: dict[str, Any], label: str) -> list[tuple[float, dict[str,
     snaps = [(t, b) for t, b in rec.beliefs if "m_s" in b]
     final = entry["final"]
     if label == "ds-rectangular-wave" and "waypoint" in rec.diagnostics:
-        # end of rounds 1 and 3 (of 5): the waypoint index crosses 1/5 and 3/5 of the path
+        # end of rounds 1 and 3, at the round's last corner like the paper's scenes (before
+        # the way back): the waypoint index reaches 1/5 and 3/5 of all waypoints (the index
+        # counts the waypoints reached; it ends at their number)
         wp = rec.diagnostics["waypoint"]
-        n = wp.max() + 1 if wp.size else 1
-        wanted = [rec.t[min(np.searchsorted(wp, f * n), len(wp) - 1)] for f in (0.2, 0.6)]
+        per_round = wp.max() / SEARCHERS["ds-rectangular-wave"]["rounds"] if wp.size else 1.0
+        wanted = [rec.t[min(np.searchsorted(wp, r * per_round), len(wp) - 1)] for r in (1, 3)]
     else:
         wanted = [400.0, 800.0]
     picks = []
