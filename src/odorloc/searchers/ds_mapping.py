@@ -237,6 +237,14 @@ def search_region(ctx: SearchContext, region: Region | None = None) -> Region:
     return lo_t, hi_t
 
 
+def _as_distribution(patch: PathPatch) -> PathPatch:
+    """The path map divided by its sum (unchanged if empty)."""
+    total = float(patch.values.sum()) if patch.values.size else 0.0
+    if total <= 0:
+        return patch
+    return PathPatch(patch.ix0, patch.iy0, patch.values / total, patch.grid, patch.ref_cell)
+
+
 class DSMapper:
     """Odor-path estimator + Dempster-Shafer grid: the map both mapping searchers build.
 
@@ -297,12 +305,8 @@ class DSMapper:
         self.estimator.update(t, pos, u, 1.0 if detected else 0.0)
         # The path map is the same for both events; only the masses differ (eq. 4).
         patch = self.estimator.path_patch()
-        if self.params.path_normalise == "total" and patch.values.size:
-            total = float(patch.values.sum())
-            if total > 0:
-                patch = PathPatch(
-                    patch.ix0, patch.iy0, patch.values / total, patch.grid, patch.ref_cell
-                )
+        if self.params.path_normalise == "total":
+            patch = _as_distribution(patch)
         self.grid.update(patch, bool(detected))
         self.n_readings += 1
         self.n_detections += int(bool(detected))
@@ -558,12 +562,8 @@ class DSMappingSearcher(Searcher):
         patch = self.mapper.update(o.t, o.position, o.wind, o.detection)
         if not self.motion.arrived(o.position):
             return Action([self.motion.command(o.position)])
-        if self.params.fitness_path == "distribution" and patch.values.size:
-            total = float(patch.values.sum())
-            if total > 0:
-                patch = PathPatch(
-                    patch.ix0, patch.iy0, patch.values / total, patch.grid, patch.ref_cell
-                )
+        if self.params.fitness_path == "distribution":
+            patch = _as_distribution(patch)
         plan = self.planner.plan_detailed(self.mapper.grid, patch, o.position[:2], rng)
         self.last_plan = plan
         self.n_plans += 1
