@@ -64,6 +64,25 @@ class PlumeModel(TimeStepped, ABC):
         """``(S, d)`` source positions, metres."""
         return np.array([s.pos for s in self.sources])
 
+    def source_rates(self) -> np.ndarray:
+        """``(S,)`` release rates of the sources at the current time ``t``."""
+        return np.array([s.rate_at(self.t) for s in self.sources], float)
+
+    def reset(self, rng: np.random.Generator) -> None:
+        super().reset(rng)
+        self._sync()
+
+    def step(self, dt: float, rng: np.random.Generator) -> None:
+        super().step(dt, rng)
+        self._sync()
+
+    def _sync(self) -> None:
+        """Recompute what follows from ``t`` and the wind alone, after every reset and step.
+
+        Steady (analytic) plumes keep their current source rates and winds here; models with
+        their own state evolve it in :meth:`_advance` and need nothing.
+        """
+
     def concentration(self, points: ArrayLike) -> np.ndarray:
         """Instantaneous concentration at ``(Q, d)`` points, ``(Q,)`` (model units)."""
         return self._concentration(as_points(points, self.dim))

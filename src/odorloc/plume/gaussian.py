@@ -138,19 +138,11 @@ class GaussianPlume(PlumeModel):
         super().__init__(arena, wind, sources)
         self.params = params
         self._src = self.source_positions
-        self._refresh()
+        self._sync()
 
-    def _refresh(self) -> None:
+    def _sync(self) -> None:
         self._winds = self.wind.velocity(self._src)
-        self._rates = np.array([s.rate_at(self.t) for s in self.sources], float)
-
-    def reset(self, rng: np.random.Generator) -> None:
-        super().reset(rng)
-        self._refresh()
-
-    def step(self, dt: float, rng: np.random.Generator) -> None:
-        super().step(dt, rng)
-        self._refresh()
+        self._rates = self.source_rates()
 
     def _concentration(self, points: np.ndarray) -> np.ndarray:
         return gaussian_plume(

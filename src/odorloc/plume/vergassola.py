@@ -182,13 +182,13 @@ class VergassolaPlume(PlumeModel):
         if params.wind_direction is not None and len(params.wind_direction) != self.dim:
             raise ConfigError("plume.wind_direction", f"needs {self.dim} components")
         self._src = self.source_positions
-        self._refresh()
+        self._sync()
         if self.dim == 2 and self.length <= params.sensor_radius:
             raise ConfigError(
                 "plume.sensor_radius", f"must be below lambda = {self.length:.3g} m in 2D"
             )
 
-    def _refresh(self) -> None:
+    def _sync(self) -> None:
         p = self.params
         mean = self.wind.mean_velocity()
         speed = float(np.linalg.norm(mean))
@@ -201,20 +201,12 @@ class VergassolaPlume(PlumeModel):
             e = np.zeros(self.dim)
             e[1] = -1.0
         self.direction = e / np.linalg.norm(e)
-        self._q = np.array([s.rate_at(self.t) for s in self.sources], float)
+        self._q = self.source_rates()
 
     @property
     def length(self) -> float:
         """Correlation length ``lambda``, metres."""
         return correlation_length(self.V, self.params.D, self.params.tau)
-
-    def reset(self, rng: np.random.Generator) -> None:
-        super().reset(rng)
-        self._refresh()
-
-    def step(self, dt: float, rng: np.random.Generator) -> None:
-        super().step(dt, rng)
-        self._refresh()
 
     def rate_at(
         self, sensor_points: ArrayLike, source_hypotheses: ArrayLike, release: ArrayLike = 5.0
