@@ -356,6 +356,28 @@ class PathPatch:
 
 
 # ----------------------------------------------------------------------------- compiled kernel
+def _axis_factors(
+    lo: float, a: float, n0: int, n1: int, c: float, v: float, cell_kernel: bool
+) -> tuple[FloatArray, FloatArray]:
+    """One axis of a window: the ellipse term ``d^2 / v`` of eq. (12) and the kernel factor of
+    eq. (11) for cells ``n0 .. n1 - 1`` (centres ``lo + (n + 0.5) a``, window centre ``c``,
+    variance ``v`` m^2); the point form, or the exact cell integral with ``cell_kernel``."""
+    q = np.empty(n1 - n0)
+    f = np.empty(n1 - n0)
+    s = math.sqrt(v)
+    for n in range(n0, n1):
+        d = (lo + (n + 0.5) * a) - c
+        q[n - n0] = d * d / v
+        if cell_kernel:
+            f[n - n0] = 0.5 * (
+                math.erfc(-(d + 0.5 * a) / s / math.sqrt(2.0))
+                - math.erfc(-(d - 0.5 * a) / s / math.sqrt(2.0))
+            )
+        else:
+            f[n - n0] = a / math.sqrt(2.0 * math.pi * v) * math.exp(-0.5 * d * d / v)
+    return q, f
+
+
 def _dw_kernel(
     cx: FloatArray,
     cy: FloatArray,
@@ -416,32 +438,8 @@ def _dw_kernel(
         if n_cells[r] == 0:
             continue
         i0, i1, j0, j1 = boxes[r, 0], boxes[r, 1], boxes[r, 2], boxes[r, 3]
-        qx = np.empty(i1 - i0)
-        fx = np.empty(i1 - i0)
-        qy = np.empty(j1 - j0)
-        fy = np.empty(j1 - j0)
-        sx = math.sqrt(vx[r])
-        sy = math.sqrt(vy[r])
-        for i in range(i0, i1):
-            d = (x0 + (i + 0.5) * a) - cx[r]
-            qx[i - i0] = d * d / vx[r]
-            if cell_kernel:
-                fx[i - i0] = 0.5 * (
-                    math.erfc(-(d + 0.5 * a) / sx / math.sqrt(2.0))
-                    - math.erfc(-(d - 0.5 * a) / sx / math.sqrt(2.0))
-                )
-            else:
-                fx[i - i0] = a / math.sqrt(2.0 * math.pi * vx[r]) * math.exp(-0.5 * d * d / vx[r])
-        for j in range(j0, j1):
-            d = (y0 + (j + 0.5) * a) - cy[r]
-            qy[j - j0] = d * d / vy[r]
-            if cell_kernel:
-                fy[j - j0] = 0.5 * (
-                    math.erfc(-(d + 0.5 * a) / sy / math.sqrt(2.0))
-                    - math.erfc(-(d - 0.5 * a) / sy / math.sqrt(2.0))
-                )
-            else:
-                fy[j - j0] = a / math.sqrt(2.0 * math.pi * vy[r]) * math.exp(-0.5 * d * d / vy[r])
+        qx, fx = _axis_factors(x0, a, i0, i1, cx[r], vx[r], cell_kernel)
+        qy, fy = _axis_factors(y0, a, j0, j1, cy[r], vy[r], cell_kernel)
         lim = 2.0 * k[r]
         total = 0.0
         count = 0
@@ -469,6 +467,8 @@ def _dw_kernel(
 try:  # numba is the optional extra "fast"
     import numba as _numba
 
+    # the kernel resolves _axis_factors when it compiles, so the helper is compiled first
+    _axis_factors = _numba.njit(cache=True, nogil=True)(_axis_factors)
     _dw_kernel_fast = _numba.njit(cache=True, nogil=True)(_dw_kernel)
     HAVE_NUMBA = True
 except ImportError:  # pragma: no cover - exercised only without the extra
