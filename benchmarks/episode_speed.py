@@ -18,10 +18,10 @@ import time
 
 import numpy as np
 
+from odorloc.core.types import Observation, SearchContext
 from odorloc.engine.episode import episode_generators, run_episode, seeds_for
 from odorloc.scenarios import Scenario
 from odorloc.scenarios.build import build
-from odorloc.searchers.base import Observation, SearchContext
 
 SCENARIO = {
     "name": "bench-zigzag-filament",

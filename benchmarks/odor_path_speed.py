@@ -20,7 +20,7 @@ import time
 
 import numpy as np
 
-from odorloc.inference.dempster_shafer import DSGrid, DSParams
+from odorloc.inference.evidence.dempster_shafer import DSGrid, DSParams
 from odorloc.inference.odor_path import HAVE_NUMBA, CellGrid, OdorPathEstimator, OdorPathParams
 from odorloc.planning.uncertainty_route import UncertaintyRouteParams, UncertaintyRoutePlanner
 

@@ -24,13 +24,13 @@ from collections.abc import Callable
 
 import numpy as np
 
-from odorloc.inference.likelihoods import (
-    PangFarrellLikelihood,
+from odorloc.inference.particles import ParticleFilter
+from odorloc.inference.particles.resampling import RouletteResampler
+from odorloc.models.pang_farrell import (
+    PangFarrellModel,
     PangFarrellParams,
-    _reference_detection_probability,
+    reference_detection_probability,
 )
-from odorloc.inference.particle_filter import ParticleFilter
-from odorloc.inference.resampling import RouletteResampler
 from odorloc.planning.entropy import EntropyPlanner, EntropyPlannerParams
 
 N_PARTICLES = 1000
@@ -57,7 +57,7 @@ def make_filter(case: dict) -> ParticleFilter:
     return ParticleFilter(case["hyp"], case["log_w"], resampler=RouletteResampler())
 
 
-def update_vectorised(case: dict, model: PangFarrellLikelihood, pf: ParticleFilter) -> np.ndarray:
+def update_vectorised(case: dict, model: PangFarrellModel, pf: ParticleFilter) -> np.ndarray:
     """One filter step: likelihood (eq. 10), log-space update (eq. 4), ESS test (eq. 12).
 
     Weights are reset to the case's prior first so that every timed call does the same work.
@@ -70,7 +70,7 @@ def update_vectorised(case: dict, model: PangFarrellLikelihood, pf: ParticleFilt
 
 def update_loop(case: dict, params: PangFarrellParams) -> np.ndarray:
     """The same step written as a per-particle Python loop."""
-    p1 = _reference_detection_probability(case["robot"], case["wind"], DT, case["hyp"], params)
+    p1 = reference_detection_probability(case["robot"], case["wind"], DT, case["hyp"], params)
     new = [lw + math.log(p) for lw, p in zip(case["log_w"].tolist(), p1.tolist(), strict=True)]
     m = max(new)
     z = m + math.log(sum(math.exp(v - m) for v in new))
@@ -80,7 +80,7 @@ def update_loop(case: dict, params: PangFarrellParams) -> np.ndarray:
 
 
 # ---------------------------------------------------------------------- entropy decision
-def decision_vectorised(case: dict, model: PangFarrellLikelihood) -> tuple[int, np.ndarray]:
+def decision_vectorised(case: dict, model: PangFarrellModel) -> tuple[int, np.ndarray]:
     """One planner call: 4 candidates x N particles x W records in one array pass."""
     from odorloc.inference.belief import ParticleBelief
 
@@ -104,7 +104,7 @@ def decision_loop(case: dict, params: PangFarrellParams) -> tuple[int, np.ndarra
     out = []
     for dx, dy in dirs:
         target = case["robot"] + 0.11 * np.array([dx, dy])
-        p1 = _reference_detection_probability(target, case["wind"], DT, case["hyp"], params)
+        p1 = reference_detection_probability(target, case["wind"], DT, case["hyp"], params)
         eh = 0.0
         for z in (0, 1):
             joint = [wi * (pi if z else 1.0 - pi) for wi, pi in zip(w, p1.tolist(), strict=True)]
@@ -158,7 +158,7 @@ def main(argv: list[str] | None = None) -> None:
 
     case = _setup()
     params = PangFarrellParams()
-    model = PangFarrellLikelihood(params)
+    model = PangFarrellModel(params)
 
     pf = make_filter(case)
     upd_vec = update_vectorised(case, model, pf)

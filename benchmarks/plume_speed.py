@@ -140,9 +140,10 @@ def time_pompy(py: Path, steps: dict[int, int]) -> dict[int, dict[str, float]]:
 
 # ---------------------------------------------------------------------- our side
 def build_ours(n: int, seed: int = 0):
+    from odorloc.geometry.arena import Arena
     from odorloc.plume import FilamentParams, FilamentPlume, ReplayWind
     from odorloc.plume.replay import Movie, ReplayParams
-    from odorloc.world import Arena, Source
+    from odorloc.plume.sources import Source
 
     arena = Arena.box((0.0, -HALF_WIDTH), (LENGTH, HALF_WIDTH), resolution=0.5)
     axes = [np.linspace(0.0, LENGTH, 21), np.linspace(-HALF_WIDTH, HALF_WIDTH, 21)]

@@ -15,6 +15,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.colors import LogNorm
 
+from odorloc.geometry.arena import Arena
 from odorloc.plume import (
     EulerianParams,
     EulerianPlume,
@@ -27,8 +28,8 @@ from odorloc.plume import (
     VergassolaPlume,
     record_movie,
 )
+from odorloc.plume.sources import Source
 from odorloc.wind.uniform import UniformWind, UniformWindParams
-from odorloc.world import Arena, Source
 
 
 def field(plume, nx: int = 300, ny: int = 150) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

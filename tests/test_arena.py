@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from odorloc.errors import ConfigError
-from odorloc.world.arena import Arena
+from odorloc.core.errors import ConfigError
+from odorloc.geometry.arena import Arena
 
 
 @pytest.fixture

@@ -7,7 +7,7 @@ import copy
 import pytest
 
 from conftest import small_scenario_dict
-from odorloc.errors import ConfigError
+from odorloc.core.errors import ConfigError
 from odorloc.scenarios import Scenario, builtin_names, get_scenario
 
 
@@ -59,7 +59,7 @@ def test_invalid_inputs_name_the_field() -> None:
     e = _bad(lambda d: d["world"].update(dt=0.0))
     assert e.field == "world.dt"
     e = _bad(lambda d: d["world"]["plume"].update(type="nonsense"))
-    assert e.field == "world.plume.type" and "unknown plume model" in e.problem
+    assert e.field == "world.plume.type" and "unknown plume" in e.problem
     e = _bad(lambda d: d["world"]["arena"].update(upper=[-1.0, 5.0]))
     assert e.field.startswith("world.arena")
     e = _bad(lambda d: d["agents"].update(starts=[[1.0, 2.0, 3.0]]))

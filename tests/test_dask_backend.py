@@ -8,7 +8,7 @@ import pandas as pd
 import pytest
 
 from _stub_episode import stub_episode
-from odorloc.errors import ConfigError
+from odorloc.core.errors import ConfigError
 from odorloc.experiments.store import ResultStore
 from odorloc.experiments.sweep import run_sweep
 

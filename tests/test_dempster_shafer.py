@@ -6,8 +6,8 @@ import numpy as np
 import pydantic
 import pytest
 
-from odorloc.errors import ConfigError
-from odorloc.inference.dempster_shafer import (
+from odorloc.core.errors import ConfigError
+from odorloc.inference.evidence.dempster_shafer import (
     FREE,
     OCCUPIED,
     UNKNOWN,

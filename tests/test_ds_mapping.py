@@ -8,22 +8,26 @@ import numpy as np
 import pydantic
 import pytest
 
-from odorloc import registry
-from odorloc.engine.episode import episode_generators, run_episode
-from odorloc.errors import ConfigError
-from odorloc.experiments.reproduce_ds import map_errors, record_scenario_movie, replay_built
-from odorloc.inference.dempster_shafer import DSParams
+from odorloc.behaviours.stop_and_go import StopAndGo
+from odorloc.core import registry
+from odorloc.core.errors import ConfigError
+from odorloc.core.seeds import episode_generators
+from odorloc.core.types import Observation, SearchContext
+from odorloc.engine.episode import run_episode
+from odorloc.engine.replay import on_replay, record_flow
+from odorloc.geometry.arena import Arena
+from odorloc.inference.evidence.dempster_shafer import DSParams
+from odorloc.inference.evidence.mapper import DSMapParams as DSMapperParams
+from odorloc.inference.evidence.mapper import DSMapper
+from odorloc.papers.ds_multi_source.reproduction import map_errors
+from odorloc.planning.coverage import wave_waypoints
 from odorloc.scenarios import Scenario, get_scenario
 from odorloc.scenarios.build import build_world
-from odorloc.searchers.base import Observation, SearchContext
 from odorloc.searchers.ds_mapping import (
-    DSMapper,
-    DSMapperParams,
     DSMappingParams,
     DSMappingSearcher,
     DSRectangularWaveParams,
 )
-from odorloc.world.arena import Arena
 
 VOLATILE = ("wall_time", "wall_per_step_ms", "searcher_fraction", "world_fraction")
 
@@ -39,7 +43,7 @@ def reduced_farrell(
     data["world"]["warmup"] = 20.0
     data["limits"]["time"] = time
     data["agents"]["starts"] = [[25.0, 50.0]]
-    data["info"] = {"search_region": region or [[19.0, 48.0], [25.0, 56.0]]}
+    data["task"]["region"] = region or [[19.0, 48.0], [25.0, 56.0]]
     data["searcher"] = searcher or {"type": "ds-mapping"}
     return Scenario.from_dict(data)
 
@@ -64,14 +68,18 @@ def steady_world(searcher: dict, time: float = 400.0) -> Scenario:
             "agents": {"starts": [[12.0, 2.0]]},
             "searcher": searcher,
             "limits": {"control_dt": 0.5, "time": time},
-            "success_radius": 1.5,
-            "info": {"search_region": [[1.0, 1.0], [13.0, 11.0]]},
+            "task": {"success_radius": 1.5, "region": [[1.0, 1.0], [13.0, 11.0]]},
         }
     )
 
 
 def _stable(m: dict) -> dict:
-    return {k: v for k, v in m.items() if k not in VOLATILE}
+    """The row without timings, NaN made comparable."""
+    return {
+        k: ("nan" if isinstance(v, float) and math.isnan(v) else v)
+        for k, v in m.items()
+        if k not in VOLATILE
+    }
 
 
 # ------------------------------------------------------------------------------- the mapper
@@ -193,10 +201,10 @@ def _ctx(region=((0.0, 0.0), (6.0, 6.0))) -> SearchContext:
     return SearchContext(
         arena=arena,
         dt=0.5,
-        n_agents=1,
+        agent_ids=(0,),
         start=np.array([[3.0, 3.0]]),
-        max_speed=0.5,
-        info={"search_region": [list(region[0]), list(region[1])]},
+        speed_limits=np.array([0.5]),
+        search_region=region,
     )
 
 
@@ -221,17 +229,17 @@ def test_declares_exactly_when_the_planner_stops() -> None:
     s = DSMappingSearcher(DSMappingParams(cell_size=0.5, eta_e=1e6, dwell_periods=0))
     s.reset(_ctx(), rng)
     a0 = s.act(_obs(0.0), rng)  # a single record: no path map yet, no decision
-    assert a0.declaration is None and s.last_plan.reason == "empty_path_map"
+    assert not a0.declarations and s.last_plan.reason == "empty_path_map"
     a1 = s.act(_obs(0.5, det=True), rng)
-    assert s.last_plan.done and a1.declaration is not None
+    assert s.last_plan.done and a1.declarations
     assert s.finished_at == 0.5
-    assert a1.declaration.positions.shape[1] == 2
+    assert a1.declarations[0].positions.shape[1] == 2
     # with the paper's eta_E the same map is far from finished
     s2 = DSMappingSearcher(DSMappingParams(cell_size=0.5, dwell_periods=0))
     s2.reset(_ctx(), rng)
     s2.act(_obs(0.0), rng)
     a = s2.act(_obs(0.5, det=True), rng)
-    assert a.declaration is None and a.commands[0].kind == "waypoint"
+    assert not a.declarations and a.commands[0].kind == "waypoint"
     assert math.hypot(*(a.commands[0].value - 3.0)) <= 0.5
 
 
@@ -276,7 +284,7 @@ def test_stay_candidate_is_the_literal_one_step_reach() -> None:
 def test_planner_without_current_cell_never_stays() -> None:
     """With include_current=False the own cell is never chosen, even when it is the most
     uncertain: the planner widens to the neighbours instead."""
-    from odorloc.inference.dempster_shafer import DSGrid
+    from odorloc.inference.evidence.dempster_shafer import DSGrid
     from odorloc.planning.uncertainty_route import UncertaintyRouteParams, UncertaintyRoutePlanner
 
     g = DSGrid.from_extent(DSParams(), (0.0, 0.0), (5.0, 5.0), 1.0)
@@ -297,9 +305,7 @@ def test_planner_without_current_cell_never_stays() -> None:
 
 def test_stop_and_go_moves_one_step_then_dwells() -> None:
     """dwell_periods=1: a move of at most max_speed * dt, then a period standing still."""
-    from odorloc.searchers.ds_mapping import _StopAndGo
-
-    m = _StopAndGo(0.25, 1)
+    m = StopAndGo(0.25, 1)
     m.set_goal((1.0, 0.0))
     pos = np.array([0.0, 0.0])
     kinds, visited = [], []
@@ -325,8 +331,6 @@ def test_wave_rounds_restart_like_the_paper() -> None:
     """The paper's region and start: round 1 = 0.42 m approach + 8 lanes of 20 m + 7 shifts of
     2 m + the last lane back up to the left-top corner (194.4 m vs the paper's 193.5 m); each
     further round adds the 24.4 m return diagonal (five rounds: 1067.7 m vs 1060.8 m)."""
-    from odorloc.searchers.ds_mapping import wave_waypoints
-
     region = ((18.7, 40.3), (32.7, 60.3))
     start = np.array([33.0, 40.0])
     wp = wave_waypoints(region, 2.0, "y", 5, start)
@@ -405,7 +409,7 @@ def test_both_sources_mapped_in_a_steady_world() -> None:
     res = run_episode(sc, 0, 1, record=False)
     m = res.metrics
     row = dict(m)
-    err = map_errors(row, res.sources, sc.success_radius)
+    err = map_errors(row, res.sources, sc.task.success_radius)
     assert err["source_error_0"] <= 1.5 and err["source_error_1"] <= 1.5, (err, m)
     assert err["map_false_sources"] == 0 and m["detections"] > 0
 
@@ -414,7 +418,7 @@ def test_replay_reproduces_the_recorded_flow() -> None:
     """The movie equals the live world frame by frame, and an episode on its replay reads the
     same gas values as the live episode with the same seeds."""
     sc = reduced_farrell(10.0, {"type": "ds-rectangular-wave", "rounds": 1})
-    movie = record_scenario_movie(sc, 7, duration=10.0)
+    movie = record_flow(sc, 7, duration=10.0)
     assert len(movie.times) == 21  # one frame per control period, plus the first
     world = build_world(sc)
     rng = episode_generators(7, 0)[0]
@@ -431,7 +435,7 @@ def test_replay_reproduces_the_recorded_flow() -> None:
         np.testing.assert_allclose(
             movie.wind_velocity(k, pts), world.wind.velocity(pts), rtol=1e-12, atol=1e-12
         )
-    sc_r, built = replay_built(sc, movie)
+    sc_r, built = on_replay(sc, movie)
     assert sc_r.world.warmup == 0.0 and sc_r.world.plume.type == "replay"
     replay = run_episode(sc_r, 7, 8, built=built, record=True).recording
     live = run_episode(sc, 7, 8, record=True).recording
@@ -491,7 +495,12 @@ def test_params_models_reject_directly() -> None:
 def test_multi_agent_is_refused() -> None:
     ctx = _ctx()
     ctx2 = SearchContext(
-        arena=ctx.arena, dt=0.5, n_agents=2, start=np.zeros((2, 2)), max_speed=0.5, info=ctx.info
+        arena=ctx.arena,
+        dt=0.5,
+        agent_ids=(0, 1),
+        start=np.zeros((2, 2)),
+        speed_limits=np.full(2, 0.5),
+        search_region=ctx.search_region,
     )
     with pytest.raises(ConfigError, match="single robot"):
         DSMappingSearcher(DSMappingParams()).reset(ctx2, np.random.default_rng(0))
@@ -516,34 +525,39 @@ def test_fitness_path_distribution_divides_the_map_by_its_sum() -> None:
     assert f_dist <= 3.0 + 1e-12  # a weighted mean of X <= q
 
 
-def test_reproduction_commits_each_flow_and_resumes(tmp_path, monkeypatch) -> None:
-    """A short ds-multi-source run writes rows, scene residuals and figures; running it again
-    reruns nothing, and more episodes add only the missing flows."""
-    from odorloc.experiments import reproduce_ds as rds
+def test_reproduction_stores_each_flow_and_resumes(tmp_path) -> None:
+    """A short ds-multi-source run on the ordinary (replay) sweep writes rows, scene residuals
+    and figures; running it again reruns nothing, more episodes add only the missing flows,
+    and a store of other settings is refused."""
+    from odorloc.papers.ds_multi_source.reproduction import DSReproduction
 
-    calls: list[int] = []
-    real = rds._seed_job
-
-    def counted(args):
-        calls.append(args[0])
-        return real(args)
-
-    monkeypatch.setattr(rds, "_seed_job", counted)
-    kw = dict(workers=1, progress=False, time_limit=20.0)
-    first = rds.reproduce_ds(tmp_path, episodes=1, **kw)
-    assert calls == [0]
-    df = first["results"]
+    repro = DSReproduction(time_limit=20.0)
+    first = repro.run(tmp_path, episodes=1, workers=1, progress=False)
+    df = first.results
     assert sorted(df.searcher) == ["ds-mapping", "ds-rectangular-wave"]
-    assert df["scene_residual_0"].notna().all()
+    assert df["replay"].all() and df["scene_residual_0"].notna().all()
     assert (df.residual_uncertainty <= df.initial_uncertainty).all()
+    assert "time_to_baseline_residual" in df
     for name in ("state_maps.png", "uncertainty_vs_time.png", "report.html", "paired.csv"):
-        assert (tmp_path / name).is_file()
-    again = rds.reproduce_ds(tmp_path, episodes=1, **kw)
-    assert calls == [0]  # resumed: flow 0 and its figure inputs were on disk
-    pd_cols = ["search_time", "residual_uncertainty", "path_length"]
-    np.testing.assert_array_equal(again["results"][pd_cols], df[pd_cols])
-    more = rds.reproduce_ds(tmp_path, episodes=2, **kw)
-    assert calls == [0, 1] and len(more["results"]) == 4
-    # a store of other settings is refused, not overwritten
+        assert (tmp_path / name).is_file(), name
+    assert not first.failed_figures
+    stamp = {r.searcher: r.finished_at for r in _stored(tmp_path).itertuples()}
+    again = repro.run(tmp_path, episodes=1, workers=1, progress=False)
+    assert {r.searcher: r.finished_at for r in _stored(tmp_path).itertuples()} == stamp
+    cols = ["search_time", "residual_uncertainty", "path_length"]
+    np.testing.assert_array_equal(
+        again.results.sort_values("searcher")[cols], df.sort_values("searcher")[cols]
+    )
+    more = repro.run(tmp_path, episodes=2, workers=1, progress=False)
+    assert len(more.results) == 4
     with pytest.raises(ConfigError, match="store"):
-        rds.reproduce_ds(tmp_path, episodes=1, workers=1, progress=False, time_limit=25.0)
+        DSReproduction(time_limit=25.0).run(tmp_path, episodes=1, workers=1, progress=False)
+
+
+def _stored(path):
+    import sqlite3
+
+    import pandas as pd
+
+    with sqlite3.connect(path / "results.sqlite") as con:
+        return pd.read_sql("SELECT searcher, episode, finished_at FROM episodes", con)

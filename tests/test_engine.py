@@ -8,10 +8,12 @@ import numpy as np
 import pytest
 
 from conftest import filament_scenario_dict, small_scenario_dict
-from odorloc.engine.episode import run_episode, score_declaration, seeds_for
+from odorloc.core.seeds import episode_seeds
+from odorloc.core.types import Action, Command, Declaration
+from odorloc.engine.episode import run_episode, score_declaration
 from odorloc.experiments.runner import run_cell_episode
 from odorloc.scenarios import Scenario
-from odorloc.searchers.base import Action, Command, Declaration, Searcher
+from odorloc.searchers.base import Searcher
 
 
 def _rows_equal(a: dict, b: dict) -> bool:
@@ -31,7 +33,7 @@ def _rows_equal(a: dict, b: dict) -> bool:
 @pytest.mark.parametrize("searcher", ["zigzag", "random-walk", "rectangular-wave", "passive"])
 def test_full_short_episode_each_simple_searcher(searcher: str) -> None:
     sc = Scenario.from_dict(filament_scenario_dict(searcher))
-    res = run_episode(sc, *seeds_for(3, 0))
+    res = run_episode(sc, *episode_seeds(3, "test-room", 0))
     m = res.metrics
     assert m["termination"] in ("time_limit", "declared")
     assert m["search_time"] == pytest.approx(30.0) or m["declared"]
@@ -66,11 +68,13 @@ def test_common_random_numbers_same_plume_for_every_searcher() -> None:
     frames = []
     for searcher in ("zigzag", "passive", "random-walk"):
         sc = Scenario.from_dict(filament_scenario_dict(searcher))
-        w, a = seeds_for(5, 2)
+        w, a = episode_seeds(5, "test-room", 2)
         frames.append(run_episode(sc, w, a).recording.plume_frames)
     assert np.array_equal(frames[0], frames[1])
     assert np.array_equal(frames[0], frames[2])
-    other = run_episode(Scenario.from_dict(filament_scenario_dict("passive")), *seeds_for(5, 3))
+    other = run_episode(
+        Scenario.from_dict(filament_scenario_dict("passive")), *episode_seeds(5, "test-room", 3)
+    )
     assert not np.array_equal(frames[0], other.recording.plume_frames)
 
 

@@ -7,26 +7,23 @@ import math
 import numpy as np
 import pytest
 
-from odorloc.errors import ConfigError
+from odorloc.core.errors import ConfigError
+from odorloc.core.registry import make_params
+from odorloc.core.types import Observation, SearchContext
+from odorloc.geometry.arena import Arena
 from odorloc.inference.belief import ParticleBelief
-from odorloc.inference.likelihoods import PangFarrellLikelihood, PangFarrellParams
+from odorloc.models.pang_farrell import PangFarrellModel, PangFarrellParams
 from odorloc.planning.astar import astar_path, path_length
-from odorloc.planning.entropy import (
-    EntropyPlanner,
-    EntropyPlannerParams,
-    expected_posterior_entropy,
-    move_directions,
-    pointwise,
-)
-from odorloc.registry import make_params
-from odorloc.searchers.base import Observation, SearchContext
+from odorloc.planning.candidates import move_directions
+from odorloc.planning.entropy import EntropyPlanner, EntropyPlannerParams
+from odorloc.planning.rewards import expected_entropy as expected_posterior_entropy
+from odorloc.planning.rewards import predictive_entropy
 from odorloc.searchers.gradient_bionic import (
     GradientBionicParams,
     GradientBionicSearcher,
     fit_gradient,
 )
 from odorloc.searchers.pf_entropy import PFEntropyParams, PFEntropySearcher
-from odorloc.world.arena import Arena
 
 
 # ---------------------------------------------------------------------- expected entropy
@@ -63,10 +60,26 @@ def _bimodal() -> ParticleBelief:
     return ParticleBelief(np.concatenate([a, b]), np.full(200, -math.log(200)))
 
 
-def _detect(z: int, sensors: np.ndarray, hyp: np.ndarray) -> np.ndarray:
-    d2 = np.sum((np.atleast_2d(sensors)[:, None, :] - hyp[None]) ** 2, axis=-1)
-    p1 = 0.9 * np.exp(-d2 / 0.5) + 0.01
-    return p1 if z == 1 else 1.0 - p1
+class _Detect:
+    """A binary sensor model: p(detect) = 0.9 exp(-r^2 / 0.5) + 0.01."""
+
+    def outcome_probabilities(self, sensors: np.ndarray, hyp: np.ndarray) -> np.ndarray:
+        d2 = np.sum((np.atleast_2d(sensors)[:, None, :] - hyp[None]) ** 2, axis=-1)
+        p1 = 0.9 * np.exp(-d2 / 0.5) + 0.01
+        return np.stack([1.0 - p1, p1], axis=1)
+
+
+_detect = _Detect()
+
+
+def test_predictive_entropy_closed_forms() -> None:
+    lw = np.log([0.5, 0.5])
+    # Certain outcome: no predictive entropy; a fair coin: log 2 (entrotaxis reward).
+    certain = np.array([[[1.0, 1.0], [0.0, 0.0]]])
+    coin = np.array([[[0.5, 0.5], [0.5, 0.5]]])
+    split = np.array([[[0.0, 1.0], [1.0, 0.0]]])  # outcome tells the hypotheses apart
+    h = predictive_entropy(lw, np.concatenate([certain, coin, split]))
+    np.testing.assert_allclose(h, [0.0, math.log(2.0), math.log(2.0)], atol=1e-12)
 
 
 def test_planner_picks_the_discriminating_move() -> None:
@@ -81,9 +94,6 @@ def test_planner_picks_the_discriminating_move() -> None:
     assert eh[3] == pytest.approx(max(eh), rel=1e-6)
     # Facing +y, "forward" is the discriminating move.
     assert planner.plan(_bimodal(), np.zeros(2), _detect, heading=math.pi / 2).name == "forward"
-    # The pointwise adapter gives the same result.
-    plan2 = planner.plan(_bimodal(), np.zeros(2), pointwise(lambda z, s, h: _detect(z, s, h)[0]))
-    np.testing.assert_allclose(plan2.expected_entropy, eh)
 
 
 def test_blocked_moves_are_excluded() -> None:
@@ -112,18 +122,15 @@ def test_move_frames() -> None:
 def test_entropy_with_the_pang_farrell_model_prefers_the_plume_axis() -> None:
     # Particles spread crosswind 1 m upwind of the robot; a reading taken one step upwind
     # (forward, facing the wind) tells more than one taken downwind (backward).
-    model = PangFarrellLikelihood(PangFarrellParams(sensor_area=0.05))
+    model = PangFarrellModel(PangFarrellParams(sensor_area=0.05))
     wind = np.tile([0.5, 0.0], (20, 1))
     rng = np.random.default_rng(2)
     hyp = np.column_stack([rng.uniform(-3, -0.5, 400), rng.uniform(-1.5, 1.5, 400)])
     belief = ParticleBelief(hyp, np.full(400, -math.log(400)))
 
-    def fn(z: int, s: np.ndarray, h: np.ndarray) -> np.ndarray:
-        p1 = model.detection_probability(s, wind, 0.5, h)
-        return p1 if z else 1.0 - p1
-
+    bound = model.bind(wind_window=wind, dt=0.5)
     plan = EntropyPlanner(EntropyPlannerParams(step_length=0.5)).plan(
-        belief, np.zeros(2), fn, heading=math.pi
+        belief, np.zeros(2), bound, heading=math.pi
     )
     assert plan.expected_entropy[0] < plan.expected_entropy[1]
     assert np.all(plan.expected_entropy <= belief.entropy + 1e-12)  # information never hurts
@@ -167,7 +174,9 @@ def test_astar_edge_cases() -> None:
 def _loop(searcher, arena, start, steps, detect_fn, wind, seed=0):
     """Idealised platform: a move/waypoint completes within one period unless blocked."""
     rng = np.random.default_rng(seed)
-    ctx = SearchContext(arena=arena, dt=0.5, n_agents=1, start=np.array([start]), max_speed=0.4)
+    ctx = SearchContext(
+        arena=arena, dt=0.5, agent_ids=(0,), start=np.array([start]), speed_limits=np.array([0.4])
+    )
     searcher.reset(ctx, np.random.default_rng(seed + 1))
     pos, heading, winds = np.array(start, float), 0.0, []
     for k in range(steps):
@@ -176,8 +185,8 @@ def _loop(searcher, arena, start, steps, detect_fn, wind, seed=0):
         obs = Observation(0, k * 0.5, pos.copy(), heading, gas, det, w)
         action = searcher.act([obs], np.random.default_rng(seed * 1000 + k))
         winds.append(w)
-        if action.declaration is not None:
-            return k * 0.5, action.declaration.positions[0]
+        if action.declarations:
+            return k * 0.5, action.declarations[0].positions[0]
         cmd = action.commands[0]
         if cmd is not None and cmd.kind in ("move", "waypoint"):
             new = pos + cmd.value if cmd.kind == "move" else cmd.value
@@ -194,7 +203,7 @@ WIND = 0.3 * np.array([2.15, 3.6]) / np.linalg.norm([2.15, 3.6])
 
 def _pf_world(pos, winds, rng):
     # The searcher's own measurement model as the world: detections drawn from eq. 10.
-    model = PangFarrellLikelihood(PFEntropyParams().likelihood_params())
+    model = PangFarrellModel(PFEntropyParams().likelihood_params())
     win = np.array(winds[-20:]) if winds else WIND[None]
     p = model.detection_probability(pos, win, 0.5, np.zeros((1, 2)))[0]
     det = bool(rng.random() < p)
@@ -260,8 +269,16 @@ def test_fit_gradient() -> None:
 
 
 def test_registered_with_validated_params() -> None:
-    p = make_params("searcher", "pf-entropy", {"n_particles": 500, "resampler": "systematic"})
+    p = make_params(
+        "searcher", "pf-entropy", {"n_particles": 500, "resampler": {"type": "systematic"}}
+    )
     assert isinstance(p, PFEntropyParams) and p.n_particles == 500
+    with pytest.raises(ConfigError) as ei:
+        make_params("searcher", "pf-entropy", {"resampler": {"type": "roulette", "count": "x"}})
+    assert ei.value.field == "resampler.count"
+    with pytest.raises(ConfigError) as ei:
+        make_params("searcher", "pf-entropy", {"resampler": {"type": "nope"}})
+    assert ei.value.field == "resampler.type"
     with pytest.raises(ConfigError, match="n_particles"):
         make_params("searcher", "pf-entropy", {"n_particles": 0})
     with pytest.raises(ConfigError, match="declare_steps"):

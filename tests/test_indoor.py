@@ -4,14 +4,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from odorloc.engine.episode import run_episode, seeds_for
+from odorloc.core.seeds import episode_seeds
+from odorloc.engine.episode import run_episode
 from odorloc.experiments.runner import cell_scenario
 from odorloc.scenarios.build import build_arena
 
 
 def test_seeded_pf_episode_localises_the_source() -> None:
     sc = cell_scenario({"scenario": "indoor-ventilated", "scenario_params": {"start_index": 4}})
-    res = run_episode(sc, *seeds_for(2024, 0))
+    res = run_episode(sc, *episode_seeds(2024, "indoor-ventilated", 0))
     m = res.metrics
     assert m["termination"] == "declared" and m["success"]
     assert m["loc_error"] <= 0.5
@@ -24,7 +25,7 @@ def test_robot_never_enters_furniture() -> None:
     sc = cell_scenario({"scenario": "indoor-obstacles", "scenario_params": {"start_index": 4}})
     arena = build_arena(sc.world.arena)
     for ep in range(2):
-        rec = run_episode(sc, *seeds_for(7, ep)).recording
+        rec = run_episode(sc, *episode_seeds(7, "indoor-ventilated", ep)).recording
         assert rec is not None
         assert not arena.in_obstacle(rec.positions[:, 0]).any()
         # Every straight segment between recorded positions stays free (no corner cutting).
@@ -38,5 +39,7 @@ def test_pf_and_gradient_face_the_same_plume() -> None:
     for searcher in ("pf-entropy", "gradient-bionic"):
         sc = cell_scenario({"scenario": "indoor-ventilated", "searcher": searcher})
         sc = sc.with_overrides({"limits.time": 20.0})
-        frames.append(run_episode(sc, *seeds_for(1, 5)).recording.plume_frames)
+        frames.append(
+            run_episode(sc, *episode_seeds(1, "indoor-ventilated", 5)).recording.plume_frames
+        )
     assert np.array_equal(frames[0], frames[1])

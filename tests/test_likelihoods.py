@@ -9,15 +9,15 @@ import pydantic
 import pytest
 from scipy.stats import poisson
 
-from odorloc.errors import ConfigError
-from odorloc.inference.likelihoods import (
-    PangFarrellLikelihood,
+from odorloc.core.errors import ConfigError
+from odorloc.models.pang_farrell import (
+    PangFarrellModel,
     PangFarrellParams,
-    _reference_detection_probability,
-    log_likelihood,
-    poisson_log_likelihood,
+    reference_detection_probability,
     wind_variance,
 )
+from odorloc.models.poisson import censored_poisson
+from odorloc.models.poisson import poisson_log_pmf as poisson_log_likelihood
 
 EXACT = PangFarrellParams(mu=0.9, sensor_area=0.01, min_wind_variance=0.0, p_floor=0.0)
 
@@ -32,7 +32,7 @@ def test_hand_computed_one_particle_two_records() -> None:
     #   delta = (0.75, 0.1); p^R = exp(-0.5725 / 0.02) / (2 pi 0.01) = 5.8903e-12
     # p(z=0) = (1 - 0.9 * 0.01 * 1.2990665) * (1 - 0.009 * 5.89e-12) = 0.98830840
     # p(z=1) = 0.01169160
-    model = PangFarrellLikelihood(EXACT)
+    model = PangFarrellModel(EXACT)
     wind = np.array([[1.0, 0.0], [0.5, 0.0]])
     robot = np.array([1.0, 0.1])
     hyp = np.array([[0.0, 0.0]])
@@ -40,8 +40,8 @@ def test_hand_computed_one_particle_two_records() -> None:
     p1 = model.detection_probability(robot, wind, 0.5, hyp, wind_var=var)
     assert p1.shape == (1,)
     assert p1[0] == pytest.approx(0.011691598610, rel=1e-9)
-    ll1 = model.log_likelihood(True, robot, wind, 0.5, hyp, wind_var=var)
-    ll0 = model.log_likelihood(False, robot, wind, 0.5, hyp, wind_var=var)
+    ll1 = model.log_likelihood(True, robot, hyp, wind_window=wind, dt=0.5, wind_var=var)
+    ll0 = model.log_likelihood(False, robot, hyp, wind_window=wind, dt=0.5, wind_var=var)
     assert ll1[0] == pytest.approx(math.log(0.011691598610), rel=1e-9)
     assert ll0[0] == pytest.approx(math.log(0.98830840139), rel=1e-9)
     shift, v = model.puff_geometry(wind, 0.5, var)
@@ -53,20 +53,20 @@ def test_hand_computed_one_particle_two_records() -> None:
 def test_vectorised_equals_reference_loop(dim: int) -> None:
     rng = np.random.default_rng(3)
     params = PangFarrellParams(sensor_area=0.05, initial_variance=0.01)
-    model = PangFarrellLikelihood(params)
+    model = PangFarrellModel(params)
     wind = np.tile(np.r_[0.3, 0.4, 0.0][:dim], (20, 1)) + rng.normal(0, 0.05, (20, dim))
     robot = np.r_[1.0, 1.5, 0.2][:dim]
     hyp = robot - np.r_[0.3, 0.4, 0.0][:dim] * rng.uniform(0, 10, (200, 1)) * 0.5
     hyp += rng.normal(0, 0.3, hyp.shape)
     fast = model.detection_probability(robot, wind, 0.5, hyp)
-    ref = _reference_detection_probability(robot, wind, 0.5, hyp, params)
+    ref = reference_detection_probability(robot, wind, 0.5, hyp, params)
     np.testing.assert_allclose(fast, ref, rtol=1e-12, atol=1e-15)
     assert fast.max() > 10 * params.p_floor  # the comparison covers non-trivial values
 
 
 def test_several_sensor_positions_match_single_calls() -> None:
     rng = np.random.default_rng(4)
-    model = PangFarrellLikelihood()
+    model = PangFarrellModel()
     wind = rng.normal([0.2, 0.3], 0.05, (20, 2))
     hyp = rng.uniform(0, 3, (50, 2))
     sensors = rng.uniform(0, 3, (4, 2))
@@ -79,29 +79,33 @@ def test_several_sensor_positions_match_single_calls() -> None:
 def test_upwind_hypothesis_is_more_likely_to_be_detected() -> None:
     # Steady wind +x at 0.4 m/s: odor from a source 1 m upwind (-x) of the robot arrives after
     # 2.5 s; a source 1 m crosswind never reaches it.
-    model = PangFarrellLikelihood(PangFarrellParams(p_floor=0.0))
+    model = PangFarrellModel(PangFarrellParams(p_floor=0.0))
     wind = np.tile([0.4, 0.0], (20, 1))
     robot = np.array([2.0, 1.0])
     hyp = np.array([[1.0, 1.0], [2.0, 2.0], [3.0, 1.0]])  # upwind, crosswind, downwind
     p = model.detection_probability(robot, wind, 0.5, hyp)
     assert p[0] > 100 * max(p[1], p[2])
     # Outcomes are complementary.
-    l1 = model.log_likelihood(True, robot, wind, 0.5, hyp)
-    l0 = model.log_likelihood(False, robot, wind, 0.5, hyp)
+    l1 = model.log_likelihood(True, robot, hyp, wind_window=wind, dt=0.5)
+    l0 = model.log_likelihood(False, robot, hyp, wind_window=wind, dt=0.5)
     np.testing.assert_allclose(np.exp(l1) + np.exp(l0), 1.0)
 
 
 def test_floor_and_total_underflow_give_no_nan() -> None:
     wind = np.tile([1.0, 0.0], (20, 1))
     far = np.array([[-500.0, 300.0]])
-    exact = log_likelihood(True, np.zeros(2), wind, 0.5, far, PangFarrellParams(p_floor=0.0))
+    exact = PangFarrellModel(PangFarrellParams(p_floor=0.0)).log_likelihood(
+        True, np.zeros(2), far, wind_window=wind, dt=0.5
+    )
     assert exact[0] == -np.inf
-    floored = log_likelihood(True, np.zeros(2), wind, 0.5, far, PangFarrellParams(p_floor=1e-3))
+    floored = PangFarrellModel(PangFarrellParams(p_floor=1e-3)).log_likelihood(
+        True, np.zeros(2), far, wind_window=wind, dt=0.5
+    )
     assert floored[0] == pytest.approx(math.log(1e-3))
 
 
 def test_bad_input() -> None:
-    model = PangFarrellLikelihood()
+    model = PangFarrellModel()
     hyp = np.zeros((3, 2))
     with pytest.raises(ConfigError, match="wind_window"):
         model.detection_probability(np.zeros(2), np.zeros((5, 3)), 0.5, hyp)
@@ -132,3 +136,34 @@ def test_poisson_matches_scipy_and_edge_cases() -> None:
         poisson_log_likelihood(-1, 1.0)
     with pytest.raises(ConfigError, match="expected_counts"):
         poisson_log_likelihood(1, -1.0)
+
+
+def test_censored_poisson_classes() -> None:
+    lam = np.array([0.0, 0.3, 2.5])
+    p = censored_poisson(lam, 4)
+    np.testing.assert_allclose(p.sum(axis=-1), 1.0, rtol=1e-14)
+    np.testing.assert_allclose(p[:, :3], poisson.pmf(np.arange(3)[None], lam[:, None]), rtol=1e-12)
+    np.testing.assert_allclose(p[:, 3], poisson.sf(2, lam), rtol=1e-12)
+    assert p[0].tolist() == [1.0, 0.0, 0.0, 0.0]
+
+
+def test_models_give_outcome_classes_for_planning() -> None:
+    """Every model's outcome probabilities sum to one and agree with its log-likelihood."""
+    from odorloc.models.gaussian import GaussianPlumeModel
+    from odorloc.models.vergassola import VergassolaModel
+
+    rng = np.random.default_rng(4)
+    hyp = rng.uniform(0, 5, (50, 2))
+    sensors = rng.uniform(0, 5, (3, 2))
+    pf = PangFarrellModel(PangFarrellParams(sensor_area=0.05)).bind(
+        wind_window=np.tile([0.4, 0.1], (10, 1)), dt=0.5
+    )
+    verg = VergassolaModel().bind(dt=1.0, direction=(0.0, -1.0), n_classes=6)
+    gauss = GaussianPlumeModel().bind(wind=np.array([0.5, 0.0]))
+    for model, values in ((pf, [False, True]), (verg, range(5)), (gauss, [False, True])):
+        q = model.outcome_probabilities(sensors, hyp)
+        assert q.shape[0] == 3 and q.shape[2] == 50
+        np.testing.assert_allclose(q.sum(axis=1), 1.0, rtol=1e-10)
+        for z, v in enumerate(values):
+            ll = model.log_likelihood(v, sensors[0], hyp)
+            np.testing.assert_allclose(np.exp(ll), q[0, z], rtol=1e-9, atol=1e-300)

@@ -8,14 +8,16 @@ import numpy as np
 import pydantic
 import pytest
 
-from odorloc.errors import ConfigError
+from odorloc.core.errors import ConfigError
 from odorloc.inference.odor_path import (
     HAVE_NUMBA,
     CellGrid,
     OdorPathEstimator,
     OdorPathParams,
-    signal_intensity,
+    from_paper_k,
+    paper_k,
 )
+from odorloc.inference.odor_path.kernel import dw_kernel
 
 
 def feed(est: OdorPathEstimator, winds: np.ndarray, position=(8.0, 5.0), dt=0.5, signal=1.0):
@@ -35,12 +37,12 @@ def test_grid_matches_paper_index_formulas():
     np.testing.assert_array_equal(g.index([[0.07, 0.12]]), [[1, 2]])
     np.testing.assert_allclose(g.center([[1, 2]]), [[0.075, 0.125]])  # eq. (8-b)
     # eq. (9-a) with 1-based row i = iy + 1 = 3 and column j = ix + 1 = 2: k = 2 * 200 + 2
-    assert g.paper_k(1, 2) == 402
-    ix, iy = g.from_paper_k(np.array([402, 1, 40_000]))
+    assert paper_k(g, 1, 2) == 402
+    ix, iy = from_paper_k(g, np.array([402, 1, 40_000]))
     np.testing.assert_array_equal(ix, [1, 0, 199])
     np.testing.assert_array_equal(iy, [2, 0, 199])
     with pytest.raises(ConfigError):
-        g.from_paper_k(0)
+        from_paper_k(g, 0)
     # eq. (7): m = int(extent / a) drops a partial strip
     assert CellGrid.from_extent((0, 0), (1.03, 0.5), 0.1).shape == (10, 5)
     with pytest.raises(ConfigError):
@@ -285,19 +287,8 @@ def test_bad_input_raises():
         est.update(2.0, (5, 5), (1, 0), float("inf"))
 
 
-def test_signal_intensity_by_hand():
-    # eq. (3): c_bar = 10, 11, 11, 15.5; eq. (5): s = K (c / c_bar_prev - 1) when c >= c_bar_prev
-    s = signal_intensity([10.0, 12.0, 11.0, 20.0], gain=2.0)
-    np.testing.assert_allclose(s, [0.0, 0.4, 0.0, 2.0 * (20.0 / 11.0 - 1.0)])
-    # eq. (2): with a one-step delay the reading at step i belongs to step i - 1
-    d = signal_intensity([10.0, 12.0, 11.0, 20.0], gain=2.0, delay_steps=1)
-    np.testing.assert_allclose(d, [0.4, 0.0, 2.0 * (20.0 / 11.0 - 1.0), 0.0])
-    with pytest.raises(ConfigError):
-        signal_intensity([1.0, 2.0], gain=0.0)
-
-
 def test_numpy_fallback_without_numba(monkeypatch):
-    import odorloc.inference.odor_path as op
+    import odorloc.inference.odor_path.estimator as op
 
     rng = np.random.default_rng(10)
     winds = noisy_winds(rng)
@@ -315,14 +306,12 @@ def test_numpy_fallback_without_numba(monkeypatch):
 
 def test_python_loop_kernel_matches_compiled_form():
     """The loop kernel run as plain Python (what numba compiles) equals the NumPy batch."""
-    import odorloc.inference.odor_path as op
-
     rng = np.random.default_rng(11)
     est = OdorPathEstimator(OdorPathParams(cell_size=0.2, backend="numpy"), (0, 0), (10, 10))
     feed(est, noisy_winds(rng, sigma=0.1), position=(7.0, 3.0))
-    w = est._windows(None)
+    w = est.window_arrays()
     g = est.grid
-    boxes, n_cells, patch, ix0, iy0 = op._dw_kernel(
+    boxes, n_cells, patch, ix0, iy0 = dw_kernel(
         w.center[:, 0].copy(),
         w.center[:, 1].copy(),
         w.var[:, 0].copy(),

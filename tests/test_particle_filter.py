@@ -7,15 +7,16 @@ import math
 import numpy as np
 import pytest
 
-from odorloc.errors import ConfigError
-from odorloc.inference.particle_filter import (
+from odorloc.core.errors import ConfigError
+from odorloc.geometry.arena import Arena
+from odorloc.inference.particles import (
+    ArenaConstraint,
     ConvergenceParams,
     ParticleFilter,
     backtrack_initialise,
     sample_free_uniform,
 )
-from odorloc.inference.resampling import SystematicParams, SystematicResampler
-from odorloc.world.arena import Arena
+from odorloc.inference.particles.resampling import SystematicParams, SystematicResampler
 
 
 def test_update_is_bayes_in_log_space() -> None:
@@ -70,7 +71,7 @@ def test_spread_measures() -> None:
 def _stable_filter(spread: float, arena: Arena | None = None, centre=(1.0, 1.0)) -> ParticleFilter:
     rng = np.random.default_rng(0)
     pos = np.asarray(centre) + rng.normal(0, spread, (500, 2))
-    pf = ParticleFilter(pos, arena=arena)
+    pf = ParticleFilter(pos, constraint=ArenaConstraint(arena) if arena is not None else None)
     for _ in range(20):
         pf.update(np.zeros(len(pos)))
     return pf
@@ -134,7 +135,7 @@ def test_pf_converges_on_a_static_source_with_a_synthetic_sensor() -> None:
     pf = ParticleFilter(
         sample_free_uniform(arena, 1000, rng),
         resampler=SystematicResampler(SystematicParams(jitter_std=0.05)),
-        arena=arena,
+        constraint=ArenaConstraint(arena),
     )
 
     def p_detect(sensor: np.ndarray, hyp: np.ndarray) -> np.ndarray:
@@ -190,3 +191,31 @@ def test_sample_free_uniform_avoids_obstacles() -> None:
     full = Arena.box((0, 0), (1, 1), 0.5).with_boxes([((0.0, 0.0), (1.0, 1.0))])
     with pytest.raises(ConfigError, match="arena"):
         sample_free_uniform(full, 10, np.random.default_rng(0))
+
+
+def test_log_weight_normalisation_keeps_precision_for_huge_log_likelihoods() -> None:
+    """Subtracting the maximum first: at L = -1e17 the weights still sum to one and a
+    systematic resample still returns every equally weighted particle."""
+    pos = np.arange(8, dtype=float)[:, None] * np.ones((1, 2))
+    pf = ParticleFilter(pos, resampler=SystematicResampler())
+    pf.update(np.full(8, -1e17))
+    assert pf.weights.sum() == pytest.approx(1.0, abs=1e-12)
+    np.testing.assert_allclose(pf.weights, np.full(8, 1 / 8))
+    pf.resample(np.random.default_rng(0))
+    assert sorted(set(pf.positions[:, 0].tolist())) == list(range(8))
+
+
+def test_resample_to_a_new_target_count() -> None:
+    rng = np.random.default_rng(1)
+    pf = ParticleFilter(rng.uniform(0, 1, (100, 2)), resampler=SystematicResampler())
+    assert pf.resample_if_needed(rng, n=40)
+    assert pf.n == 40
+    assert not pf.resample_if_needed(rng, n=40)  # not degenerate, same count: nothing to do
+
+
+def test_dual_convergence_is_a_stopping_rule() -> None:
+    from odorloc.inference.particles import DualConvergence
+
+    rule = DualConvergence(ConvergenceParams())
+    assert _stable_filter(0.1).converged(rule)
+    assert not _stable_filter(0.8).converged(rule)

@@ -8,8 +8,10 @@ import numpy as np
 import pydantic
 import pytest
 
-from odorloc import registry
-from odorloc.errors import ConfigError
+from odorloc.core import registry
+from odorloc.core.errors import ConfigError
+from odorloc.core.types import Command
+from odorloc.geometry.arena import Arena
 from odorloc.platforms import (
     UAV,
     CommGraph,
@@ -23,8 +25,6 @@ from odorloc.platforms import (
     movement_energy,
     neighbour_matrix,
 )
-from odorloc.searchers.base import Command
-from odorloc.world.arena import Arena
 
 DT = 0.5
 
@@ -424,17 +424,17 @@ def test_uav_compute_and_comm_energy():
     u = UAV()
     u.reset((1.0, 1.0, 1.0))
     # eq. (8): 96 bytes = 768 bits; 0.1 W * 768 / 1e6 bit/s = 7.68e-5 J
-    assert u.add_comm_energy(96) == pytest.approx(7.68e-5)
+    assert u.charge_comm(96) == pytest.approx(7.68e-5)
     # eq. (7): 1e28^-1 * 1000 * (1e9)^2 * 1e6 bits = 0.1 J
-    assert u.add_compute_energy(1e6) == pytest.approx(0.1)
+    assert u.charge_compute(1e6) == pytest.approx(0.1)
     # 1 ms of CPU at 1 GHz = 1e6 cycles = 1000 bits -> 1e-4 J
-    assert u.add_compute_time(1e-3) == pytest.approx(1e-4)
+    assert u.charge_compute_time(1e-3) == pytest.approx(1e-4)
     e = u.energy_breakdown()
     assert e["comm"] == pytest.approx(7.68e-5)
     assert e["compute"] == pytest.approx(0.1001)
     assert u.energy == pytest.approx(0.1001 + 7.68e-5)
     with pytest.raises(ConfigError, match="nbytes"):
-        u.add_comm_energy(-1)
+        u.charge_comm(-1)
 
 
 def test_uav_energy_limit(sky):

@@ -9,14 +9,16 @@ import pytest
 from scipy.special import k0
 from scipy.stats import poisson
 
-from odorloc import registry
-from odorloc.errors import ConfigError
+from odorloc.core import registry
+from odorloc.core.errors import ConfigError
+from odorloc.geometry.arena import Arena
+from odorloc.models.gaussian import GaussianParams
+from odorloc.models.vergassola import VergassolaModel, VergassolaModelParams
 from odorloc.plume import (
     EulerianParams,
     EulerianPlume,
     FilamentParams,
     FilamentPlume,
-    GaussianParams,
     GaussianPlume,
     Movie,
     ReplayParams,
@@ -27,9 +29,10 @@ from odorloc.plume import (
     filament_concentration,
     record_movie,
 )
+from odorloc.plume.sources import Modulation, Source
 from odorloc.wind.base import WindModel
 from odorloc.wind.uniform import UniformWind, UniformWindParams
-from odorloc.world import Arena, Modulation, Source, World
+from odorloc.world.world import World
 
 FAMILIES = ["filament", "gaussian", "vergassola", "eulerian", "replay"]
 
@@ -235,10 +238,10 @@ def test_filament_culled_query_matches_dense_reference(dim: int, backend: str) -
     assert np.allclose(small, ref, rtol=1e-10, atol=1e-12)
 
 
-def test_node_interpolate_matches_scipy() -> None:
+def test_multilinear_matches_scipy() -> None:
     from scipy.interpolate import RegularGridInterpolator
 
-    from odorloc.plume import node_interpolate
+    from odorloc.geometry.grid import multilinear as node_interpolate
 
     rng = np.random.default_rng(0)
     for axes in (
@@ -496,18 +499,26 @@ def test_vergassola_2d_matches_k0_form_and_likelihood() -> None:
     r = np.linalg.norm(pts - [20.0, 15.0], axis=1)
     by_hand = 5.0 / math.log(lam / 0.5) * np.exp((20.0 - pts[:, 0]) / 2.0) * k0(r / lam)
     assert np.allclose(plume.encounter_rate(pts), by_hand, rtol=1e-12)
-    # Vectorised form over hypotheses and the Poisson log-likelihood.
+    # The belief-side model (one implementation of the rate) over hypotheses, and its Poisson
+    # log-likelihood: the same numbers as the truth.
+    model = VergassolaModel(
+        VergassolaModelParams(
+            Q=5.0, V=1.0, D=1.0, tau=100.0, sensor_radius=0.5, wind_direction=(-1.0, 0.0)
+        )
+    )
     hyps = np.array([[20.0, 15.0], [10.0, 10.0], [25.0, 20.0], [5.0, 28.0]])
-    rates = plume.rate_at(pts, hyps)
+    rates = model.rate(pts, hyps)
     assert rates.shape == (3, 4)
     assert np.allclose(rates[:, 0], by_hand, rtol=1e-12)
     counts = np.array([3, 0, 1])
-    ll = plume.log_likelihood_poisson(counts, pts, hyps, dt=1.0)
+    ll = model.log_likelihood(counts, pts, hyps, dt=1.0)
     ref = poisson.logpmf(counts[:, None], rates * 1.0).sum(axis=0)
     assert ll.shape == (4,)
     assert np.allclose(ll, ref, rtol=1e-12)
     with pytest.raises(ConfigError, match="counts"):
-        plume.log_likelihood_poisson(np.array([1, 2]), pts, hyps, dt=1.0)
+        model.log_likelihood(np.array([1, 2]), pts, hyps, dt=1.0)
+    with pytest.raises(ConfigError, match="dt"):
+        model.log_likelihood(counts, pts, hyps)
 
 
 def test_vergassola_direction_follows_wind_by_default() -> None:
@@ -650,7 +661,7 @@ def test_replay_is_bit_exact(name: str, tmp_path) -> None:
 
     plume, wind = build()
     world = World(plume.arena, wind, plume)
-    movie = record_movie(world, 2.0, 0.5, np.random.default_rng(4), dt=0.1)
+    movie = world.record(2.0, 0.5, np.random.default_rng(4), dt=0.1)
     path = tmp_path / "movie.npz"
     movie.save(path)
     loaded = Movie.load(path)

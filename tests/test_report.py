@@ -14,7 +14,7 @@ import pytest
 from PIL import Image
 
 from _stub_episode import stub_episode
-from odorloc.errors import ConfigError
+from odorloc.core.errors import ConfigError
 from odorloc.experiments.report import report_main, write_report
 from odorloc.experiments.store import ResultStore
 from odorloc.experiments.sweep import run_sweep

@@ -6,9 +6,11 @@ import numpy as np
 import pydantic
 import pytest
 
-from odorloc.errors import ConfigError
-from odorloc.inference.resampling import (
-    LowVarianceResampler,
+from odorloc.core import registry
+from odorloc.core.errors import ConfigError
+from odorloc.geometry.arena import Arena
+from odorloc.inference.particles.constraints import ArenaConstraint
+from odorloc.inference.particles.resampling import (
     MultinomialResampler,
     RouletteParams,
     RouletteResampler,
@@ -16,11 +18,19 @@ from odorloc.inference.resampling import (
     SystematicParams,
     SystematicResampler,
     effective_sample_size,
-    make_resampler,
+    multinomial,
+    residual,
+    stratified,
+    systematic,
 )
-from odorloc.world.arena import Arena
 
-ALL = ["systematic", "low-variance", "stratified", "multinomial", "roulette"]
+ALL = registry.names("resampler")
+
+
+def make_resampler(name: str):
+    """The one way to choose a resampler: by registry name."""
+    e = registry.entry("resampler", name, field="resampler")
+    return e.build(registry.make_params("resampler", name, {}))
 
 
 def _cloud(n: int = 300, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
@@ -68,7 +78,8 @@ def test_systematic_counts_are_floor_or_ceil_and_equal_low_variance() -> None:
     idx = SystematicResampler().indices(w, np.random.default_rng(9))
     counts = np.bincount(idx, minlength=40)
     assert np.all(counts >= np.floor(40 * w) - 1e-9) and np.all(counts <= np.ceil(40 * w) + 1e-9)
-    idx2 = LowVarianceResampler().indices(w, np.random.default_rng(9))
+    # "low-variance" is another name of the same resampler (Thrun's sampler = systematic)
+    idx2 = make_resampler("low-variance").indices(w, np.random.default_rng(9))
     np.testing.assert_array_equal(idx, idx2)
     idx3 = StratifiedResampler().indices(w, np.random.default_rng(9))
     assert np.all(np.abs(np.bincount(idx3, minlength=40) - 40 * w) < 2.0 + 1e-9)
@@ -130,7 +141,10 @@ def test_children_stay_in_free_space() -> None:
     lw = np.log([0.9, 0.05, 0.05])
     for r in (RouletteResampler(), SystematicResampler(SystematicParams(jitter_std=0.5))):
         out, _ = r.resample(
-            np.repeat(pos, 100, 0), np.repeat(lw, 100), np.random.default_rng(0), arena
+            np.repeat(pos, 100, 0),
+            np.repeat(lw, 100),
+            np.random.default_rng(0),
+            constraint=ArenaConstraint(arena),
         )
         assert arena.is_free(out).all()
 
@@ -143,6 +157,8 @@ def test_bad_input() -> None:
         r.resample(np.zeros((3, 2)), np.zeros(2), np.random.default_rng(0))
     with pytest.raises(ConfigError, match="resampler"):
         make_resampler("nope")
+    with pytest.raises(ConfigError, match="n"):
+        r.resample(np.zeros((3, 2)), np.zeros(3), np.random.default_rng(0), n=0)
     with pytest.raises(pydantic.ValidationError, match="max_particles"):
         RouletteParams(min_particles=10, max_particles=5)
     with pytest.raises(pydantic.ValidationError, match="survival_floor"):
@@ -154,3 +170,36 @@ def test_effective_sample_size() -> None:
     assert effective_sample_size(np.array([0.0, -np.inf, -np.inf])) == pytest.approx(1.0)
     assert effective_sample_size(np.full(4, -np.inf)) == pytest.approx(4.0)
     assert effective_sample_size(np.log([0.5, 0.25, 0.25])) == pytest.approx(1 / 0.375)
+
+
+@pytest.mark.parametrize("scheme", [systematic, stratified, multinomial, residual])
+@pytest.mark.parametrize("m", [1, 7, 250])
+def test_schemes_draw_the_target_count_without_bias(scheme, m: int) -> None:
+    rng = np.random.default_rng(11)
+    w = rng.dirichlet(np.ones(6))
+    idx = scheme(w, m, rng)
+    assert idx.shape == (m,) and idx.min() >= 0 and idx.max() < 6
+    total = np.zeros(6)
+    for _ in range(4000 // max(m, 1) + 1):
+        total += np.bincount(scheme(w, m, rng), minlength=6)
+    np.testing.assert_allclose(total / total.sum(), w, atol=0.03)
+
+
+def test_residual_keeps_the_deterministic_copies() -> None:
+    w = np.array([0.55, 0.3, 0.15])
+    idx = residual(w, 10, np.random.default_rng(0))
+    counts = np.bincount(idx, minlength=3)
+    assert np.all(counts >= np.floor(10 * w))
+
+
+@pytest.mark.parametrize("name", ["systematic", "stratified", "multinomial", "residual"])
+def test_index_resamplers_reach_a_new_particle_count(name: str) -> None:
+    pos, lw = _cloud()
+    out, olw = make_resampler(name).resample(pos, lw, np.random.default_rng(1), n=40)
+    assert out.shape == (40, 2) and np.allclose(olw, -np.log(40))
+
+
+def test_roulette_keep_fills_to_the_target_count() -> None:
+    pos, lw = _cloud()
+    out, _ = RouletteResampler().resample(pos, lw, np.random.default_rng(1), n=120)
+    assert out.shape == (120, 2)

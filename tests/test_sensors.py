@@ -8,9 +8,11 @@ import numpy as np
 import pydantic
 import pytest
 
-from odorloc import registry
-from odorloc.errors import ConfigError
+from odorloc.core import registry
+from odorloc.core.errors import ConfigError
+from odorloc.geometry.arena import Arena
 from odorloc.plume.base import PlumeModel
+from odorloc.plume.sources import Source
 from odorloc.sensors import (
     Anemometer,
     AnemometerParams,
@@ -30,8 +32,6 @@ from odorloc.sensors import (
     wind_from_polar,
 )
 from odorloc.wind import UniformWind, UniformWindParams
-from odorloc.world.arena import Arena
-from odorloc.world.sources import Source
 
 SRC = (2.0, 1.0)
 
@@ -368,3 +368,17 @@ def test_preprocess_length_mismatch() -> None:
     with pytest.raises(ConfigError) as exc:
         SignalPreprocessor().process(np.zeros(5), np.zeros((4, 2, 2)))
     assert exc.value.field == "wind_readings"
+
+
+def test_signal_intensity_by_hand() -> None:
+    # eq. (3) with w = 1/2: c_bar = 10, 11, 11, 15.5; eq. (5): s = K (c / c_bar_prev - 1)
+    # when c >= c_bar_prev; eq. (2): with a one-period delay the reading at i belongs to i - 1
+    from odorloc.sensors.preprocessing import PreprocessorParams, preprocess
+
+    c = np.array([10.0, 12.0, 11.0, 20.0])
+    winds = np.zeros((4, 1, 2))
+    s = preprocess(c, winds, PreprocessorParams(gain=2.0, period=0.5)).intensity
+    np.testing.assert_allclose(s, [0.0, 0.4, 0.0, 2.0 * (20.0 / 11.0 - 1.0)])
+    d = preprocess(c, winds, PreprocessorParams(gain=2.0, period=0.5, delay=0.5))
+    np.testing.assert_array_equal(d.index, [0, 1, 2])
+    np.testing.assert_allclose(d.concentration, [12.0, 11.0, 20.0])

@@ -9,7 +9,7 @@ import pandas as pd
 import pytest
 from scipy import stats as sps
 
-from odorloc.errors import ConfigError
+from odorloc.core.errors import ConfigError
 from odorloc.experiments import stats
 
 

@@ -10,7 +10,7 @@ import pandas as pd
 import pytest
 
 from _stub_episode import stub_episode
-from odorloc.errors import ConfigError
+from odorloc.core.errors import ConfigError
 from odorloc.experiments.store import ResultStore, open_results
 from odorloc.experiments.sweep import config_hash, expand_tasks, load_sweep
 

@@ -16,7 +16,7 @@ import pandas as pd
 import pytest
 
 from _stub_episode import stub_episode
-from odorloc.errors import ConfigError
+from odorloc.core.errors import ConfigError
 from odorloc.experiments import stats
 from odorloc.experiments.store import ResultStore
 from odorloc.experiments.sweep import (
@@ -394,7 +394,7 @@ def test_name_validation_hook(tmp_path):
     scen = pytest.importorskip("odorloc.scenarios")
     if not hasattr(scen, "get_scenario"):
         pytest.skip("odorloc.scenarios.get_scenario not available")
-    from odorloc import registry
+    from odorloc.core import registry
     from odorloc.experiments.sweep import validate_names
 
     known = registry.names("searcher")

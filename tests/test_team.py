@@ -6,27 +6,33 @@ import numpy as np
 import pytest
 
 from conftest import filament_scenario_dict
+from odorloc.core.errors import ConfigError
+from odorloc.core.params import Params
+from odorloc.core.types import Action, Command, Declaration
 from odorloc.engine.episode import run_episode
-from odorloc.errors import ConfigError
-from odorloc.registry import Entry
 from odorloc.scenarios import Scenario
 from odorloc.scenarios.build import build
-from odorloc.searchers.base import Action, Command, Searcher
+from odorloc.searchers.base import Searcher
 
 
-class _Talker(Searcher):
+class Talker(Searcher):
     """Holds still and broadcasts 8 float64 (64 bytes) every step; remembers what it heard."""
 
+    Params = Params
+    max_agents = 1
+
     def __init__(self, params=None) -> None:
+        super().__init__(params or Params())
         self.heard: list[int] = []
 
     def act(self, observations, rng):
-        self.heard.extend(m.sender for m in observations[0].messages)
-        return Action([Command.hold()], messages={0: {"x": np.zeros(8)}})
+        o = observations[0]
+        self.heard.extend(m.sender for m in o.messages)
+        return Action([Command.hold()], messages={o.agent: {"x": np.zeros(8)}})
 
 
-def _team_scenario(starts, radius: float) -> Scenario:
-    d = filament_scenario_dict("per-agent", member={"type": "zigzag"})
+def _team_scenario(starts, radius: float, member: str = "zigzag") -> Scenario:
+    d = filament_scenario_dict("per-agent", member={"type": member})
     d["agents"] = {"starts": starts, "comm_radius": radius}
     d["limits"]["time"] = 5.0
     return Scenario.from_dict(d)
@@ -34,9 +40,9 @@ def _team_scenario(starts, radius: float) -> Scenario:
 
 def test_messages_reach_only_neighbours_and_bytes_are_counted() -> None:
     # Agents at x = 2, 3 and 6 m: with a 1.5 m radius only agents 0 and 1 are neighbours.
-    sc = _team_scenario([[2.0, 1.0], [3.0, 1.0], [6.0, 1.0]], 1.5)
+    # A member named by import path ("module:Class"): no registration needed.
+    sc = _team_scenario([[2.0, 1.0], [3.0, 1.0], [6.0, 1.0]], 1.5, member="test_team:Talker")
     b = build(sc)
-    b.searcher._entry = Entry("searcher", "talker", type(None), _Talker, "")
     res = run_episode(sc, 1, 2, built=b)
     talkers = b.searcher.members
     n_steps = res.metrics["steps"]  # messages are sent after each of the steps 0..n-1
@@ -55,8 +61,72 @@ def test_per_agent_zigzag_team_runs_and_members_are_independent() -> None:
     assert res.metrics["bytes"] == 0  # zigzag members say nothing
 
 
-def test_unknown_member_is_a_field_error() -> None:
+def test_unknown_member_is_a_field_error_when_the_scenario_loads() -> None:
     d = filament_scenario_dict("per-agent", member={"type": "nope"})
     with pytest.raises(ConfigError) as ei:
-        build(Scenario.from_dict(d))
+        Scenario.from_dict(d)
     assert ei.value.field == "searcher.member.type"
+    d = filament_scenario_dict("per-agent", member={"type": "zigzag", "angle_deg": -5})
+    with pytest.raises(ConfigError) as ei:
+        Scenario.from_dict(d)
+    assert ei.value.field == "searcher.member.angle_deg"
+
+
+def test_members_keep_global_agent_ids_and_every_belief_is_recorded() -> None:
+    d = filament_scenario_dict("per-agent", member={"type": "pf-entropy"})
+    d["agents"] = {"starts": [[8.0, 2.0], [8.0, 3.0], [8.0, 2.5]]}
+    d["limits"]["time"] = 30.0
+    d["recording"] = {"belief_stride": 1}
+    sc = Scenario.from_dict(d)
+    b = build(sc)
+    res = run_episode(sc, 5, 6, built=b)
+    assert [m.ctx.agent_ids for m in b.searcher.members] == [(0,), (1,), (2,)]
+    owners = {int(snap["agent"]) for _, snap in res.recording.beliefs}
+    detected = {
+        k for k in range(3) if res.recording.detection[:, k].any()
+    }  # a PF exists once its agent detected
+    assert owners == detected and len(owners) >= 2
+
+
+def test_a_members_declaration_is_tagged_and_the_end_rule_decides() -> None:
+    class Declarer(Searcher):
+        def act(self, observations, rng):
+            o = observations[0]
+            decl = Declaration([[1.0, 2.5]]) if o.agent == 1 and o.t >= 1.0 else None
+            return Action([Command.hold()], declaration=decl)
+
+    d = filament_scenario_dict("per-agent", member={"type": "passive"})
+    d["agents"] = {"starts": [[8.0, 2.0], [8.0, 3.0]]}
+    d["task"] = {"end": "limits"}
+    d["limits"]["time"] = 5.0
+    sc = Scenario.from_dict(d)
+    from odorloc.searchers.team import PerAgentTeam, TeamParams
+
+    team = PerAgentTeam(TeamParams.model_validate({"member": {"type": "passive"}}))
+    team.reset(_ctx(sc), np.random.default_rng(0))
+    team.members[1] = Declarer(team.members[1].params)
+    team.members[1].reset(team.ctx.subset((1,)), np.random.default_rng(1))
+    res = run_episode(sc, 1, 2, searcher=_Fixed(team))
+    assert res.metrics["termination"] == "time_limit" and res.metrics["declared"]
+    decl = [e for e in res.events if e.kind == "declaration"]
+    assert len(decl) == 1 and decl[0].agent == 1
+    assert res.metrics["found_time_0"] == pytest.approx(1.0)
+
+
+class _Fixed(Searcher):
+    """Wraps an already reset searcher (reset is a no-op)."""
+
+    def __init__(self, inner: Searcher) -> None:
+        self.inner = inner
+
+    def reset(self, ctx, rng) -> None:
+        self.ctx = ctx
+
+    def act(self, observations, rng):
+        return self.inner.act(observations, rng)
+
+
+def _ctx(sc):
+    from odorloc.scenarios.build import search_context
+
+    return search_context(sc, build(sc))

@@ -6,8 +6,8 @@ import numpy as np
 import pydantic
 import pytest
 
-from odorloc.errors import ConfigError
-from odorloc.inference.dempster_shafer import DSGrid, DSParams
+from odorloc.core.errors import ConfigError
+from odorloc.inference.evidence.dempster_shafer import DSGrid, DSParams
 from odorloc.inference.odor_path import CellGrid, OdorPathEstimator, OdorPathParams, PathPatch
 from odorloc.planning.uncertainty_route import (
     UncertaintyRouteParams,

@@ -9,8 +9,9 @@ import numpy as np
 import pydantic
 import pytest
 
-from odorloc import registry
-from odorloc.errors import ConfigError
+from odorloc.core import registry
+from odorloc.core.errors import ConfigError
+from odorloc.geometry.arena import Arena
 from odorloc.wind import (
     FarrellWind,
     FarrellWindParams,
@@ -25,7 +26,6 @@ from odorloc.wind import (
     WindModel,
 )
 from odorloc.wind.farrell import advect_diffuse_step
-from odorloc.world.arena import Arena
 
 
 def _arena(dim: int) -> Arena:

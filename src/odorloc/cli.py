@@ -15,7 +15,8 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
-from odorloc.errors import ConfigError, OdorlocError
+from odorloc.core.errors import ConfigError, OdorlocError
+from odorloc.core.seeds import check_seed
 
 app = typer.Typer(
     help="odorloc: simulate odor plumes and robots, run and compare odor source localization.",
@@ -49,8 +50,11 @@ def run(
         ),
     ] = None,
     seed: Annotated[
-        int | None, typer.Option(help="Episode seed (default: the scenario's).")
+        int | None, typer.Option(help="Root seed (default: the scenario's seed).")
     ] = None,
+    episode: Annotated[
+        int, typer.Option(help="Episode index: the same episode as in `batch --seed ROOT`.")
+    ] = 0,
     searcher: Annotated[
         str | None, typer.Option(help="Replace the scenario's searcher (registry name).")
     ] = None,
@@ -62,8 +66,13 @@ def run(
     ] = True,
     frames: Annotated[int, typer.Option(help="Maximum number of animation frames.")] = 120,
 ) -> None:
-    """Run one episode, print a summary and write the figures and the animation."""
-    from odorloc.engine.episode import run_episode, seeds_for
+    """Run one episode, print a summary and write the figures and the animation.
+
+    Episode I of root seed R is exactly episode I of ``odorloc batch`` with ``--seed R`` and the
+    same scenario (given the same way, name or file path).
+    """
+    from odorloc.core.seeds import episode_seeds
+    from odorloc.engine.episode import run_episode
     from odorloc.scenarios import DEFAULT_SCENARIO, get_scenario
     from odorloc.viz.episode import animate, ffmpeg_available, plot_traces, plot_trajectory
 
@@ -74,10 +83,13 @@ def run(
 
             sc = cell_scenario({"scenario": scenario or DEFAULT_SCENARIO, "searcher": searcher})
         if seed is not None:
-            sc = sc.model_copy(update={"seed": seed})
-        world_seed, agent_seed = seeds_for(sc.seed, 0)
+            sc = sc.model_copy(update={"seed": check_seed(seed, "--seed")})
+        if episode < 0:
+            raise ConfigError("--episode", f"must be >= 0, got {episode}")
+        world_seed, agent_seed = episode_seeds(sc.seed, scenario or DEFAULT_SCENARIO, episode)
         console.print(
-            f"running [bold]{sc.name}[/] with searcher [bold]{sc.searcher.type}[/], seed {sc.seed}"
+            f"running [bold]{sc.name}[/] with searcher [bold]{sc.searcher.type}[/], "
+            f"root seed {sc.seed}, episode {episode}"
         )
         res = run_episode(sc, world_seed, agent_seed, record=True)
     except OdorlocError as exc:
@@ -85,9 +97,9 @@ def run(
         return
     rec = res.recording
     assert rec is not None
-    rec.meta.update(searcher=sc.searcher.type, seed=sc.seed)
+    rec.meta.update(searcher=sc.searcher.type, seed=sc.seed, episode=episode)
     out.mkdir(parents=True, exist_ok=True)
-    table = Table(title=f"{sc.name} — {sc.searcher.type} — seed {sc.seed}")
+    table = Table(title=f"{sc.name} — {sc.searcher.type} — seed {sc.seed}, episode {episode}")
     table.add_column("metric")
     table.add_column("value", justify="right")
     for k in (
@@ -246,31 +258,43 @@ def reproduce(
     paper: Annotated[str, typer.Argument(help="Reproduction name (see --list).")] = "",
     out: Annotated[Path | None, typer.Option(help="Output folder.")] = None,
     episodes: Annotated[
-        int | None, typer.Option(help="Episodes per cell (default: the paper's).")
+        int | None, typer.Option(help="Episodes per cell (default: fits the time budget).")
     ] = None,
     workers: Annotated[int, typer.Option(help="Worker processes.")] = 2,
     seed: Annotated[int, typer.Option(help="Root seed.")] = 2024,
+    backend: Annotated[str, typer.Option(help="local (process pool) or dask.")] = "local",
+    scheduler: Annotated[
+        str | None, typer.Option(help="Join a running Dask scheduler (tcp://host:port).")
+    ] = None,
     list_: Annotated[bool, typer.Option("--list", help="List the reproductions.")] = False,
 ) -> None:
     """Reproduce a paper's headline comparison: table beside the paper's numbers, figures, report.
 
     Results are stored as they finish; running the same command again resumes.
     """
-    from odorloc.experiments import reproduce as rp
+    from odorloc.experiments import reproduction as rp
 
     if list_ or not paper:
-        for n in rp.names():
+        for n in rp.names_of_reproductions():
             r = rp.get(n)
-            console.print(f"[bold]{n}[/]  ({r.paper}) {r.summary}")
+            console.print(
+                f"[bold]{n}[/]  ({r.paper}) {r.summary}; default {r.default_episodes} "
+                f"episode(s) per cell, the paper's {r.paper_episodes}"
+            )
         return
     try:
         r = rp.get(paper)
-        kw: dict[str, Any] = {"workers": workers, "seed": seed}
-        if episodes is not None:
-            if episodes < 1:
-                raise ConfigError("episodes", "must be >= 1")
-            kw["episodes"] = episodes
-        r.run(out or Path("odorloc-reproduce") / paper, **kw)
+        check_seed(seed, "--seed")
+        if episodes is not None and episodes < 1:
+            raise ConfigError("--episodes", "must be >= 1")
+        r.run(
+            out or Path("odorloc-reproduce") / paper,
+            episodes=episodes,
+            workers=workers,
+            seed=seed,
+            backend="dask" if scheduler else backend,
+            scheduler=scheduler,
+        )
     except OdorlocError as exc:
         _fail(str(exc))
 
@@ -278,13 +302,13 @@ def reproduce(
 @app.command()
 def components() -> None:
     """List every registered component (wind, plume, sensors, platforms, searchers)."""
-    from odorloc import registry
+    from odorloc.core import registry
 
     table = Table(title="components")
     table.add_column("family")
     table.add_column("name")
     table.add_column("summary")
-    for fam in ("wind", "plume", "gas_sensor", "anemometer", "platform", "resampler", "searcher"):
+    for fam in registry.families():
         for e in registry.entries(fam):
             table.add_row(fam, e.name, e.summary)
     console.print(table)

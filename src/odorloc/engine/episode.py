@@ -1,9 +1,26 @@
-"""The episode engine: sense -> decide -> move -> world step, with recording and metrics.
+"""The episode: a world, its agents and a task, stepped one control period at a time.
 
-Randomness: an episode takes two integer seeds. ``world_seed`` drives the wind, the plume and the
-sensor noise; ``agent_seed`` drives the searcher. Two searchers run with the same ``world_seed``
-therefore face the same plume realisation (common random numbers) as long as the world does not
-depend on what the agents do, which holds for every plume model here.
+:class:`Episode` is the stepping core (what Gymnasium and PettingZoo adapters wrap)::
+
+    ep = Episode(scenario)
+    obs = ep.reset(world_seed, agent_seed)          # observations at t = 0
+    while not ep.done:
+        res = ep.step(action)                       # -> StepResult: observations, events, flags
+    result = ep.result()                            # metrics row, recording, declarations
+
+One step is: record the observations the action answers; register its declarations (and the
+sources they find); end if the scenario's rule says so (``task.end``), or at the time limit or an
+exhausted platform; otherwise deliver the messages (charging radio energy), charge the reported
+computation, move the platforms, advance the world by one control period and observe again.
+
+:func:`run_episode` is the driver that lets a searcher answer: it is all that ``odorloc run``,
+sweeps and reproductions use.
+
+Randomness: an episode takes two integer seeds (:mod:`odorloc.core.seeds`). ``world_seed`` drives
+the wind, the plume and the sensor noise; ``agent_seed`` drives the searcher. Two searchers run
+with the same ``world_seed`` face the same plume (common random numbers), since no plume model
+depends on what the agents do. :func:`prepare_world` is the one warm-up, shared with flow
+recording (:mod:`odorloc.engine.replay`).
 """
 
 from __future__ import annotations
@@ -11,45 +28,65 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
+from odorloc.core.errors import ConfigError
+from odorloc.core.seeds import episode_generators
+from odorloc.core.types import Action, Declaration, Event, Message, Observation, SearchContext
 from odorloc.engine.recorder import Recorder, Recording
 from odorloc.platforms.team import CommGraph
-from odorloc.scenarios.build import Built, build
+from odorloc.scenarios.build import Built, build, build_world, search_context
 from odorloc.scenarios.config import Scenario
-from odorloc.searchers.base import Action, Declaration, Message, Observation, SearchContext
+from odorloc.searchers.base import Searcher
+from odorloc.world.world import World
+
+__all__ = [
+    "Episode",
+    "EpisodeResult",
+    "StepResult",
+    "control_substeps",
+    "prepare_world",
+    "run_episode",
+    "score_declaration",
+]
 
 
-def episode_generators(
-    world_seed: int, agent_seed: int
-) -> tuple[np.random.Generator, np.random.Generator, np.random.Generator]:
-    """Independent generators for (world, sensors, searcher) from the two episode seeds."""
-    w_ss, s_ss = np.random.SeedSequence(world_seed).spawn(2)
-    a_ss = np.random.SeedSequence(agent_seed)
-    return (
-        np.random.Generator(np.random.PCG64(w_ss)),
-        np.random.Generator(np.random.PCG64(s_ss)),
-        np.random.Generator(np.random.PCG64(a_ss)),
-    )
+def control_substeps(scenario: Scenario) -> tuple[float, int, float]:
+    """``(control period T, world substeps per period, world step)`` of a scenario, seconds."""
+    T = scenario.limits.control_dt
+    n_sub = max(1, round(T / scenario.world.dt))
+    return T, n_sub, T / n_sub
 
 
-def seeds_for(root: int, episode: int) -> tuple[int, int]:
-    """(world_seed, agent_seed) of episode ``episode`` under root seed ``root``."""
-    ss = np.random.SeedSequence([int(root), int(episode)])
-    w, a = ss.spawn(2)
-    return int(w.generate_state(1, np.uint64)[0]), int(a.generate_state(1, np.uint64)[0])
+def prepare_world(
+    scenario: Scenario, world_seed: int, world: World | None = None
+) -> tuple[World, np.random.Generator, np.random.Generator]:
+    """The world of an episode after its reset and warm-up.
 
+    Parameters
+    ----------
+    scenario : Scenario
+    world_seed : int
+    world : World, optional
+        A built world to use (default: built from the scenario).
 
-@dataclass
-class EpisodeResult:
-    """Outcome of one episode: a flat metrics row and (optionally) the recording."""
-
-    metrics: dict[str, Any]
-    recording: Recording | None = None
-    declaration: Declaration | None = None
-    sources: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    Returns
+    -------
+    world : World
+        Reset and warmed up for ``scenario.world.warmup`` seconds (in world steps of
+        :func:`control_substeps`).
+    rng_world, rng_sense : numpy.random.Generator
+        The world's stream (positioned after the warm-up) and the sensors' stream.
+    """
+    w = world if world is not None else build_world(scenario)
+    rng_world, rng_sense, _ = episode_generators(world_seed, 0)
+    _, _, wdt = control_substeps(scenario)
+    w.reset(rng_world)
+    for _ in range(round(scenario.world.warmup / wdt)):
+        w.step(wdt, rng_world)
+    return w, rng_world, rng_sense
 
 
 def score_declaration(
@@ -75,6 +112,381 @@ def score_declaration(
     return found == len(sources), float(nearest.mean()), found, false
 
 
+class Probe(Protocol):
+    """What the recorder asks of whoever chose the action (a searcher satisfies it)."""
+
+    def diagnostics(self) -> dict[str, float]: ...
+
+    def beliefs(self) -> Any: ...
+
+
+@dataclass
+class StepResult:
+    """What one :meth:`Episode.step` produced.
+
+    Attributes
+    ----------
+    observations : list of Observation
+        The next observations (empty once the episode is done).
+    events : list of Event
+        Events of this step (declarations, sources found or reached, the end).
+    terminated : bool
+        The task ended the episode (declarations by ``task.end``, or a source reached).
+    truncated : bool
+        A limit ended it (time or energy).
+    termination : str
+        ``"running"``, ``"declared"``, ``"reached"``, ``"time_limit"`` or ``"energy"``.
+    t : float
+        Time of ``observations`` (or of the end), seconds.
+    """
+
+    observations: list[Observation]
+    events: list[Event]
+    terminated: bool
+    truncated: bool
+    termination: str
+    t: float
+
+    @property
+    def done(self) -> bool:
+        """``True`` when the episode is over."""
+        return self.terminated or self.truncated
+
+
+@dataclass
+class EpisodeResult:
+    """Outcome of one episode: a flat metrics row, the recording, declarations and events."""
+
+    metrics: dict[str, Any]
+    recording: Recording | None = None
+    declarations: list[Declaration] = field(default_factory=list)
+    sources: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    events: list[Event] = field(default_factory=list)
+
+    @property
+    def declaration(self) -> Declaration | None:
+        """All declared positions as one declaration (``None`` if nothing was declared)."""
+        if not self.declarations:
+            return None
+        if len(self.declarations) == 1:
+            return self.declarations[0]
+        return Declaration(
+            np.vstack([d.positions for d in self.declarations]),
+            confidence=float(np.mean([d.confidence for d in self.declarations])),
+        )
+
+
+class Episode:
+    """A steppable episode of a scenario (see the module docstring).
+
+    Parameters
+    ----------
+    scenario : Scenario
+    built : Built, optional
+        Pre-built components (default: built from the scenario). Their searcher is unused here;
+        :func:`run_episode` drives it.
+    record : bool, optional
+        Keep a :class:`Recording`; defaults to ``scenario.recording.enabled``.
+    """
+
+    def __init__(
+        self, scenario: Scenario, *, built: Built | None = None, record: bool | None = None
+    ) -> None:
+        self.scenario = scenario
+        self.built = built if built is not None else build(scenario)
+        self.record = scenario.recording.enabled if record is None else bool(record)
+        T, n_sub, wdt = control_substeps(scenario)
+        lim = scenario.limits
+        if lim.time < T - 1e-9:
+            raise ConfigError(
+                "limits.time", f"{lim.time:g} s is shorter than one control period ({T:g} s)"
+            )
+        self._T, self._n_sub, self._wdt = T, n_sub, wdt
+        self.n_steps = math.floor(lim.time / T + 1e-9)
+        self.n_agents = len(scenario.agents.starts)
+        self._started = False
+
+    # ------------------------------------------------------------------ lifecycle
+    def reset(self, world_seed: int, agent_seed: int) -> list[Observation]:
+        """Start the episode; return the observations at ``t = 0``.
+
+        After the call, :attr:`context` is what the searcher may know and :attr:`agent_rng` the
+        searcher's own random stream.
+        """
+        self._wall0 = time.perf_counter()
+        sc, b = self.scenario, self.built
+        world, self._rng_world, self._rng_sense = prepare_world(sc, world_seed, b.world)
+        self.agent_rng = episode_generators(world_seed, agent_seed)[2]
+        self.world = world
+        self.sources = world.sources
+        self._starts = np.asarray(sc.agents.starts, float)
+        for k, pl in enumerate(b.platforms):
+            pl.reset(self._starts[k], sc.agents.heading)
+        for s in (*b.gas_sensors, *b.anemometers):
+            s.reset(self._rng_sense)
+        self.context: SearchContext = search_context(sc, b)
+        self._comm = CommGraph(sc.agents.comm_radius)
+        self._inbox: list[tuple[Message, ...]] = [() for _ in range(self.n_agents)]
+        self._rec = Recorder(sc, world.arena, self.sources) if self.record else None
+        self._step = 0
+        self._t = 0.0
+        self._first_detection = math.nan
+        self._first_detection_agent: set[int] = set()
+        self._declarations: list[Declaration] = []
+        self._declared_groups: set[int] = set()
+        self._found_time = np.full(len(self.sources), math.nan)
+        self._reach_time = math.nan
+        self._events: list[Event] = []
+        self._termination = "running"
+        self._world_time = 0.0
+        self._bytes = 0
+        self._done = False
+        self._started = True
+        self._obs = self._observe(self._events)
+        if self._task_done():
+            self._finish("reached", self._events)
+        return self._obs
+
+    @property
+    def done(self) -> bool:
+        """``True`` once the episode has ended."""
+        return self._done
+
+    @property
+    def t(self) -> float:
+        """Current episode time, seconds."""
+        return self._t
+
+    @property
+    def observations(self) -> list[Observation]:
+        """The observations the next action answers."""
+        return self._obs
+
+    @property
+    def events(self) -> list[Event]:
+        """Every event so far."""
+        return list(self._events)
+
+    @property
+    def platforms(self) -> list[Any]:
+        """The agents' platforms (read their state; do not command them directly)."""
+        return self.built.platforms
+
+    # ------------------------------------------------------------------ one step
+    def step(self, action: Action, probe: Probe | None = None) -> StepResult:
+        """Apply ``action`` to the current observations and advance one control period.
+
+        Parameters
+        ----------
+        action : Action
+            One command per agent (agent-id order), messages, declarations, computation.
+        probe : object with ``diagnostics()`` and ``beliefs()``, optional
+            Asked for what to record with this step (usually the searcher).
+        """
+        if not self._started:
+            raise RuntimeError("call reset(world_seed, agent_seed) before step()")
+        if self._done:
+            raise RuntimeError("the episode is over; call reset() to start another")
+        if len(action.commands) != self.n_agents:
+            raise RuntimeError(
+                f"action has {len(action.commands)} commands for {self.n_agents} agents"
+            )
+        step, t, b = self._step, self._t, self.built
+        events: list[Event] = []
+        if self._rec is not None:
+            self._rec.record(step, t, self._obs, b.platforms, probe, self.world)
+        for d in action.declarations:
+            self._declare(d, t, events)
+        if self._task_done():
+            return self._finish("declared", events, probe)
+        if step == self.n_steps:
+            return self._finish("time_limit", events, probe)
+        if any(pl.exhausted for pl in b.platforms):
+            return self._finish("energy", events, probe)
+        # Messages broadcast now are received at the next step.
+        positions = np.array([pl.position for pl in b.platforms])
+        self._inbox, sent = self._comm.deliver(positions, action.messages)
+        self._bytes += sent
+        arena = self.world.arena
+        for k, pl in enumerate(b.platforms):
+            pl.charge_comm(self._comm.bytes_sent_by(k))
+            bits = action.compute_bits.get(k, 0.0)
+            if bits:
+                pl.charge_compute(bits)
+            pl.apply(action.commands[k], self._T, arena)
+        tw = time.perf_counter()
+        for _ in range(self._n_sub):
+            self.world.step(self._wdt, self._rng_world)
+        self._world_time += time.perf_counter() - tw
+        if sum(pl.energy for pl in b.platforms) > self.scenario.limits.energy:
+            return self._finish("energy", events, probe)
+        self._step = step + 1
+        # Exact step arithmetic: summing dt would drift (9.999999 s instead of 10 s).
+        self._t = self._step * self._T
+        self._obs = self._observe(events)
+        if self._task_done():
+            return self._finish("reached", events, probe)
+        return StepResult(self._obs, events, False, False, "running", self._t)
+
+    # ------------------------------------------------------------------ internals
+    def _observe(self, events: list[Event]) -> list[Observation]:
+        b, t = self.built, self._t
+        obs = []
+        for k, pl in enumerate(b.platforms):
+            reading = b.gas_sensors[k].measure(
+                self.world.plume, pl.position, self._T, self._rng_sense
+            )
+            wind = b.anemometers[k].measure(
+                self.world.wind, pl.position, pl.velocity, self._T, self._rng_sense
+            )
+            o = Observation(
+                agent=k,
+                t=t,
+                position=pl.position.copy(),
+                heading=float(pl.heading),
+                gas=float(reading.value),
+                detection=bool(reading.detection),
+                wind=np.asarray(wind, float),
+                ready=bool(pl.ready),
+                messages=self._inbox[k],
+                energy=float(pl.energy),
+            )
+            obs.append(o)
+            if o.detection and k not in self._first_detection_agent:
+                self._first_detection_agent.add(k)
+                if math.isnan(self._first_detection):
+                    self._first_detection = t
+                ev = Event(t, "first_detection", agent=k, position=o.position.copy())
+                events.append(ev)
+                self._events.append(ev)
+        reach = self.scenario.task.reach_radius
+        if reach is not None and math.isnan(self._reach_time):
+            pos = np.array([o.position for o in obs])
+            d = np.linalg.norm(pos[:, None, :] - self.sources[None, :, :], axis=2)
+            hit = np.argwhere(d <= reach)
+            if len(hit):
+                agent, src = (int(v) for v in hit[0])
+                self._reach_time = t
+                ev = Event(t, "source_reached", agent=agent, source=src, position=pos[agent])
+                events.append(ev)
+                self._events.append(ev)
+        return obs
+
+    def _declare(self, d: Declaration, t: float, events: list[Event]) -> None:
+        pos = np.atleast_2d(np.asarray(d.positions, float))
+        if pos.ndim != 2 or pos.shape[1] != self.world.arena.dim or not np.all(np.isfinite(pos)):
+            raise RuntimeError(
+                f"declaration positions must be finite (K, {self.world.arena.dim}), got "
+                f"{np.shape(d.positions)}"
+            )
+        self._declarations.append(d)
+        ev = Event(t, "declaration", agent=d.agent, group=d.group, position=pos.copy())
+        events.append(ev)
+        self._events.append(ev)
+        groups = self.context.groups
+        if d.group is not None:
+            self._declared_groups.add(int(d.group))
+        elif d.agent is not None and groups:
+            g = self.context.group_of(int(d.agent))
+            if g is not None:
+                self._declared_groups.add(g.index)
+        else:
+            self._declared_groups.update(range(max(len(groups), 1)))
+        radius = self.scenario.task.success_radius
+        dist = np.linalg.norm(pos[:, None, :] - self.sources[None, :, :], axis=2).min(axis=0)
+        for s in np.flatnonzero((dist <= radius) & np.isnan(self._found_time)):
+            self._found_time[s] = t
+            ev = Event(t, "source_found", agent=d.agent, group=d.group, source=int(s))
+            events.append(ev)
+            self._events.append(ev)
+
+    def _task_done(self) -> bool:
+        rule = self.scenario.task.end
+        if rule == "first_declaration":
+            return bool(self._declarations)
+        if rule == "all_groups":
+            n_groups = max(len(self.scenario.agents.groups), 1)
+            return len(self._declared_groups) >= n_groups
+        if rule == "reach":
+            return not math.isnan(self._reach_time)
+        return False
+
+    def _finish(
+        self, termination: str, events: list[Event], probe: Probe | None = None
+    ) -> StepResult:
+        self._termination = termination
+        self._done = True
+        ev = Event(self._t, "end", detail=termination)
+        events.append(ev)
+        self._events.append(ev)
+        if self._rec is not None and probe is not None:
+            self._rec.final_beliefs(self._t, probe)
+        terminated = termination in ("declared", "reached")
+        return StepResult([], events, terminated, not terminated, termination, self._t)
+
+    # ------------------------------------------------------------------ outcome
+    def result(self, extra: dict[str, Any] | None = None) -> EpisodeResult:
+        """The metrics row (and recording) of the finished episode.
+
+        ``extra`` columns (e.g. a searcher's :meth:`~odorloc.searchers.base.Searcher.
+        final_metrics`) are added to the row.
+        """
+        if not self._done:
+            raise RuntimeError("the episode is not over yet")
+        b = self.built
+        wall = time.perf_counter() - self._wall0
+        step = self._step
+        metrics: dict[str, Any] = {
+            "termination": self._termination,
+            "declared": bool(self._declarations),
+            "search_time": float(self._t),
+            "steps": step,
+            "path_length": float(sum(pl.path_length for pl in b.platforms)),
+            "first_detection_time": float(self._first_detection),
+            "energy": float(sum(pl.energy for pl in b.platforms)),
+            "bytes": int(self._bytes),
+            "start_distance": float(
+                np.min(np.linalg.norm(self._starts[:, None, :] - self.sources[None], axis=2))
+            ),
+            "wall_time": wall,
+            "wall_per_step_ms": 1e3 * wall / max(step, 1),
+            "world_fraction": self._world_time / wall if wall > 0 else math.nan,
+        }
+        declared = (
+            np.vstack([np.atleast_2d(d.positions) for d in self._declarations])
+            if self._declarations
+            else None
+        )
+        radius = self.scenario.task.success_radius
+        if declared is not None:
+            ok, err, found, false = score_declaration(declared, self.sources, radius)
+            metrics.update(success=ok, loc_error=err, sources_found=found, false_sources=false)
+        else:
+            metrics.update(success=False, loc_error=math.nan, sources_found=0, false_sources=0)
+        if self.scenario.task.end == "reach":
+            metrics["success"] = not math.isnan(self._reach_time)
+        if self.scenario.task.reach_radius is not None:
+            metrics["reach_time"] = float(self._reach_time)
+        metrics["declarations"] = len(self._declarations)
+        for s, ft in enumerate(self._found_time):
+            metrics[f"found_time_{s}"] = float(ft)
+        breakdown: dict[str, float] = {}
+        for pl in b.platforms:
+            for key, v in pl.energy_breakdown().items():
+                breakdown[key] = breakdown.get(key, 0.0) + float(v)
+        for key, v in breakdown.items():
+            metrics[f"energy_{key}"] = v
+        if extra:
+            metrics.update(extra)
+        recording = None
+        if self._rec is not None:
+            decl = Declaration(declared) if declared is not None else None
+            recording = self._rec.finish(metrics, decl, [e.as_dict() for e in self._events])
+        return EpisodeResult(
+            metrics, recording, list(self._declarations), self.sources, list(self._events)
+        )
+
+
 def run_episode(
     scenario: Scenario,
     world_seed: int,
@@ -82,8 +494,9 @@ def run_episode(
     *,
     record: bool | None = None,
     built: Built | None = None,
+    searcher: Searcher | None = None,
 ) -> EpisodeResult:
-    """Run one episode of ``scenario`` and return its metrics (and recording).
+    """Run one episode of ``scenario`` with its searcher and return its metrics (and recording).
 
     Parameters
     ----------
@@ -94,136 +507,23 @@ def run_episode(
         Keep a :class:`Recording`; defaults to ``scenario.recording.enabled``.
     built : Built, optional
         Pre-built components (fresh ones are built when omitted).
+    searcher : Searcher, optional
+        Use this searcher instead of the scenario's.
     """
-    wall0 = time.perf_counter()
-    b = built or build(scenario)
-    world = b.world
-    arena = world.arena
-    rng_world, rng_sense, rng_agent = episode_generators(world_seed, agent_seed)
-    lim = scenario.limits
-    T = lim.control_dt
-    n_sub = max(1, round(T / scenario.world.dt))
-    wdt = T / n_sub
-    n_agents = len(scenario.agents.starts)
-    sources = world.sources
-    starts = np.asarray(scenario.agents.starts, float)
-
-    world.reset(rng_world)
-    n_warm = round(scenario.world.warmup / wdt)
-    for _ in range(n_warm):
-        world.step(wdt, rng_world)
-
-    for k, pl in enumerate(b.platforms):
-        pl.reset(starts[k], scenario.agents.heading)
-    for s in (*b.gas_sensors, *b.anemometers):
-        s.reset(rng_sense)
-    gas_params = b.gas_sensors[0].params
-    ctx = SearchContext(
-        arena=arena,
-        dt=T,
-        n_agents=n_agents,
-        start=starts.copy(),
-        max_speed=float(b.platforms[0].speed_limit),
-        gas_threshold=float(getattr(gas_params, "threshold", 0.0)),
-        info=dict(scenario.info),
-    )
-    b.searcher.reset(ctx, rng_agent)
-    comm = CommGraph(scenario.agents.comm_radius)
-    inbox: list[tuple[Message, ...]] = [() for _ in range(n_agents)]
-    do_record = scenario.recording.enabled if record is None else record
-    rec = Recorder(scenario, arena, sources) if do_record else None
-
-    n_steps = math.floor(lim.time / T + 1e-9)
-    first_detection = math.nan
-    declaration: Declaration | None = None
-    termination = "time_limit"
+    ep = Episode(scenario, built=built, record=record)
+    agent = searcher if searcher is not None else ep.built.searcher
+    obs = ep.reset(world_seed, agent_seed)
+    rng = ep.agent_rng
+    agent.reset(ep.context, rng)
     searcher_time = 0.0
-    world_time = 0.0
-    bytes_total = 0
-    step = 0
-    for step in range(n_steps + 1):
-        # Exact step arithmetic: summing dt would drift (9.999999 s instead of 10 s).
-        t = step * T
-        obs = []
-        for k, pl in enumerate(b.platforms):
-            reading = b.gas_sensors[k].measure(world.plume, pl.position, T, rng_sense)
-            wind = b.anemometers[k].measure(world.wind, pl.position, pl.velocity, T, rng_sense)
-            obs.append(
-                Observation(
-                    agent=k,
-                    t=t,
-                    position=pl.position.copy(),
-                    heading=float(pl.heading),
-                    gas=float(reading.value),
-                    detection=bool(reading.detection),
-                    wind=np.asarray(wind, float),
-                    ready=bool(pl.ready),
-                    messages=inbox[k],
-                    energy=float(pl.energy),
-                )
-            )
-            if reading.detection and math.isnan(first_detection):
-                first_detection = t
+    while not ep.done:
         ts = time.perf_counter()
-        action: Action = b.searcher.act(obs, rng_agent)
+        action = agent.act(obs, rng)
         searcher_time += time.perf_counter() - ts
-        if len(action.commands) != n_agents:
-            raise RuntimeError(
-                f"searcher returned {len(action.commands)} commands for {n_agents} agents"
-            )
-        if rec is not None:
-            rec.record(step, t, obs, b.platforms, b.searcher, world)
-        if action.declaration is not None:
-            declaration = action.declaration
-            termination = "declared"
-            break
-        if step == n_steps:
-            break
-        if any(getattr(pl, "exhausted", False) for pl in b.platforms):
-            termination = "energy"
-            break
-        # Messages broadcast now are received at the next step.
-        positions = np.array([pl.position for pl in b.platforms])
-        inbox, sent = comm.deliver(positions, action.messages)
-        bytes_total += sent
-        for k, pl in enumerate(b.platforms):
-            if hasattr(pl, "add_comm_energy"):
-                pl.add_comm_energy(comm.bytes_sent_by(k, positions, action.messages))
-            pl.apply(action.commands[k], T, arena)
-        tw = time.perf_counter()
-        for _ in range(n_sub):
-            world.step(wdt, rng_world)
-        world_time += time.perf_counter() - tw
-        if sum(pl.energy for pl in b.platforms) > lim.energy:
-            termination = "energy"
-            break
-
-    t_end = step * T
-    wall = time.perf_counter() - wall0
-    metrics: dict[str, Any] = {
-        "termination": termination,
-        "declared": declaration is not None,
-        "search_time": float(t_end),
-        "steps": step,
-        "path_length": float(sum(pl.path_length for pl in b.platforms)),
-        "first_detection_time": float(first_detection),
-        "energy": float(sum(pl.energy for pl in b.platforms)),
-        "bytes": int(bytes_total),
-        "start_distance": float(
-            np.min(np.linalg.norm(starts[:, None, :] - sources[None, :, :], axis=2))
-        ),
-        "wall_time": wall,
-        "wall_per_step_ms": 1e3 * wall / max(step, 1),
-        "searcher_fraction": searcher_time / wall if wall > 0 else math.nan,
-        "world_fraction": world_time / wall if wall > 0 else math.nan,
-    }
-    if declaration is not None:
-        ok, err, found, false = score_declaration(
-            declaration.positions, sources, scenario.success_radius
-        )
-        metrics.update(success=ok, loc_error=err, sources_found=found, false_sources=false)
-    else:
-        metrics.update(success=False, loc_error=math.nan, sources_found=0, false_sources=0)
-    metrics.update(b.searcher.final_metrics() if hasattr(b.searcher, "final_metrics") else {})
-    recording = rec.finish(metrics, declaration) if rec is not None else None
-    return EpisodeResult(metrics, recording, declaration, sources)
+        obs = ep.step(action, agent).observations
+    res = ep.result(agent.final_metrics())
+    wall = res.metrics["wall_time"]
+    res.metrics["searcher_fraction"] = searcher_time / wall if wall > 0 else math.nan
+    if res.recording is not None:
+        res.recording.meta["searcher_fraction"] = res.metrics["searcher_fraction"]
+    return res

@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from odorloc.world.arena import Arena
+from odorloc.geometry.arena import Arena
 
 
 @dataclass
@@ -30,7 +30,8 @@ class Recording:
     diagnostics : dict of str to (K,) ndarray
         Scalars the searcher reported each recorded step (entropy, ESS, ...).
     beliefs : list of (t, dict of arrays)
-        Belief snapshots (particles and weights, or grids).
+        Belief snapshots (particles and weights, or grids); each carries ``agent`` (the agent
+        holding it, -1 for a central belief). The last snapshots are those at the end.
     plume_t : (F,) ndarray, s
     plume_frames : (F, nx, ny) ndarray
         Concentration on a coarse grid (a horizontal slice at source height in 3D).
@@ -43,7 +44,7 @@ class Recording:
         The arena's obstacles (slice in 3D), for plotting.
     arena_bounds : (2, d) ndarray
     meta : dict
-        Scenario name, metrics and seeds.
+        Scenario name, metrics and seeds; ``events`` lists the episode's events.
     """
 
     t: np.ndarray
@@ -157,6 +158,7 @@ class Recorder:
         self._beliefs: list[tuple[float, dict[str, np.ndarray]]] = []
         self._plume_t: list[float] = []
         self._frames: list[np.ndarray] = []
+        self._last_belief_t: float | None = None
         lo, hi = arena.lo, arena.hi
         n_per_m = self.cfg.plume_grid
         nx = int(np.clip(np.ceil((hi[0] - lo[0]) * n_per_m), 20, 300))
@@ -178,30 +180,45 @@ class Recorder:
         t: float,
         obs: list[Any],
         platforms: list[Any],
-        searcher: Any,
+        probe: Any,
         world: Any,
     ) -> None:
-        """Record one control step (respecting the configured strides)."""
+        """Record one control step (respecting the configured strides).
+
+        ``probe`` (usually the searcher) gives ``diagnostics()`` and ``beliefs()``; ``None``
+        records neither.
+        """
         if step % self.cfg.stride == 0:
             self._t.append(t)
             self._pos.append(np.array([o.position for o in obs]))
             self._gas.append([o.gas for o in obs])
             self._det.append([o.detection for o in obs])
             self._wind.append(np.array([o.wind for o in obs]))
-            diag = searcher.diagnostics()
+            diag = probe.diagnostics() if probe is not None else {}
             for k in set(self._diag) | set(diag):
                 col = self._diag.setdefault(k, [np.nan] * (len(self._t) - 1))
                 col.append(float(diag.get(k, np.nan)))
-        if step % self.cfg.belief_stride == 0:
-            b = searcher.belief()
-            if b is not None:
-                self._beliefs.append((t, b.snapshot()))
+        if step % self.cfg.belief_stride == 0 and probe is not None:
+            self._snapshot(t, probe)
         if step % self.cfg.plume_stride == 0:
             self._plume_t.append(t)
             c = world.plume.concentration(self._grid).reshape(self._grid_shape)
             self._frames.append(c.astype(np.float32))
 
-    def finish(self, metrics: dict[str, Any], declaration: Any) -> Recording:
+    def _snapshot(self, t: float, probe: Any) -> None:
+        for agent, b in dict(probe.beliefs()).items():
+            if b is not None:
+                self._beliefs.append((t, {**b.snapshot(), "agent": np.array(int(agent))}))
+        self._last_belief_t = t
+
+    def final_beliefs(self, t: float, probe: Any) -> None:
+        """Snapshot the beliefs at the end of the episode (unless this step already did)."""
+        if self._last_belief_t != t:
+            self._snapshot(t, probe)
+
+    def finish(
+        self, metrics: dict[str, Any], declaration: Any, events: list[dict[str, Any]] | None = None
+    ) -> Recording:
         """Stack everything into a :class:`Recording`."""
         d = self.arena.dim
         occ = self.arena.occ
@@ -226,5 +243,5 @@ class Recorder:
             declared=declared,
             occupancy=None if occ is None else np.asarray(occ),
             arena_bounds=np.array([self.arena.lo, self.arena.hi]),
-            meta={"scenario": self.scenario_name, **metrics},
+            meta={"scenario": self.scenario_name, **metrics, "events": events or []},
         )

@@ -24,7 +24,7 @@ from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wai
 from concurrent.futures.process import BrokenProcessPool
 from typing import Any
 
-from odorloc.errors import ConfigError
+from odorloc.core.errors import ConfigError
 
 TaskRow = tuple[Any, dict]
 
@@ -60,10 +60,40 @@ def execute_task(episode_fn: Callable[[Any], dict], task: Any, keep_arrays: bool
 
 
 def run_chunk(
-    episode_fn: Callable[[Any], dict], tasks: Sequence[Any], keep_arrays: bool = False
+    episode_fn: Callable[[Any], Any],
+    tasks: Sequence[Any],
+    keep_arrays: bool = False,
+    grouped: bool = False,
 ) -> list[dict]:
-    """Run a chunk of tasks in order; one row per task (the unit of work sent to a worker)."""
-    return [execute_task(episode_fn, t, keep_arrays) for t in tasks]
+    """Run a chunk of tasks in order; one row per task (the unit of work sent to a worker).
+
+    With ``grouped`` the function is a *group function* ``fn(tasks) -> rows`` called once for
+    the whole chunk (e.g. one recorded flow replayed to every task); a failure then turns every
+    task of the chunk into an error row.
+    """
+    if not grouped:
+        return [execute_task(episode_fn, t, keep_arrays) for t in tasks]
+    t0 = time.perf_counter()
+    try:
+        rows = [dict(r) for r in episode_fn(list(tasks))]
+        if len(rows) != len(tasks):
+            raise RuntimeError(f"group function returned {len(rows)} rows for {len(tasks)} tasks")
+    except Exception as exc:
+        tb = traceback.format_exc().strip().splitlines()
+        err = f"{type(exc).__name__}: {exc}\n" + "\n".join(tb[-12:])
+        rows = [
+            {"status": "error", "error": err, "termination": "error", "success": False}
+            for _ in tasks
+        ]
+    wall = (time.perf_counter() - t0) / max(len(tasks), 1)
+    for row in rows:
+        row.setdefault("status", "ok")
+        row.setdefault("error", "")
+        if row.get("wall_time") is None:
+            row["wall_time"] = wall
+        if not keep_arrays:
+            row.pop("arrays", None)
+    return rows
 
 
 def default_chunk_size(n_tasks: int, workers: int) -> int:
@@ -117,29 +147,43 @@ class LocalBackend:
     def run(
         self,
         tasks: Sequence[Any],
-        episode_fn: Callable[[Any], dict],
+        episode_fn: Callable[[Any], Any],
         keep_arrays: bool = False,
         chunk_size: int | None = None,
+        groups: Sequence[Sequence[Any]] | None = None,
     ) -> Iterator[TaskRow]:
-        """Yield ``(task, row)`` for every task, in completion order."""
+        """Yield ``(task, row)`` for every task, in completion order.
+
+        With ``groups`` (a partition of ``tasks``), each group is one work item and
+        ``episode_fn`` is a group function (see :func:`run_chunk`).
+        """
+        grouped = groups is not None
+        if grouped:
+            chunks = [list(g) for g in groups]  # type: ignore[union-attr]
+        else:
+            size = chunk_size or default_chunk_size(len(tasks), self.workers)
+            chunks = list(_chunks(tasks, size))
         if self.workers == 1:
-            for t in tasks:
-                yield t, execute_task(episode_fn, t, keep_arrays)
+            for chunk in chunks:
+                yield from zip(
+                    chunk, run_chunk(episode_fn, chunk, keep_arrays, grouped), strict=True
+                )
             return
-        size = chunk_size or default_chunk_size(len(tasks), self.workers)
-        suspects: list[Any] = []
-        yield from self._run_chunks(list(_chunks(tasks, size)), episode_fn, keep_arrays, suspects)
+        suspects: list[list[Any]] = []
+        yield from self._run_chunks(chunks, episode_fn, keep_arrays, suspects, grouped)
         if suspects:
             # a worker died (segfault, os._exit, out of memory): rerun the affected episodes
-            # one per work item, so a repeat offender is isolated and recorded as an error
-            yield from self._run_isolated(suspects, episode_fn, keep_arrays)
+            # one per work item (one group per item), so a repeat offender is isolated and
+            # recorded as an error
+            yield from self._run_isolated(suspects, episode_fn, keep_arrays, grouped)
 
     def _run_chunks(
         self,
         chunks: list[list[Any]],
-        episode_fn: Callable[[Any], dict],
+        episode_fn: Callable[[Any], Any],
         keep_arrays: bool,
-        suspects: list[Any],
+        suspects: list[list[Any]],
+        grouped: bool,
     ) -> Iterator[TaskRow]:
         if self._pool is None:
             self._pool = self._new_pool()
@@ -151,7 +195,8 @@ class LocalBackend:
         def submit() -> None:
             for chunk in queue:
                 assert self._pool is not None
-                inflight[self._pool.submit(run_chunk, episode_fn, chunk, keep_arrays)] = chunk
+                fut = self._pool.submit(run_chunk, episode_fn, chunk, keep_arrays, grouped)
+                inflight[fut] = chunk
                 if len(inflight) >= max_inflight:
                     break
 
@@ -164,34 +209,39 @@ class LocalBackend:
                     rows = fut.result()
                 except BrokenProcessPool:
                     broken = True
-                    suspects.extend(chunk)
+                    suspects.extend([chunk] if grouped else [[t] for t in chunk])
                     continue
                 yield from zip(chunk, rows, strict=True)
             if not broken:
                 submit()
         if broken:
             for chunk in queue:
-                suspects.extend(chunk)
+                suspects.extend([chunk] if grouped else [[t] for t in chunk])
             self._pool.shutdown(wait=True, cancel_futures=True)
             self._pool = None
 
     def _run_isolated(
-        self, tasks: list[Any], episode_fn: Callable[[Any], dict], keep_arrays: bool
+        self,
+        items: list[list[Any]],
+        episode_fn: Callable[[Any], Any],
+        keep_arrays: bool,
+        grouped: bool,
     ) -> Iterator[TaskRow]:
-        for t in tasks:
+        for item in items:
             pool = self._new_pool()
             try:
-                row = pool.submit(run_chunk, episode_fn, [t], keep_arrays).result()[0]
+                rows = pool.submit(run_chunk, episode_fn, item, keep_arrays, grouped).result()
             except BrokenProcessPool:
-                row = {
+                died = {
                     "status": "error",
                     "error": "WorkerDied: the worker process running this episode died",
                     "termination": "error",
                     "success": False,
                 }
+                rows = [dict(died) for _ in item]
             finally:
                 pool.shutdown(wait=True)
-            yield t, row
+            yield from zip(item, rows, strict=True)
 
 
 class DaskBackend:
@@ -273,18 +323,25 @@ class DaskBackend:
     def run(
         self,
         tasks: Sequence[Any],
-        episode_fn: Callable[[Any], dict],
+        episode_fn: Callable[[Any], Any],
         keep_arrays: bool = False,
         chunk_size: int | None = None,
+        groups: Sequence[Sequence[Any]] | None = None,
     ) -> Iterator[TaskRow]:
-        """Yield ``(task, row)`` for every task, as the chunks finish (``as_completed``)."""
+        """Yield ``(task, row)`` for every task, as the chunks finish (``as_completed``).
+
+        ``groups`` as for :meth:`LocalBackend.run`.
+        """
         import distributed
 
         if self._client is None:
             raise RuntimeError("use DaskBackend as a context manager")
         n_workers = max(1, self.n_workers or self.workers)
-        size = chunk_size or default_chunk_size(len(tasks), n_workers)
-        queue = _chunks(tasks, size)
+        grouped = groups is not None
+        if grouped:
+            queue: Iterator[list[Any]] = iter([list(g) for g in groups])  # type: ignore[union-attr]
+        else:
+            queue = _chunks(tasks, chunk_size or default_chunk_size(len(tasks), n_workers))
         chunk_of: dict[str, list[Any]] = {}
         max_inflight = 2 * n_workers + 1
         ac = distributed.as_completed(loop=self._client.loop)
@@ -293,7 +350,9 @@ class DaskBackend:
             chunk = next(queue, None)
             if chunk is None:
                 return False
-            fut = self._client.submit(run_chunk, episode_fn, chunk, keep_arrays, pure=False)
+            fut = self._client.submit(
+                run_chunk, episode_fn, chunk, keep_arrays, grouped, pure=False
+            )
             chunk_of[fut.key] = chunk
             ac.add(fut)
             return True

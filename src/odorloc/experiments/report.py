@@ -18,6 +18,7 @@ import io
 import math
 import time
 from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -443,6 +444,48 @@ def _viewer_section(
 # ----------------------------------------------------------------------------- entry points
 
 
+@dataclass
+class ReportSection:
+    """An extra report section: a heading, text, tables and PNG figures.
+
+    Attributes
+    ----------
+    title : str
+    text : str
+        A paragraph (plain text, escaped).
+    tables : list of (caption, headers, rows)
+        Rows of already formatted cells.
+    figures : list of (path, caption)
+        PNG files to embed.
+    """
+
+    title: str
+    text: str = ""
+    tables: list[tuple[str, Sequence[str], Sequence[Sequence[str]]]] = field(default_factory=list)
+    figures: list[tuple[Path, str]] = field(default_factory=list)
+
+
+def _extra_section(sec: ReportSection) -> str:
+    parts = [f"<h2>{_e(sec.title)}</h2>"]
+    if sec.text:
+        parts.append(f"<p>{_e(sec.text)}</p>")
+    for caption, headers, rows in sec.tables:
+        if caption:
+            parts.append(f'<p class="meta">{_e(caption)}</p>')
+        parts.append(_table(list(headers), [[_e(c) for c in r] for r in rows]))
+    for path, caption in sec.figures:
+        try:
+            data = base64.b64encode(Path(path).read_bytes()).decode()
+        except OSError as exc:
+            parts.append(f'<p class="note">figure {_e(Path(path).name)} unavailable: {_e(exc)}</p>')
+            continue
+        parts.append(
+            f'<figure><img alt="{_e(caption)}" src="data:image/png;base64,{data}" '
+            f'style="max-width:1150px"><figcaption>{_e(caption)}</figcaption></figure>'
+        )
+    return "".join(parts)
+
+
 def write_report(
     store_or_df: Any,
     out_html: str | Path,
@@ -453,6 +496,7 @@ def write_report(
     renderer: Renderer | None = None,
     level: float = 0.95,
     seed: int = 0,
+    sections: Sequence[ReportSection] = (),
 ) -> Path:
     """Write a self-contained HTML report.
 
@@ -476,6 +520,8 @@ def write_report(
         Confidence level of every interval.
     seed : int
         Seed of the bootstrap.
+    sections : sequence of ReportSection
+        Extra sections shown first (a reproduction's key tables and figures).
 
     Returns
     -------
@@ -515,6 +561,8 @@ def write_report(
             f"{n_err} errors; config hash {_e(meta.get('config_hash', '–'))}; "
             f"generated {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}.</p>",
         ]
+        for sec in sections:
+            body.append(_extra_section(sec))
         if len(df) == 0:
             body.append('<p class="note">No episodes stored yet.</p>')
         else:
@@ -569,7 +617,7 @@ def report_main(results_path: str | Path, out_html: str | Path, **kw: Any) -> Pa
     The package's episode animation (``odorloc.viz.animation.episode_gif``) is used for the
     episode viewer when available.
     """
-    from odorloc.errors import ConfigError
+    from odorloc.core.errors import ConfigError
 
     p = Path(results_path)
     if not p.exists():

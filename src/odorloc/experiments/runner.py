@@ -11,11 +11,13 @@ import logging
 import math
 import time
 import traceback
+from collections.abc import Callable, Sequence
 from functools import lru_cache
 from typing import Any
 
-from odorloc.engine.episode import run_episode
-from odorloc.errors import ConfigError
+from odorloc.core.errors import ConfigError
+from odorloc.engine.episode import EpisodeResult, run_episode
+from odorloc.engine.replay import on_replay, record_flow
 from odorloc.scenarios import Scenario, get_scenario
 
 log = logging.getLogger("odorloc.runner")
@@ -51,8 +53,9 @@ def cell_scenario(cell: dict[str, Any]) -> Scenario:
     ``cell`` keys: ``scenario`` (built-in name or file path); optional ``searcher`` (registry
     name; replaces the scenario's searcher, whose parameters then start from defaults);
     optional ``searcher_params`` (the searcher's own parameters); optional ``scenario_params``
-    or ``overrides`` (dotted paths such as ``"limits.time"``). The shorthand ``start_index: i``
-    starts the (single) agent at ``info.start_points[i]`` of the scenario.
+    or ``overrides`` (dotted paths such as ``"limits.time"``). Two shorthands move the agents:
+    ``start_index: i`` starts the (single) agent at ``agents.start_points[i]`` and
+    ``start_set: NAME`` moves every group onto ``agents.start_sets[NAME]``.
     """
     sc = _base_scenario(str(cell["scenario"]))
     data = sc.to_dict()
@@ -64,16 +67,39 @@ def cell_scenario(cell: dict[str, Any]) -> Scenario:
         data["searcher"] = {**data["searcher"], **dict(sp)}
     overrides = dict(cell.get("scenario_params") or {})
     overrides.update(cell.get("overrides") or {})
-    if "start_index" in overrides:
-        i = int(overrides.pop("start_index"))
-        points = sc.info.get("start_points") or []
-        if not 0 <= i < len(points):
-            raise ConfigError("start_index", f"{i} is not an index of info.start_points")
-        overrides["agents.starts"] = [list(points[i])]
+    start_index = overrides.pop("start_index", None)
+    start_set = overrides.pop("start_set", None)
     sc = Scenario.from_dict(data)
     if overrides:
         sc = sc.with_overrides(overrides)
+    if start_index is not None:
+        if isinstance(start_index, bool) or not isinstance(start_index, int):
+            raise ConfigError("start_index", f"must be an integer, got {start_index!r}")
+        sc = sc.with_start_point(start_index)
+    if start_set is not None:
+        sc = sc.with_start_set(str(start_set))
     return sc
+
+
+def _light_recording(sc: Scenario) -> Scenario:
+    """A light recording: trajectory, readings and a few plume/belief frames."""
+    rc = sc.recording
+    return sc.model_copy(
+        update={
+            "recording": rc.model_copy(
+                update={"plume_stride": max(rc.plume_stride, 20), "belief_stride": 20}
+            )
+        }
+    )
+
+
+def _error_row(cell: dict[str, Any], exc: Exception, t0: float) -> dict[str, Any]:
+    tb = traceback.format_exc()
+    log.error("episode failed (cell %s): %s\n%s", cell, exc, tb)
+    row = dict(ROW_DEFAULTS)
+    row.update(status="error", error=f"{type(exc).__name__}: {exc}", traceback=tb)
+    row["wall_time"] = time.perf_counter() - t0
+    return row
 
 
 def run_cell_episode(
@@ -89,31 +115,97 @@ def run_cell_episode(
     try:
         sc = cell_scenario(cell)
         if keep_arrays:
-            # A light recording: trajectory, readings and a few plume/belief frames.
-            rc = sc.recording
-            sc = sc.model_copy(
-                update={
-                    "recording": rc.model_copy(
-                        update={"plume_stride": max(rc.plume_stride, 20), "belief_stride": 20}
-                    )
-                }
-            )
+            sc = _light_recording(sc)
         res = run_episode(sc, world_seed, agent_seed, record=keep_arrays)
         row.update(res.metrics)
         row.update(status="ok", error="")
         if keep_arrays and res.recording is not None:
             row["arrays"] = res.recording.to_arrays()
     except Exception as exc:  # one bad episode must not stop a batch
-        tb = traceback.format_exc()
-        log.error("episode failed (cell %s): %s\n%s", cell, exc, tb)
-        row.update(status="error", error=f"{type(exc).__name__}: {exc}", traceback=tb)
-        row["wall_time"] = time.perf_counter() - t0
+        return _error_row(cell, exc, t0)
     return row
 
 
 def run_task(task: Any) -> dict[str, Any]:
-    """Run an :class:`odorloc.experiments.sweep.EpisodeTask` (any object with ``cell``,
-    ``world_seed`` and ``agent_seed``); the recording is attached as ``arrays`` only when the
-    task asks for it (``task.keep_arrays``), so ordinary sweeps pay nothing for recording."""
-    keep = bool(getattr(task, "keep_arrays", False))
-    return run_cell_episode(task.cell, task.world_seed, task.agent_seed, keep_arrays=keep)
+    """Run an :class:`odorloc.experiments.sweep.EpisodeTask`; the recording is attached as
+    ``arrays`` only when the task asks for it (``task.keep_arrays``), so ordinary sweeps pay
+    nothing for recording."""
+    return run_cell_episode(task.cell, task.world_seed, task.agent_seed, task.keep_arrays)
+
+
+Extras = Callable[[Any, EpisodeResult, dict[str, Any]], dict[str, Any]]
+"""``extras(task, result, rows_so_far_by_cell_id) -> columns`` for a replayed episode."""
+
+
+def run_replay_group(
+    tasks: Sequence[Any],
+    *,
+    record: bool = False,
+    extras: Extras | None = None,
+    prepare: Callable[[Scenario, Any], Scenario] | None = None,
+) -> list[dict[str, Any]]:
+    """Run a group of tasks that share one world (world key and episode) on one recorded flow.
+
+    The flow is recorded once (:func:`~odorloc.engine.replay.record_flow`) with the group's
+    world seed and replayed to every task in order, so every searcher faces exactly the same
+    plume and wind. Rows get ``replay=True`` and ``movie_wall_time`` (s).
+
+    Parameters
+    ----------
+    tasks : sequence of EpisodeTask
+        Same ``world_key`` and ``episode``.
+    record : bool
+        Record every episode (for ``extras``); arrays are stored only for tasks that keep them.
+    extras : callable, optional
+        More columns per episode, computed from its result and the rows of the group so far.
+    prepare : callable, optional
+        ``prepare(scenario, task)`` adjusts each task's scenario before it runs (e.g. recording
+        strides).
+    """
+    if not tasks:
+        return []
+    keys = {(t.world_key, t.episode, t.world_seed) for t in tasks}
+    if len(keys) != 1:
+        raise ValueError("a replay group must share one world key, episode and world seed")
+    t0 = time.perf_counter()
+    rows: list[dict[str, Any]] = []
+    by_cell: dict[str, dict[str, Any]] = {}
+    try:
+        first = cell_scenario(tasks[0].cell)
+        movie = record_flow(first, tasks[0].world_seed)
+    except Exception as exc:
+        return [_error_row(t.cell, exc, t0) for t in tasks]
+    movie_wall = time.perf_counter() - t0
+    for task in tasks:
+        t1 = time.perf_counter()
+        try:
+            sc = cell_scenario(task.cell)
+            if task.keep_arrays and not record:
+                sc = _light_recording(sc)
+            if prepare is not None:
+                sc = prepare(sc, task)
+            sc_r, built = on_replay(sc, movie)
+            res = run_episode(
+                sc_r,
+                task.world_seed,
+                task.agent_seed,
+                built=built,
+                record=record or task.keep_arrays,
+            )
+            row = dict(ROW_DEFAULTS)
+            row.update(res.metrics)
+            row.update(status="ok", error="", replay=True, movie_wall_time=movie_wall)
+            if extras is not None:
+                row.update(extras(task, res, by_cell))
+            if task.keep_arrays and res.recording is not None:
+                row["arrays"] = res.recording.to_arrays()
+        except Exception as exc:  # one bad episode must not stop the group
+            row = _error_row(task.cell, exc, t1)
+        by_cell[task.cell_id] = row
+        rows.append(row)
+    return rows
+
+
+def replay_group(tasks: Sequence[Any]) -> list[dict[str, Any]]:
+    """The default group function of sweeps with ``replay: true``."""
+    return run_replay_group(tasks)

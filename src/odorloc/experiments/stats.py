@@ -23,7 +23,7 @@ from typing import Any, Literal
 import numpy as np
 from scipy import stats as sps
 
-from odorloc.errors import ConfigError
+from odorloc.core.errors import ConfigError
 
 Statistic = Literal["mean", "median"] | Callable[..., Any]
 

@@ -45,7 +45,7 @@ from typing import Any
 
 import numpy as np
 
-from odorloc.errors import ConfigError
+from odorloc.core.errors import ConfigError
 
 SCHEMA_VERSION = "1"
 

@@ -7,6 +7,8 @@ seed::
     seed: 20240611                  # root of every random stream of the sweep
     episodes: 50                    # episodes per cell (initial count in adaptive mode)
     keep_arrays: false              # store per-episode trajectories/beliefs (npz blobs)
+    keep_episodes: [0]              # ... or only for these episode indices
+    replay: false                   # record each world's flow once, replay it to every searcher
     scenarios:
       - name: indoor-pf-entropy     # built-in name or path to a scenario file
         params: {time_limit: 600}   # fixed overrides
@@ -31,6 +33,15 @@ scenario faces the same world realisation (wind, plume, start pose) and differen
 searchers can be paired episode by episode. Because the seeds travel inside the task, results do not
 depend on the backend, the number of workers or the order of execution.
 
+Record once, replay many
+------------------------
+With ``replay: true`` the flow (wind and plume) of each world key and episode is recorded once
+(:func:`~odorloc.engine.replay.record_flow`) and replayed to every searcher cell of that world
+key, in one work item (:func:`~odorloc.experiments.runner.replay_group`). Every searcher then faces
+exactly the same plume frames, which a live plume gives only when it does not depend on the agents;
+for expensive plumes (filaments, Eulerian grids) it also saves simulating the flow once per
+searcher.
+
 Config hash
 -----------
 :func:`config_hash` is the SHA-256 of the canonical JSON of everything that changes the result of
@@ -51,13 +62,13 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
 
-import numpy as np
 import pydantic
 import yaml
 from pydantic import Field, field_validator, model_validator
 
-from odorloc.errors import ConfigError, format_validation_error
-from odorloc.params import Params
+from odorloc.core.errors import ConfigError, format_validation_error
+from odorloc.core.params import Params
+from odorloc.core.seeds import episode_seeds
 
 EpisodeFn = Callable[["EpisodeTask"], dict]
 """An episode function: runs one task and returns one row dict (see :mod:`.store`)."""
@@ -166,6 +177,8 @@ class SweepSpec(Params):
     scenarios: list[ComponentSpec] = Field(min_length=1)
     searchers: list[ComponentSpec] = Field(min_length=1)
     keep_arrays: bool = False
+    keep_episodes: list[int] = Field(default_factory=list)
+    replay: bool = False
     adaptive: AdaptiveSpec | None = None
     base_dir: str | None = Field(default=None, exclude=True)
     """Directory that relative scenario paths are resolved against (the sweep file's folder)."""
@@ -247,12 +260,15 @@ def hashed_content(spec: SweepSpec) -> dict[str, Any]:
         d = s.model_dump()
         d["file_sha256"] = _scenario_file_digest(s.name, spec.base_dir)
         scen.append(d)
-    return {
+    out = {
         "seed": spec.seed,
         "scenarios": scen,
         "searchers": [s.model_dump() for s in spec.searchers],
         "odorloc": __version__,
     }
+    if spec.replay:
+        out["replay"] = True
+    return out
 
 
 def config_hash(spec: SweepSpec) -> str:
@@ -377,27 +393,6 @@ class EpisodeTask:
     keep_arrays: bool = False
 
 
-def _key_words(key: str) -> tuple[int, ...]:
-    """A string as eight 32-bit words (a SeedSequence spawn key must be integers)."""
-    digest = hashlib.sha256(key.encode()).digest()
-    return tuple(int.from_bytes(digest[i : i + 4], "little") for i in range(0, 32, 4))
-
-
-def episode_seeds(root: int, world_key: str, episode: int) -> tuple[int, int]:
-    """``(world_seed, agent_seed)`` of one episode, each a non-negative int < 2**63.
-
-    Both come from ``SeedSequence(root, spawn_key=(stream, *words(world_key), episode))`` so they
-    depend on the world key and episode index only, never on the searcher.
-    """
-    words = _key_words(world_key)
-    out = []
-    for stream in (0, 1):
-        ss = np.random.SeedSequence(root, spawn_key=(stream, *words, episode))
-        hi, lo = (int(x) for x in ss.generate_state(2, np.uint32))
-        out.append(((hi << 32) | lo) >> 1)
-    return out[0], out[1]
-
-
 def make_task(spec: SweepSpec, cell: Cell, episode: int, chash: str | None = None) -> EpisodeTask:
     """The task of episode ``episode`` of ``cell``."""
     ws, as_ = episode_seeds(spec.seed, cell.world_key, episode)
@@ -411,7 +406,7 @@ def make_task(spec: SweepSpec, cell: Cell, episode: int, chash: str | None = Non
         config_hash=chash or config_hash(spec),
         cell_index=cell.index,
         world_key=cell.world_key,
-        keep_arrays=spec.keep_arrays,
+        keep_arrays=spec.keep_arrays or episode in spec.keep_episodes,
     )
 
 
@@ -459,7 +454,7 @@ def validate_names(spec: SweepSpec) -> None:
                     f"scenarios[{i}].name", f"unknown scenario {sc.name!r}: {exc}"
                 ) from None
     try:
-        from odorloc import registry
+        from odorloc.core import registry
 
         known = registry.names("searcher")
     except ImportError:
@@ -532,6 +527,7 @@ def run_sweep(
     validate: bool | None = None,
     timeout: float = 5.0,
     chunk_size: int | None = None,
+    group_fn: Callable[[list[EpisodeTask]], list[dict]] | None = None,
 ) -> Any:
     """Run (or resume) a sweep, writing every finished episode to the store at once.
 
@@ -564,6 +560,10 @@ def run_sweep(
         How long to wait for a Dask scheduler before giving up.
     chunk_size : int, optional
         Episodes per work item; default chosen from the number of tasks and workers.
+    group_fn : callable, optional
+        With ``replay: true``, the function running one world group (all searcher cells of a
+        world key and episode, on one recorded flow); default
+        :func:`odorloc.experiments.runner.replay_group`.
 
     Returns
     -------
@@ -586,6 +586,10 @@ def run_sweep(
         validate_names(spec)
     if episode_fn is None:
         episode_fn = default_episode_fn()
+    if spec.replay and group_fn is None:
+        from odorloc.experiments.runner import replay_group
+
+        group_fn = replay_group
     if scheduler is not None:
         backend = "dask"
     cells = expand_cells(spec)
@@ -610,12 +614,22 @@ def run_sweep(
                     if (cid, e) not in done
                 ]
                 prog.begin_round(cells, targets, store.cell_counts())
-                if pending:
-                    for task, row in runner.run(
-                        pending, episode_fn, keep_arrays=spec.keep_arrays, chunk_size=chunk_size
-                    ):
-                        store.add(task, row)
-                        prog.advance(task, row)
+                keep = spec.keep_arrays or bool(spec.keep_episodes)
+                if pending and spec.replay:
+                    assert group_fn is not None
+                    groups: dict[tuple[str, int], list[EpisodeTask]] = {}
+                    for task in pending:
+                        groups.setdefault((task.world_key, task.episode), []).append(task)
+                    work = runner.run(
+                        pending, group_fn, keep_arrays=keep, groups=list(groups.values())
+                    )
+                elif pending:
+                    work = runner.run(pending, episode_fn, keep_arrays=keep, chunk_size=chunk_size)
+                else:
+                    work = iter(())
+                for task, row in work:
+                    store.add(task, row)
+                    prog.advance(task, row)
                 if spec.adaptive is None:
                     break
                 df = store.frame()

@@ -5,24 +5,14 @@ Beliefs are arrays, not lists of objects; normalisation happens in log space.
 
 from __future__ import annotations
 
+import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.special import logsumexp
 
-
-def normalize_log_weights(log_w: np.ndarray) -> np.ndarray:
-    """Log-weights shifted so that ``logsumexp == 0``.
-
-    If every weight underflowed (all ``-inf``) or is NaN, the weights are reset to uniform
-    rather than propagating NaN: the data then carried no usable information.
-    """
-    log_w = np.asarray(log_w, float)
-    finite = np.isfinite(log_w)
-    if not finite.any():
-        return np.full(log_w.shape, -np.log(log_w.size))
-    log_w = np.where(np.isnan(log_w), -np.inf, log_w)
-    return log_w - logsumexp(log_w)
+from odorloc.geometry.grid import CellGrid
+from odorloc.inference.weights import gaussian_fit, weight_entropy
 
 
 @dataclass(frozen=True, eq=False)
@@ -52,9 +42,7 @@ class ParticleBelief:
     @property
     def cov(self) -> np.ndarray:
         """Weighted covariance, ``(d, d)`` m^2."""
-        w = self.weights
-        dx = self.positions - w @ self.positions
-        return (dx * w[:, None]).T @ dx
+        return gaussian_fit(self.positions, self.weights)[1]
 
     @property
     def ess(self) -> float:
@@ -65,9 +53,7 @@ class ParticleBelief:
     @property
     def entropy(self) -> float:
         """Shannon entropy of the weights ``-sum w log w`` (nats)."""
-        w = self.weights
-        nz = w > 0
-        return float(-np.sum(w[nz] * np.log(w[nz])))
+        return weight_entropy(self.weights)
 
     def snapshot(self) -> dict[str, np.ndarray]:
         """Arrays for recording."""
@@ -80,24 +66,31 @@ class GridBelief:
 
     Parameters
     ----------
+    grid : CellGrid
+        The cells.
     prob : (nx, ny[, nz]) ndarray
         Cell probabilities summing to one; index ``[i, j]`` is x then y.
-    lower, upper : (d,) tuple
-        Extent covered by the grid, metres.
+    extra : dict of str to ndarray
+        Further per-cell arrays to record (e.g. the Dempster-Shafer masses).
     """
 
+    grid: CellGrid
     prob: np.ndarray
-    lower: tuple[float, ...]
-    upper: tuple[float, ...]
     extra: dict[str, np.ndarray] = field(default_factory=dict)
+
+    @property
+    def lower(self) -> tuple[float, ...]:
+        """Corner of the grid, metres."""
+        return self.grid.lower
+
+    @property
+    def upper(self) -> tuple[float, ...]:
+        """Far corner of the grid, metres."""
+        return self.grid.upper
 
     def centers(self) -> np.ndarray:
         """Cell centres, ``(M, d)`` metres, in C order of :attr:`prob`."""
-        axes = [
-            lo + (np.arange(n) + 0.5) * (hi - lo) / n
-            for lo, hi, n in zip(self.lower, self.upper, self.prob.shape, strict=True)
-        ]
-        return np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, len(axes))
+        return self.grid.flat_centers()
 
     @property
     def mean(self) -> np.ndarray:
@@ -107,17 +100,12 @@ class GridBelief:
     @property
     def cov(self) -> np.ndarray:
         """Covariance of the position, ``(d, d)`` m^2."""
-        c = self.centers()
-        p = self.prob.ravel()
-        dx = c - p @ c
-        return (dx * p[:, None]).T @ dx
+        return gaussian_fit(self.centers(), self.prob.ravel())[1]
 
     @property
     def entropy(self) -> float:
         """Shannon entropy (nats)."""
-        p = self.prob.ravel()
-        p = p[p > 0]
-        return float(-np.sum(p * np.log(p)))
+        return weight_entropy(self.prob.ravel())
 
     @property
     def ess(self) -> float:
@@ -127,3 +115,27 @@ class GridBelief:
     def snapshot(self) -> dict[str, np.ndarray]:
         """Arrays for recording."""
         return {"prob": self.prob.copy(), **{k: v.copy() for k, v in self.extra.items()}}
+
+
+def histogram_entropy(
+    belief: ParticleBelief, lower: Sequence[float], upper: Sequence[float], cell: float
+) -> float:
+    """Shannon entropy (nats) of the weighted particle histogram on ``cell``-sized bins.
+
+    Unlike the weight entropy it keeps falling through resampling as the cloud contracts.
+
+    Parameters
+    ----------
+    belief : ParticleBelief
+    lower, upper : (d,) sequence of float, metres
+        Extent binned (e.g. the arena's).
+    cell : float, metres
+    """
+    lo = np.asarray(lower, float)
+    hi = np.asarray(upper, float)
+    bins = [max(1, math.ceil(s / cell)) for s in hi - lo]
+    rng_ = list(zip(lo, hi, strict=True))
+    h, _ = np.histogramdd(belief.positions, bins=bins, range=rng_, weights=belief.weights)
+    q = h.ravel()
+    q = q[q > 0] / q.sum()
+    return float(-np.sum(q * np.log(q)))

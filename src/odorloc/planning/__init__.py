@@ -1,31 +1,10 @@
-"""Planners: where to go next given a belief (entropy moves, grid paths, coverage patterns)."""
+"""Planners: candidates x rewards x selection, grid paths and coverage patterns.
 
-from odorloc.planning.astar import astar_path, path_length, smooth_path
-from odorloc.planning.entropy import (
-    EntropyPlan,
-    EntropyPlanner,
-    EntropyPlannerParams,
-    expected_posterior_entropy,
-    move_directions,
-    pointwise,
-)
-from odorloc.planning.uncertainty_route import (
-    RoutePlan,
-    UncertaintyRouteParams,
-    UncertaintyRoutePlanner,
-)
-
-__all__ = [
-    "EntropyPlan",
-    "EntropyPlanner",
-    "EntropyPlannerParams",
-    "RoutePlan",
-    "UncertaintyRouteParams",
-    "UncertaintyRoutePlanner",
-    "astar_path",
-    "expected_posterior_entropy",
-    "move_directions",
-    "path_length",
-    "pointwise",
-    "smooth_path",
-]
+- :mod:`.candidates`: move sets (robot/wind/world frame moves, lattice moves, directions x
+  step lengths) and their reachability;
+- :mod:`.rewards`: expected posterior entropy (infotaxis), predictive entropy (entrotaxis);
+- :mod:`.selection`: choosing one candidate with explicit tie rules;
+- :mod:`.entropy`: the indoor PF paper's expected-entropy moves (a composition of the above);
+- :mod:`.uncertainty_route`: the D-S paper's uncertainty-driven route;
+- :mod:`.astar`, :mod:`.coverage`: A* on the occupancy grid, rectangular-wave coverage.
+"""

@@ -14,8 +14,8 @@ import math
 
 import numpy as np
 
-from odorloc.errors import ConfigError
-from odorloc.world.arena import Arena
+from odorloc.core.errors import ConfigError
+from odorloc.geometry.arena import Arena
 
 __all__ = ["astar_path", "free_grid", "path_length", "smooth_path"]
 

@@ -52,10 +52,13 @@ from numpy.typing import ArrayLike, NDArray
 from pydantic import model_validator
 from scipy.signal import correlate
 
-from odorloc.errors import ConfigError
-from odorloc.inference.dempster_shafer import DSGrid
-from odorloc.inference.odor_path import CellGrid, OdorPathEstimator, PathPatch
-from odorloc.params import NonNegative, Params, Positive
+from odorloc.core.errors import ConfigError
+from odorloc.core.params import NonNegative, Params, Positive
+from odorloc.geometry.grid import CellGrid
+from odorloc.geometry.regions import check_region
+from odorloc.inference.evidence.dempster_shafer import DSGrid
+from odorloc.inference.odor_path.estimator import OdorPathEstimator, PathPatch
+from odorloc.planning.selection import select
 
 FloatArray = NDArray[np.float64]
 
@@ -97,9 +100,7 @@ class UncertaintyRouteParams(Params):
         if not (math.isfinite(self.widen_factor) and self.widen_factor > 1.0):
             raise ValueError("widen_factor must be a finite number > 1")
         if self.region is not None:
-            lo, hi = self.region
-            if not all(math.isfinite(v) for v in (*lo, *hi)) or hi[0] <= lo[0] or hi[1] <= lo[1]:
-                raise ValueError("region needs finite ((x0, y0), (x1, y1)) with x1 > x0, y1 > y0")
+            check_region(self.region, "region")
         return self
 
 
@@ -323,8 +324,8 @@ class UncertaintyRoutePlanner:
                 e_c = np.where(cand, e, -np.inf)
                 best_e = float(e_c.max())
                 if best_e >= p.eta_e:
-                    ties = np.argwhere(e_c >= best_e - p.tie_rtol * abs(best_e))
-                    pick = ties[rng.integers(len(ties))] if len(ties) > 1 else ties[0]
+                    flat = select(e_c.ravel(), mode="max", ties="random", rtol=p.tie_rtol, rng=rng)
+                    pick = np.array(np.unravel_index(int(flat), e_c.shape))
                     target = grid.center(pick + np.array([ix0, iy0]))[0]
                     if p.region is not None:
                         target = np.clip(target, p.region[0], p.region[1])

@@ -5,7 +5,7 @@ Each platform is registered in the ``"platform"`` family: ``holonomic``, ``unicy
 
 from __future__ import annotations
 
-from odorloc.platforms.base import Platform, free_fraction, wrap_angle
+from odorloc.platforms.base import Platform, free_fraction
 from odorloc.platforms.team import CommGraph, message_nbytes, neighbour_matrix
 from odorloc.platforms.uav import UAV, UAVParams, movement_energy
 from odorloc.platforms.wheeled import (
@@ -30,5 +30,4 @@ __all__ = [
     "message_nbytes",
     "movement_energy",
     "neighbour_matrix",
-    "wrap_angle",
 ]

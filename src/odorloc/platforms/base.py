@@ -2,7 +2,7 @@
 
 A platform turns the searcher's :class:`~odorloc.searchers.base.Command` into motion, one control
 period at a time, and keeps the agent's kinematic and energy state. One instance per agent;
-parameters are an immutable :class:`~odorloc.params.Params`, everything that evolves lives in
+parameters are an immutable :class:`~odorloc.core.params.Params`, everything that evolves lives in
 attributes reset by :meth:`Platform.reset`.
 
 Command semantics shared by every platform
@@ -22,7 +22,7 @@ Command semantics shared by every platform
     Stop where you are.
 
 Collisions: platforms never pass through obstacles or arena walls. A straight motion is cut at the
-last free point (:meth:`~odorloc.world.arena.Arena.first_hit`); the period counts as one blocked
+last free point (:meth:`~odorloc.geometry.arena.Arena.first_hit`); the period counts as one blocked
 move (:attr:`Platform.collided`). A waypoint or move that is blocked ends there (the platform
 becomes ``ready``), so a searcher waiting on ``ready`` never waits for an unreachable target.
 With a body ``radius > 0`` the check also follows points on the body outline (a circle in the
@@ -40,19 +40,14 @@ from functools import lru_cache
 import numpy as np
 from numpy.typing import ArrayLike
 
-from odorloc.errors import ConfigError
-from odorloc.params import Params
-from odorloc.searchers.base import Command
-from odorloc.world.arena import Arena
+from odorloc.core.errors import ConfigError
+from odorloc.core.params import Params
+from odorloc.core.types import Command
+from odorloc.geometry.arena import Arena
+from odorloc.geometry.vectors import wrap_angle
 
 _KINDS = ("velocity", "waypoint", "move", "hold")
 _SAME_WAYPOINT_TOL = 1e-9  # metres; a re-sent waypoint closer than this is the same one
-
-
-def wrap_angle(a: float) -> float:
-    """Angle ``a`` (rad) wrapped into ``(-pi, pi]``."""
-    w = math.remainder(a, 2.0 * math.pi)
-    return math.pi if w == -math.pi else w
 
 
 @lru_cache(maxsize=64)
@@ -99,7 +94,7 @@ def free_fraction(arena: Arena, start: np.ndarray, end: np.ndarray, radius: floa
     -------
     float
         1.0 when the whole motion is free, else the fraction up to the last free sample
-        (:meth:`~odorloc.world.arena.Arena.first_hit`; exact in an arena without obstacles).
+        (:meth:`~odorloc.geometry.arena.Arena.first_hit`; exact in an arena without obstacles).
     """
     if arena.occ is None:
         # An empty box is convex: the free fraction is where the segment meets the (shrunk) walls.
@@ -339,6 +334,17 @@ class Platform(ABC):
     def exhausted(self) -> bool:
         """``True`` once the energy budget is used up (platforms without a budget: never)."""
         return False
+
+    def charge_comm(self, nbytes: float) -> float:
+        """Charge transmitting ``nbytes`` bytes (summed over recipients); return the J charged.
+
+        Platforms without an energy model charge nothing.
+        """
+        return 0.0
+
+    def charge_compute(self, nbits: float) -> float:
+        """Charge processing ``nbits`` bits; return the J charged (default: nothing)."""
+        return 0.0
 
     @property
     @abstractmethod

@@ -16,8 +16,8 @@ from collections.abc import Mapping
 import numpy as np
 from numpy.typing import ArrayLike
 
-from odorloc.errors import ConfigError
-from odorloc.searchers.base import Message
+from odorloc.core.errors import ConfigError
+from odorloc.core.types import Message
 
 Payload = Mapping[str, ArrayLike]
 

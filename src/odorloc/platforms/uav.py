@@ -31,12 +31,12 @@ from typing import Annotated
 import numpy as np
 from pydantic import AfterValidator
 
-from odorloc.errors import ConfigError
-from odorloc.params import NonNegative, Params, Positive
+from odorloc.core.errors import ConfigError
+from odorloc.core.params import NonNegative, Params, Positive
+from odorloc.core.registry import register
+from odorloc.core.types import Command
+from odorloc.geometry.arena import Arena
 from odorloc.platforms.base import Platform
-from odorloc.registry import register
-from odorloc.searchers.base import Command
-from odorloc.world.arena import Arena
 
 _EPS = 1e-12
 
@@ -221,7 +221,7 @@ class UAV(Platform):
         self._hover_pending = False
         self._speed = 0.0
 
-    def add_comm_energy(self, nbytes: float) -> float:
+    def charge_comm(self, nbytes: float) -> float:
         """Charge transmitting ``nbytes`` bytes to neighbours, ``P_T * N_d / r_T`` (eq. 8).
 
         ``N_d = 8 * nbytes`` bits; pass the bytes sent to *each* recipient summed over
@@ -240,11 +240,11 @@ class UAV(Platform):
         )
         return self._e["comm"] - before
 
-    def add_compute_energy(self, nbits: float) -> float:
+    def charge_compute(self, nbits: float) -> float:
         """Charge processing ``nbits`` bits, ``gamma_c * C * f_c**2 * N_c`` (eq. 7).
 
         The paper measures computation by the number of processed bits ``N_c``, not by time;
-        :meth:`add_compute_time` converts CPU seconds.
+        :meth:`charge_compute_time` converts CPU seconds.
 
         Returns
         -------
@@ -258,7 +258,7 @@ class UAV(Platform):
         self._charge_lump("compute", p.capacitance * p.cycles_per_bit * p.cpu_frequency**2 * nbits)
         return self._e["compute"] - before
 
-    def add_compute_time(self, seconds: float) -> float:
+    def charge_compute_time(self, seconds: float) -> float:
         """Charge ``seconds`` of CPU time: ``f_c * seconds / C`` bits through eq. (7).
 
         Equivalent to a CPU power of ``gamma_c * f_c**3`` W. Returns the energy charged, J.
@@ -268,7 +268,7 @@ class UAV(Platform):
         p = self.params
         if p.cycles_per_bit == 0:
             return 0.0
-        return self.add_compute_energy(p.cpu_frequency * seconds / p.cycles_per_bit)
+        return self.charge_compute(p.cpu_frequency * seconds / p.cycles_per_bit)
 
     def energy_breakdown(self) -> dict[str, float]:
         """Energy used per component, J: ``fly, hover, turn, idle, compute, comm``."""

@@ -16,11 +16,12 @@ import math
 
 import numpy as np
 
-from odorloc.params import NonNegative, Params, Positive
-from odorloc.platforms.base import Platform, wrap_angle
-from odorloc.registry import register
-from odorloc.searchers.base import Command
-from odorloc.world.arena import Arena
+from odorloc.core.params import NonNegative, Params, Positive
+from odorloc.core.registry import register
+from odorloc.core.types import Command
+from odorloc.geometry.arena import Arena
+from odorloc.geometry.vectors import wrap_angle
+from odorloc.platforms.base import Platform
 
 _EPS = 1e-12
 

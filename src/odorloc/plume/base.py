@@ -13,11 +13,11 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import ArrayLike
 
-from odorloc.errors import ConfigError
-from odorloc.timestep import TimeStepped
+from odorloc.core.errors import ConfigError
+from odorloc.core.timestep import TimeStepped
+from odorloc.geometry.arena import Arena, as_points
+from odorloc.plume.sources import Source
 from odorloc.wind.base import WindModel
-from odorloc.world.arena import Arena, as_points
-from odorloc.world.sources import Source
 
 
 def check_sources(sources: Sequence[Source], arena: Arena, field: str = "world.sources") -> None:

@@ -24,13 +24,14 @@ import numpy as np
 from numpy.typing import ArrayLike
 from pydantic import Field
 
-from odorloc.errors import ConfigError
-from odorloc.params import NonNegative, Params, Positive
+from odorloc.core.errors import ConfigError
+from odorloc.core.params import NonNegative, Params, Positive
+from odorloc.core.registry import register
+from odorloc.geometry.arena import Arena, as_points
+from odorloc.geometry.grid import CellGrid
 from odorloc.plume.base import PlumeModel
-from odorloc.registry import register
+from odorloc.plume.sources import Source
 from odorloc.wind.base import WindModel
-from odorloc.world.arena import Arena, as_points
-from odorloc.world.sources import Source
 
 
 class EulerianParams(Params):
@@ -68,34 +69,11 @@ def grid_interpolate(
 ) -> np.ndarray:
     """Multilinear interpolation of a cell-centred field at points (edge values held outside).
 
-    Parameters
-    ----------
-    field : (n1, ..., nd) ndarray
-        Values at cell centres ``lower + (i + 0.5) h``.
-    lower : (d,) ndarray, metres
-    h : float, metres
-    points : (Q, d) ndarray, metres
-
-    Returns
-    -------
-    (Q,) ndarray
+    ``field`` ``(n1, ..., nd)`` holds the values at the cell centres ``lower + (i + 0.5) h`` of a
+    :class:`~odorloc.geometry.grid.CellGrid`; returns ``(Q,)``.
     """
-    dim = field.ndim
-    n = np.asarray(field.shape)
-    g = (points - lower) / h - 0.5
-    i0 = np.clip(np.floor(g).astype(np.intp), 0, np.maximum(n - 2, 0))
-    i1 = np.minimum(i0 + 1, n - 1)
-    f = np.clip(g - i0, 0.0, 1.0)
-    out = np.zeros(len(points))
-    for corner in range(2**dim):
-        w = np.ones(len(points))
-        idx = []
-        for a in range(dim):
-            hi = (corner >> a) & 1
-            w = w * (f[:, a] if hi else 1.0 - f[:, a])
-            idx.append(i1[:, a] if hi else i0[:, a])
-        out += w * field[tuple(idx)]
-    return out
+    grid = CellGrid(tuple(float(v) for v in lower), float(h), field.shape)
+    return grid.interpolate(field, points)
 
 
 @register("plume", "eulerian", EulerianParams, "grid advection-diffusion (finite volume), 2D/3D")
@@ -117,11 +95,12 @@ class EulerianPlume(PlumeModel):
         self.params = params
         h = float(params.cell) if params.cell is not None else arena.resolution
         self.h = h
+        self.grid = CellGrid.from_extent(arena.lower, arena.upper, h, rounding="ceil")
         self.lower = arena.lo.copy()
-        self.shape = tuple(int(k) for k in np.maximum(1, np.ceil(arena.size / h - 1e-9)))
+        self.shape = self.grid.shape
         d = self.dim
-        centers = [self.lower[a] + (np.arange(k) + 0.5) * h for a, k in enumerate(self.shape)]
-        mesh = np.stack(np.meshgrid(*centers, indexing="ij"), axis=-1).reshape(-1, d)
+        centers = [self.grid.axis_centers(a) for a in range(d)]
+        mesh = self.grid.flat_centers()
         self.solid = arena.in_obstacle(mesh).reshape(self.shape)
         self._faces: list[np.ndarray] = []
         self._open: list[np.ndarray] = []
@@ -139,13 +118,7 @@ class EulerianPlume(PlumeModel):
                 blocked = blocked | ~interior
             self._open.append((~blocked).astype(float))
             self._interior.append(interior.astype(float))
-        self._src_cell = tuple(
-            np.clip(
-                np.floor((self.source_positions - self.lower) / h).astype(np.intp),
-                0,
-                np.asarray(self.shape) - 1,
-            ).T
-        )
+        self._src_cell = tuple(self.grid.index(self.source_positions).T)
         for k, solid in enumerate(self.solid[self._src_cell]):
             if solid:
                 raise ConfigError(
@@ -161,7 +134,7 @@ class EulerianPlume(PlumeModel):
     @property
     def cell_volume(self) -> float:
         """Cell volume (area in 2D), m^d."""
-        return self.h**self.dim
+        return self.grid.cell_volume
 
     def total_mass(self) -> float:
         """Mass on the grid (concentration x volume)."""
@@ -220,7 +193,7 @@ class EulerianPlume(PlumeModel):
 
     # ------------------------------------------------------------------ queries
     def _concentration(self, points: np.ndarray) -> np.ndarray:
-        return grid_interpolate(self.c, self.lower, self.h, points)
+        return self.grid.interpolate(self.c, points)
 
     def gradient(self, points: ArrayLike) -> np.ndarray:
         """Concentration gradient at ``(Q, d)`` points, ``(Q, d)`` (units per metre).
@@ -232,7 +205,7 @@ class EulerianPlume(PlumeModel):
             return np.zeros_like(p)
         grads = np.gradient(self.c, self.h)
         grads = grads if isinstance(grads, (list, tuple)) else [grads]
-        return np.stack([grid_interpolate(g, self.lower, self.h, p) for g in grads], axis=1)
+        return np.stack([self.grid.interpolate(g, p) for g in grads], axis=1)
 
     def mass_flux(self, points: ArrayLike) -> np.ndarray:
         """Advective mass flux ``rho v`` at ``(Q, d)`` points, ``(Q, d)`` (units x m/s)."""

@@ -17,12 +17,12 @@ import numpy as np
 from pydantic import Field
 from scipy.spatial import cKDTree
 
-from odorloc.params import NonNegative, Params, Positive
+from odorloc.core.params import NonNegative, Params, Positive
+from odorloc.core.registry import register
+from odorloc.geometry.arena import Arena
 from odorloc.plume.base import PlumeModel
-from odorloc.registry import register
+from odorloc.plume.sources import Source
 from odorloc.wind.base import WindModel
-from odorloc.world.arena import Arena
-from odorloc.world.sources import Source
 
 #: NumPy backend: upper bound on the candidate (point, filament) pairs held at once by a query.
 PAIR_BUDGET = 4_000_000

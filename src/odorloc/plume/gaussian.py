@@ -19,104 +19,15 @@ The widths grow downwind either by eddy diffusion (``spread="diffusion"``,
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Literal
 
 import numpy as np
 
-from odorloc.params import Params, Positive
+from odorloc.core.registry import register
+from odorloc.geometry.arena import Arena
+from odorloc.models.gaussian import GaussianParams, gaussian_plume
 from odorloc.plume.base import PlumeModel
-from odorloc.registry import register
+from odorloc.plume.sources import Source
 from odorloc.wind.base import WindModel
-from odorloc.world.arena import Arena
-from odorloc.world.sources import Source
-
-
-class GaussianParams(Params):
-    """Parameters of :class:`GaussianPlume`.
-
-    Attributes
-    ----------
-    spread : "diffusion" | "power"
-        Width law (see module docstring).
-    sigma0 : float, metres
-        Width at the source.
-    K : float, m^2/s
-        Eddy diffusivity (``spread="diffusion"``), cross-wind and vertical.
-    a_y, b_y, a_z, b_z : float
-        Power-law coefficients (``spread="power"``), ``sigma = a x^b`` with ``x`` in metres.
-    min_speed : float, m/s
-        Wind speeds below this are raised to it (the formula diverges as ``u -> 0``).
-    ground_reflection : bool
-        3D only: add the image source below the arena floor.
-    """
-
-    spread: Literal["diffusion", "power"] = "diffusion"
-    sigma0: Positive = 0.1
-    K: Positive = 0.05
-    a_y: Positive = 0.2
-    b_y: Positive = 0.9
-    a_z: Positive = 0.12
-    b_z: Positive = 0.85
-    min_speed: Positive = 0.05
-    ground_reflection: bool = True
-
-
-def gaussian_plume(
-    points: np.ndarray,
-    src: np.ndarray,
-    rates: np.ndarray,
-    winds: np.ndarray,
-    params: GaussianParams,
-    ground: float = 0.0,
-) -> np.ndarray:
-    """Steady Gaussian-plume concentration of several sources.
-
-    Parameters
-    ----------
-    points : (Q, d) ndarray, metres
-    src : (S, d) ndarray, metres
-        Source positions.
-    rates : (S,) ndarray
-        Release rates ``Q`` (amount/s).
-    winds : (S, d) ndarray, m/s
-        Wind velocity at each source; its horizontal part sets the downwind direction and speed.
-    params : GaussianParams
-    ground : float, metres
-        Floor height for the 3D reflection term.
-
-    Returns
-    -------
-    (Q,) ndarray
-        Concentration (amount per m^3; in 2D the source-height plane).
-    """
-    dim = points.shape[1]
-    out = np.zeros(len(points))
-    p = params
-    for s, q, w in zip(src, rates, winds, strict=True):
-        horiz = np.array(w[:2], float)
-        u = float(np.hypot(*horiz))
-        e = horiz / u if u > 0 else np.array([1.0, 0.0])
-        u = max(u, p.min_speed)
-        rel = points - s
-        x = rel[:, 0] * e[0] + rel[:, 1] * e[1]
-        y = -rel[:, 0] * e[1] + rel[:, 1] * e[0]
-        down = x > 0
-        xd = np.where(down, x, 0.0)
-        if p.spread == "diffusion":
-            sy2 = p.sigma0**2 + 2.0 * p.K * xd / u
-            sz2 = sy2
-        else:
-            sy2 = p.sigma0**2 + (p.a_y * xd**p.b_y) ** 2
-            sz2 = p.sigma0**2 + (p.a_z * xd**p.b_z) ** 2
-        c = q / (2.0 * np.pi * np.sqrt(sy2 * sz2) * u) * np.exp(-0.5 * y**2 / sy2)
-        if dim == 3:
-            zr = points[:, 2]
-            zt = np.exp(-0.5 * (zr - s[2]) ** 2 / sz2)
-            if p.ground_reflection:
-                zt = zt + np.exp(-0.5 * (zr + s[2] - 2.0 * ground) ** 2 / sz2)
-            c = c * zt
-        out += np.where(down, c, 0.0)
-    return out
 
 
 @register("plume", "gaussian", GaussianParams, "steady Gaussian plume (indoor PF paper), 2D/3D")

@@ -15,14 +15,14 @@ from pathlib import Path
 
 import numpy as np
 
-from odorloc.errors import ConfigError
-from odorloc.params import Params
+from odorloc.core.errors import ConfigError
+from odorloc.core.params import Params
+from odorloc.core.registry import register
+from odorloc.geometry.arena import Arena
+from odorloc.geometry.grid import multilinear
 from odorloc.plume.base import PlumeModel
-from odorloc.registry import register
+from odorloc.plume.sources import Source
 from odorloc.wind.base import WindModel
-from odorloc.world.arena import Arena
-from odorloc.world.sources import Source
-from odorloc.world.world import World
 
 FrameFn = Callable[[dict[str, np.ndarray], np.ndarray], np.ndarray]
 
@@ -116,7 +116,7 @@ class Movie:
 
     def wind_velocity(self, k: int, points: np.ndarray) -> np.ndarray:
         """Wind of frame ``k`` at ``(Q, d)`` points (multilinear on the node grid), ``(Q, d)``."""
-        return node_interpolate(self.wind[k], self.wind_axes, points)
+        return multilinear(self.wind[k], self.wind_axes, points)
 
     # ------------------------------------------------------------------ files
     def save(self, path: str | Path) -> None:
@@ -168,74 +168,8 @@ class Movie:
             )
 
 
-def node_interpolate(
-    values: np.ndarray, axes: Sequence[np.ndarray], points: np.ndarray
-) -> np.ndarray:
-    """Multilinear interpolation of node values on a rectilinear grid (held at the edges).
-
-    Parameters
-    ----------
-    values : (n1, ..., nd, m) ndarray
-    axes : sequence of d increasing (n_a,) ndarrays, metres
-    points : (Q, d) ndarray, metres
-
-    Returns
-    -------
-    (Q, m) ndarray
-    """
-    dim = len(axes)
-    q = len(points)
-    m = values.shape[-1]
-    # One contiguous 1D array per component: 1D gathers are far cheaper than row gathers.
-    comps = [np.ascontiguousarray(values[..., c]).ravel() for c in range(m)]
-    strides = np.cumprod([1] + [len(ax) for ax in axes[:0:-1]])[::-1]
-    base = np.zeros(q, np.intp)
-    fs: list[np.ndarray | None] = []
-    steps = []
-    for a, ax in enumerate(axes):
-        n = len(ax)
-        if n == 1:
-            fs.append(None)
-            steps.append(0)
-            continue
-        h = (ax[-1] - ax[0]) / (n - 1)
-        if float(np.abs(ax[1:] - ax[:-1] - h).max()) <= 1e-12 * abs(h):
-            # Uniform axis: the cell index is arithmetic (no search).
-            g = (points[:, a] - ax[0]) * (1.0 / h)
-            i0 = np.clip(g, 0.0, n - 2).astype(np.intp)  # truncation == floor for g >= 0
-        else:
-            i0 = np.clip(np.searchsorted(ax, points[:, a], side="right") - 1, 0, n - 2)
-        # From the node coordinates, so that a point on a node gets exactly that node's value.
-        f = (points[:, a] - ax[i0]) / (ax[i0 + 1] - ax[i0])
-        np.clip(f, 0.0, 1.0, out=f)
-        base += i0 * int(strides[a])
-        fs.append(f)
-        steps.append(int(strides[a]))
-    out = np.zeros((q, m))
-    for corner in range(2**dim):
-        w = None
-        off = 0
-        skip = False
-        for a in range(dim):
-            hi = (corner >> a) & 1
-            fa = fs[a]
-            if fa is None:
-                skip = skip or bool(hi)
-                continue
-            wa = fa if hi else 1.0 - fa
-            w = wa if w is None else w * wa
-            off += hi * steps[a]
-        if skip:
-            continue
-        idx = base + off if off else base
-        for c in range(m):
-            vals = comps[c][idx]
-            out[:, c] += vals if w is None else w * vals
-    return out
-
-
 def record_movie(
-    target: World | tuple[PlumeModel, WindModel],
+    target: tuple[PlumeModel, WindModel],
     duration: float,
     frame_dt: float,
     rng: np.random.Generator,
@@ -243,14 +177,15 @@ def record_movie(
     dt: float | None = None,
     wind_shape: Sequence[int] | None = None,
 ) -> Movie:
-    """Step a world (or a plume and its wind) and record a frame every ``frame_dt`` seconds.
+    """Step a plume and its wind and record a frame every ``frame_dt`` seconds.
 
     The first frame is the current state (time ``plume.t``); then ``floor(duration / frame_dt)``
     more frames follow. The wind is stepped before the plume, as in :class:`World`.
 
     Parameters
     ----------
-    target : World or (plume, wind)
+    target : (plume, wind)
+        What to record (:meth:`odorloc.world.world.World.record` records a world).
     duration : float, seconds
     frame_dt : float, seconds
         Frame interval; an integer multiple of ``dt``.
@@ -264,10 +199,7 @@ def record_movie(
     -------
     Movie
     """
-    if isinstance(target, World):
-        plume, wind = target.plume, target.wind
-    else:
-        plume, wind = target
+    plume, wind = target
     for name, v in (("duration", duration), ("frame_dt", frame_dt)):
         if not (np.isfinite(v) and v > 0):
             raise ConfigError(name, f"must be a finite number > 0, got {v}")

@@ -1,26 +1,10 @@
-"""Vergassola rate model: mean rate of odor-particle encounters (infotaxis).
+"""Vergassola rate plume: the rate model of :mod:`odorloc.models.vergassola` as simulated truth.
 
-A source releasing ``Q`` particles/s that live ``tau`` seconds, spread with an isotropic
-effective diffusivity ``D`` and are advected by a mean wind of speed ``V`` along the unit vector
-``e`` gives, at the relative position ``r = x - x_s`` of a sensor of radius ``a``:
-
-2D (Vergassola et al. 2007, infotaxis)::
-
-    R(r) = Q / ln(lambda / a) * exp(V (r . e) / (2 D)) * K0(|r| / lambda)
-
-3D (eq. 1, muc-osl-multi-uav paper)::
-
-    R(r) = a Q / |r| * exp(V (r . e) / (2 D)) * exp(-|r| / lambda)
-
-with ``lambda = sqrt(D tau / (1 + V^2 tau / (4 D)))`` (eq. 2, muc-osl-multi-uav paper). The
-multi-UAV paper writes the advection factor as ``exp(-(y_i - y_s) V / (2 D))``, i.e. a wind
-blowing towards ``-y`` (``e = (0, -1, 0)``): odor is enhanced on the side the wind blows to.
-Distances are floored at the sensor radius ``a`` (both forms diverge at the source).
-
-Encounters in ``dt`` are Poisson with mean ``R dt`` (eq. 3, muc-osl-multi-uav paper).
-:meth:`VergassolaPlume.concentration` returns the concentration whose diffusive absorption by the
-sensor gives that rate (Smoluchowski): ``c = R / (4 pi D a)`` in 3D and
-``c = R ln(lambda / a) / (2 pi D)`` in 2D.
+:meth:`VergassolaPlume.encounter_rate` is the rate ``R`` of :func:`~odorloc.models.vergassola.
+vergassola_rate` summed over the sources; :meth:`VergassolaPlume.concentration` is the
+concentration whose diffusive absorption by the sensor gives that rate (Smoluchowski):
+``c = R / (4 pi D a)`` in 3D and ``c = R ln(lambda / a) / (2 pi D)`` in 2D. Estimators use
+:class:`~odorloc.models.vergassola.VergassolaModel`, whose parameters may differ from the plume's.
 """
 
 from __future__ import annotations
@@ -28,16 +12,15 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
-from numpy.typing import ArrayLike
-from scipy.special import gammaln, k0e, xlogy
 
-from odorloc.errors import ConfigError
-from odorloc.params import Params, Positive, Vector
+from odorloc.core.errors import ConfigError
+from odorloc.core.params import Params, Positive, Vector
+from odorloc.core.registry import register
+from odorloc.geometry.arena import Arena
+from odorloc.models.vergassola import correlation_length, vergassola_rate
 from odorloc.plume.base import PlumeModel
-from odorloc.registry import register
+from odorloc.plume.sources import Source
 from odorloc.wind.base import WindModel
-from odorloc.world.arena import Arena, as_points
-from odorloc.world.sources import Source
 
 
 class VergassolaParams(Params):
@@ -68,106 +51,11 @@ class VergassolaParams(Params):
     wind_direction: Vector | None = None
 
 
-def correlation_length(V: float, D: float, tau: float) -> float:
-    """``lambda = sqrt(D tau / (1 + V^2 tau / (4 D)))``, metres (eq. 2, muc-osl-multi-uav)."""
-    return float(np.sqrt(D * tau / (1.0 + V * V * tau / (4.0 * D))))
-
-
-def vergassola_rate(
-    sensor: ArrayLike,
-    sources: ArrayLike,
-    release: ArrayLike = 5.0,
-    *,
-    V: float = 1.0,
-    D: float = 1.0,
-    tau: float = 100.0,
-    a: float = 1.0,
-    direction: ArrayLike | None = None,
-) -> np.ndarray:
-    """Encounter rates for every (sensor position, source hypothesis) pair.
-
-    Parameters
-    ----------
-    sensor : (Q, d) array_like, metres
-        Sensor positions.
-    sources : (N, d) array_like, metres
-        Hypothesised source positions.
-    release : float or (N,) array_like, particles/s
-        Release rate ``Q`` of each hypothesis.
-    V, D, tau, a : float
-        Wind speed (m/s), diffusivity (m^2/s), lifetime (s), sensor radius (m).
-    direction : (d,) array_like, optional
-        Direction the wind blows towards; default ``-y`` (eq. 1, muc-osl-multi-uav).
-
-    Returns
-    -------
-    (Q, N) ndarray, 1/s
-    """
-    x = np.asarray(sensor, float)
-    s = np.asarray(sources, float)
-    if x.ndim == 1:
-        x = x[None, :]
-    if s.ndim == 1:
-        s = s[None, :]
-    dim = x.shape[1]
-    if dim not in (2, 3) or s.shape[1] != dim:
-        raise ConfigError(
-            "sources", f"sensor {x.shape} and sources {s.shape} need equal d in {{2, 3}}"
-        )
-    if direction is None:
-        e = np.zeros(dim)
-        e[1] = -1.0
-    else:
-        e = np.asarray(direction, float)
-        n = float(np.linalg.norm(e))
-        if e.shape != (dim,) or not n > 0:
-            raise ConfigError("wind_direction", f"needs a non-zero {dim}-vector")
-        e = e / n
-    lam = correlation_length(V, D, tau)
-    rel = x[:, None, :] - s[None, :, :]
-    r = np.maximum(np.sqrt((rel**2).sum(axis=2)), a)
-    along = rel @ e
-    q = np.broadcast_to(np.asarray(release, float), (len(s),))
-    if dim == 3:
-        # Combined exponent avoids overflow of the two factors at long range.
-        return (a * q) / r * np.exp(V * along / (2.0 * D) - r / lam)
-    if lam <= a:
-        raise ConfigError("sensor_radius", f"must be below lambda = {lam:.3g} m in 2D")
-    z = r / lam
-    # K0(z) = k0e(z) exp(-z): the scaled form keeps far-field values finite.
-    return q / np.log(lam / a) * k0e(z) * np.exp(V * along / (2.0 * D) - z)
-
-
-def poisson_log_likelihood(counts: ArrayLike, rates: np.ndarray, dt: float) -> np.ndarray:
-    """Sum over sensors of ``log Poisson(counts | rates * dt)`` (eq. 3, muc-osl-multi-uav).
-
-    Parameters
-    ----------
-    counts : (Q,) array_like of int
-        Encounters counted at each sensor position during ``dt``.
-    rates : (Q, N) ndarray, 1/s
-        Encounter rates per sensor position and hypothesis.
-    dt : float, seconds
-
-    Returns
-    -------
-    (N,) ndarray
-    """
-    k = np.asarray(counts, float).reshape(-1, 1)
-    if k.shape[0] != rates.shape[0]:
-        raise ConfigError("counts", f"{k.shape[0]} counts for {rates.shape[0]} sensor positions")
-    if np.any(k < 0):
-        raise ConfigError("counts", "must be >= 0")
-    mu = rates * dt
-    return (xlogy(k, mu) - mu - gammaln(k + 1.0)).sum(axis=0)
-
-
 @register("plume", "vergassola", VergassolaParams, "Vergassola rate model (infotaxis), 2D/3D")
 class VergassolaPlume(PlumeModel):
     """Steady Vergassola rate model; :meth:`encounter_rate` is the rate ``R``.
 
-    Several sources add their rates. ``rate_at`` and ``log_likelihood_poisson`` are the
-    vectorised forms used by likelihood-based estimators (many source hypotheses at once).
+    Several sources add their rates.
     """
 
     def __init__(
@@ -207,43 +95,6 @@ class VergassolaPlume(PlumeModel):
     def length(self) -> float:
         """Correlation length ``lambda``, metres."""
         return correlation_length(self.V, self.params.D, self.params.tau)
-
-    def rate_at(
-        self, sensor_points: ArrayLike, source_hypotheses: ArrayLike, release: ArrayLike = 5.0
-    ) -> np.ndarray:
-        """Encounter rates ``(Q, N)`` for ``(Q, d)`` sensor points and ``(N, d)`` hypotheses.
-
-        Uses this plume's ``V``, ``D``, ``tau``, ``a`` and wind direction; ``release`` is the
-        hypothesised ``Q`` (scalar or ``(N,)``).
-        """
-        p = self.params
-        return vergassola_rate(
-            as_points(sensor_points, self.dim, "sensor_points"),
-            as_points(source_hypotheses, self.dim, "source_hypotheses"),
-            release,
-            V=self.V,
-            D=p.D,
-            tau=p.tau,
-            a=p.sensor_radius,
-            direction=self.direction,
-        )
-
-    def log_likelihood_poisson(
-        self,
-        counts: ArrayLike,
-        sensor_pos: ArrayLike,
-        hypotheses: ArrayLike,
-        dt: float,
-        release: ArrayLike = 5.0,
-    ) -> np.ndarray:
-        """Log-likelihood ``(N,)`` of encounter ``counts`` ``(Q,)`` at ``(Q, d)`` sensor positions.
-
-        Each count is Poisson with mean ``R dt`` (eq. 3, muc-osl-multi-uav paper); the sensors'
-        log-probabilities are summed.
-        """
-        if not (np.isfinite(dt) and dt > 0):
-            raise ConfigError("dt", f"must be a finite number > 0, got {dt}")
-        return poisson_log_likelihood(counts, self.rate_at(sensor_pos, hypotheses, release), dt)
 
     def _encounter_rate(self, points: np.ndarray) -> np.ndarray:
         p = self.params

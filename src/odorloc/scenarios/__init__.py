@@ -1,11 +1,16 @@
-"""Scenarios: typed, YAML round-tripping experiment settings, and the built-in paper settings."""
+"""Scenarios: typed, YAML round-tripping experiment settings, and the built-in paper settings.
+
+Built-in scenarios are the YAML files under ``odorloc/papers/<paper>/scenarios/`` (each paper
+package ships its own) and ``odorloc/scenarios/builtin/``; they are found by file, so adding one
+is adding its file.
+"""
 
 from __future__ import annotations
 
 from importlib import resources
 from pathlib import Path
 
-from odorloc.errors import ConfigError
+from odorloc.core.errors import ConfigError
 from odorloc.scenarios.config import Component, Scenario
 
 __all__ = ["DEFAULT_SCENARIO", "Component", "Scenario", "builtin_names", "get_scenario"]
@@ -14,13 +19,30 @@ __all__ = ["DEFAULT_SCENARIO", "Component", "Scenario", "builtin_names", "get_sc
 DEFAULT_SCENARIO = "indoor-ventilated"
 
 
-def _builtin_dir() -> Path:
-    return Path(str(resources.files("odorloc.scenarios") / "builtin"))
+def _builtin_files() -> dict[str, Path]:
+    root = Path(str(resources.files("odorloc")))
+    files = sorted((root / "papers").glob("*/scenarios/*.yaml"))
+    files += sorted((root / "scenarios" / "builtin").glob("*.yaml"))
+    out: dict[str, Path] = {}
+    for f in files:
+        if f.stem in out:
+            raise RuntimeError(f"two built-in scenarios named {f.stem!r}: {out[f.stem]}, {f}")
+        out[f.stem] = f
+    return out
 
 
 def builtin_names() -> list[str]:
     """Names of the built-in scenarios."""
-    return sorted(p.stem for p in _builtin_dir().glob("*.yaml"))
+    return sorted(_builtin_files())
+
+
+def builtin_path(name: str) -> Path:
+    """File of the built-in scenario ``name``; :class:`ConfigError` if there is none."""
+    files = _builtin_files()
+    if name not in files:
+        known = ", ".join(sorted(files))
+        raise ConfigError("scenario", f"unknown scenario {name!r} (built-in: {known})")
+    return files[name]
 
 
 def get_scenario(name_or_path: str | Path) -> Scenario:
@@ -28,8 +50,4 @@ def get_scenario(name_or_path: str | Path) -> Scenario:
     p = Path(name_or_path)
     if p.suffix in (".yaml", ".yml") or p.exists():
         return Scenario.from_yaml(p)
-    f = _builtin_dir() / f"{name_or_path}.yaml"
-    if not f.exists():
-        known = ", ".join(builtin_names())
-        raise ConfigError("scenario", f"unknown scenario {str(name_or_path)!r} (built-in: {known})")
-    return Scenario.from_yaml(f)
+    return Scenario.from_yaml(builtin_path(str(name_or_path)))

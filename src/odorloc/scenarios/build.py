@@ -8,10 +8,15 @@ from typing import Any
 
 import numpy as np
 
-from odorloc import registry
-from odorloc.errors import ConfigError
+from odorloc.core import registry
+from odorloc.core.errors import ConfigError
+from odorloc.core.types import Group, SearchContext
+from odorloc.geometry.arena import Arena
+from odorloc.platforms.base import Platform
 from odorloc.scenarios.config import ArenaConfig, Scenario
-from odorloc.world.arena import Arena
+from odorloc.searchers.base import Searcher
+from odorloc.sensors.anemometer import Anemometer
+from odorloc.sensors.base import GasSensor
 from odorloc.world.world import World
 
 
@@ -76,15 +81,30 @@ class Built:
 
     scenario: Scenario
     world: World
-    gas_sensors: list[Any]
-    anemometers: list[Any]
-    platforms: list[Any]
-    searcher: Any
+    gas_sensors: list[GasSensor]
+    anemometers: list[Anemometer]
+    platforms: list[Platform]
+    searcher: Searcher
 
 
-def build(sc: Scenario) -> Built:
-    """Construct the world, one sensor pair and platform per agent, and the searcher."""
-    world = build_world(sc)
+def _check_searcher(sc: Scenario, searcher: Searcher) -> None:
+    n = len(sc.agents.starts)
+    d = len(sc.world.arena.lower)
+    cls = type(searcher)
+    if d not in cls.dims:
+        raise ConfigError("searcher.type", f"{sc.searcher.type!r} works in {cls.dims}D, not {d}D")
+    if cls.max_agents is not None and n > cls.max_agents:
+        raise ConfigError(
+            "searcher.type",
+            f"{sc.searcher.type!r} drives at most {cls.max_agents} agent(s) but the scenario has "
+            f"{n}; run it in a team (type: per-agent, member: {{type: {sc.searcher.type}}})",
+        )
+
+
+def build(sc: Scenario, world: World | None = None) -> Built:
+    """Construct the world (unless given), one sensor pair and platform per agent, and the
+    searcher."""
+    world = world if world is not None else build_world(sc)
     n = len(sc.agents.starts)
     starts = np.asarray(sc.agents.starts, float)
     for k, s in enumerate(starts):
@@ -98,11 +118,38 @@ def build(sc: Scenario) -> Built:
     plp = sc.platform.params("platform", "platform")
     se = registry.entry("searcher", sc.searcher.type)
     sp = sc.searcher.params("searcher", "searcher")
+    searcher = _prefixed("searcher", se.build, sp)
+    _check_searcher(sc, searcher)
     return Built(
         scenario=sc,
         world=world,
         gas_sensors=[_prefixed("sensors.gas", gas_cls, gp) for _ in range(n)],
         anemometers=[_prefixed("sensors.anemometer", an_cls, ap) for _ in range(n)],
         platforms=[_prefixed("platform", pl_cls, plp) for _ in range(n)],
-        searcher=_prefixed("searcher", se.build, sp),
+        searcher=searcher,
+    )
+
+
+def search_context(sc: Scenario, built: Built) -> SearchContext:
+    """The typed :class:`SearchContext` of a scenario: what its searcher may know."""
+    n = len(sc.agents.starts)
+    starts = np.asarray(sc.agents.starts, float)
+    groups = tuple(
+        Group(k, g.name or f"group{k}", tuple(int(a) for a in g.agents))
+        for k, g in enumerate(sc.agents.groups)
+    )
+    d = starts.shape[1]
+    return SearchContext(
+        arena=built.world.arena,
+        dt=sc.limits.control_dt,
+        agent_ids=tuple(range(n)),
+        start=starts.copy(),
+        speed_limits=np.array([float(pl.speed_limit) for pl in built.platforms]),
+        sensor=built.gas_sensors[0].info,
+        groups=groups,
+        start_sets={k: np.asarray(v, float) for k, v in sc.agents.start_sets.items()},
+        start_points=np.asarray(sc.agents.start_points, float).reshape(-1, d),
+        search_region=sc.task.region,
+        comm_radius=float(sc.agents.comm_radius),
+        n_agents_total=n,
     )

@@ -15,6 +15,7 @@ Example (YAML)::
     platform: {type: holonomic, max_speed: 0.3}
     agents: {starts: [[8, 2.5]]}
     searcher: {type: zigzag}
+    task: {success_radius: 0.5}
 """
 
 from __future__ import annotations
@@ -24,16 +25,17 @@ import hashlib
 import json
 import math
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import pydantic
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-from odorloc import registry
-from odorloc.errors import ConfigError, format_validation_error
-from odorloc.params import NonNegative, Params, Positive
-from odorloc.world.sources import Source
+from odorloc.core import registry
+from odorloc.core.errors import ConfigError, format_validation_error
+from odorloc.core.params import NonNegative, Params, Positive
+from odorloc.geometry.regions import check_region
+from odorloc.plume.sources import Source
 
 
 class _Strict(BaseModel):
@@ -99,17 +101,95 @@ class SensorsConfig(_Strict):
     anemometer: Component = Component(type="anemometer")
 
 
-class AgentsConfig(_Strict):
-    """Start positions (one per agent, metres), start heading (rad) and communication radius (m)."""
+class GroupConfig(_Strict):
+    """A named group of agents (e.g. one formation): ``{name: A, agents: [0, 1, 2]}``."""
 
-    starts: list[tuple[float, ...]] = Field(min_length=1)
+    name: str = ""
+    agents: list[int] = Field(min_length=1)
+
+
+Point = tuple[float, ...]
+
+
+class AgentsConfig(_Strict):
+    """Who searches, and from where.
+
+    Attributes
+    ----------
+    starts : list of points, metres
+        Start position of each agent (the agent id is its index here).
+    heading : float, rad
+        Start heading of every agent.
+    comm_radius : float, metres
+        Communication radius of the team (``inf``: everybody hears everybody; 0: nobody).
+    groups : list of GroupConfig
+        Disjoint groups of agent ids (formations, teams); empty = no groups.
+    start_points : list of points, metres
+        Candidate single-agent start points (the sweep shorthand ``start_index: i`` starts agent
+        0 at point ``i``).
+    start_sets : dict of name to list of points, metres
+        Named start positions, one point per group (the sweep shorthand ``start_set: NAME``
+        moves each group so that its centroid lies on the set's point).
+    """
+
+    starts: list[Point] = Field(min_length=1)
     heading: float = 0.0
     comm_radius: float = math.inf
+    groups: list[GroupConfig] = []
+    start_points: list[Point] = []
+    start_sets: dict[str, list[Point]] = {}
 
     @model_validator(mode="after")
     def _check(self) -> AgentsConfig:
         if not (self.comm_radius >= 0):
             raise ValueError("comm_radius must be >= 0")
+        seen: set[int] = set()
+        n = len(self.starts)
+        for k, g in enumerate(self.groups):
+            for a in g.agents:
+                if not 0 <= a < n:
+                    raise ValueError(f"groups[{k}] names agent {a}, but there are {n} agents")
+                if a in seen:
+                    raise ValueError(f"groups[{k}]: agent {a} is in two groups")
+                seen.add(a)
+        for name, pts in self.start_sets.items():
+            if self.groups and len(pts) != len(self.groups):
+                raise ValueError(
+                    f"start_sets[{name}] has {len(pts)} points for {len(self.groups)} groups"
+                )
+        return self
+
+
+class TaskConfig(_Strict):
+    """What the searchers must do, and when an episode ends.
+
+    Attributes
+    ----------
+    region : ((x0, y0[, z0]), (x1, y1[, z1])), optional
+        The area to search or map, metres (searchers are told it).
+    end : {"first_declaration", "all_groups", "reach", "limits"}
+        ``first_declaration``: the first declaration ends the episode; ``all_groups``: the
+        episode ends once every group (or, without groups, the team) has declared;
+        ``reach``: it ends when an agent comes within ``reach_radius`` of a source;
+        ``limits``: only the time or energy limit ends it. Time and energy limits always apply.
+    success_radius : float, metres
+        A true source counts as found when a declared position lies this close.
+    reach_radius : float, metres, optional
+        Distance at which an agent has reached a source (required by ``end: reach``; otherwise
+        reaching is only recorded).
+    """
+
+    region: tuple[Point, Point] | None = None
+    end: Literal["first_declaration", "all_groups", "reach", "limits"] = "first_declaration"
+    success_radius: Positive = 0.5
+    reach_radius: Positive | None = None
+
+    @model_validator(mode="after")
+    def _check(self) -> TaskConfig:
+        if self.region is not None:
+            check_region(self.region, "region")
+        if self.end == "reach" and self.reach_radius is None:
+            raise ValueError("end 'reach' needs reach_radius")
         return self
 
 
@@ -144,11 +224,10 @@ class Scenario(_Strict):
     platform: Component = Component(type="holonomic")
     agents: AgentsConfig
     searcher: Component = Component(type="zigzag")
+    task: TaskConfig = TaskConfig()
     limits: LimitsConfig = LimitsConfig()
-    success_radius: Positive = 0.5
-    seed: int = 0
+    seed: int = Field(0, ge=0, lt=2**63)
     recording: RecordingConfig = RecordingConfig()
-    info: dict[str, Any] = {}
 
     # ------------------------------------------------------------------ validation
     def validate_components(self) -> Scenario:
@@ -167,6 +246,15 @@ class Scenario(_Strict):
         for k, s in enumerate(self.agents.starts):
             if len(s) != d:
                 raise ConfigError(f"agents.starts[{k}]", f"needs {d} components, got {len(s)}")
+        for k, s in enumerate(self.agents.start_points):
+            if len(s) != d:
+                raise ConfigError(f"agents.start_points[{k}]", f"needs {d} components")
+        for name, pts in self.agents.start_sets.items():
+            for k, s in enumerate(pts):
+                if len(s) != d:
+                    raise ConfigError(f"agents.start_sets.{name}[{k}]", f"needs {d} components")
+        if self.task.region is not None and len(self.task.region[0]) > d:
+            raise ConfigError("task.region", f"has more components than the {d}D arena")
         if self.world.dt > self.limits.control_dt:
             raise ConfigError("world.dt", "must not exceed limits.control_dt")
         return self
@@ -215,6 +303,35 @@ class Scenario(_Strict):
         """Stable hash of everything that affects results (the seed included)."""
         blob = json.dumps(_plain(self.to_dict()), sort_keys=True, default=str)
         return hashlib.sha256(blob.encode()).hexdigest()[:16]
+
+    def with_start_point(self, index: int) -> Scenario:
+        """A copy whose (single) agent starts at ``agents.start_points[index]``."""
+        points = self.agents.start_points
+        if not 0 <= int(index) < len(points):
+            raise ConfigError(
+                "start_index", f"{index} is not an index of agents.start_points ({len(points)})"
+            )
+        if len(self.agents.starts) != 1:
+            raise ConfigError("start_index", "needs a single-agent scenario")
+        return self.with_overrides({"agents.starts": [list(points[int(index)])]})
+
+    def with_start_set(self, name: str) -> Scenario:
+        """A copy with every group moved so that its start centroid lies on ``start_sets[name]``.
+
+        The agents of a group keep their positions relative to each other (e.g. a formation).
+        """
+        sets = self.agents.start_sets
+        if name not in sets:
+            known = ", ".join(sorted(sets)) or "none"
+            raise ConfigError("start_set", f"unknown start set {name!r} (known: {known})")
+        groups = self.agents.groups or [GroupConfig(agents=list(range(len(self.agents.starts))))]
+        starts = [list(p) for p in self.agents.starts]
+        for g, target in zip(groups, sets[name], strict=True):
+            pts = [starts[a] for a in g.agents]
+            centre = [sum(c) / len(pts) for c in zip(*pts, strict=True)]
+            for a in g.agents:
+                starts[a] = [x - c + t for x, c, t in zip(starts[a], centre, target, strict=True)]
+        return self.with_overrides({"agents.starts": starts})
 
     def with_overrides(self, overrides: dict[str, Any]) -> Scenario:
         """A copy with dotted-path overrides, e.g. ``{"searcher.n_particles": 500}``."""

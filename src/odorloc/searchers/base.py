@@ -1,197 +1,82 @@
 """The searcher interface every published algorithm implements.
 
-Each control period (default 0.5 s) the engine hands the searcher one :class:`Observation` per
-agent and expects an :class:`Action`: one :class:`Command` per agent (or ``None`` to keep the
-current one), optional messages to broadcast to neighbours within the communication radius, and
-optionally a :class:`Declaration` of the source position(s).
+Each control period the episode hands the searcher one
+:class:`~odorloc.core.types.Observation` per controlled agent (in the order of
+:attr:`~odorloc.core.types.SearchContext.agent_ids`) and expects an
+:class:`~odorloc.core.types.Action`. Single robots, centrally controlled groups and teams whose
+members each run their own estimator and talk to neighbours all fit this shape: a central
+searcher sees all observations at once; a team (:mod:`odorloc.searchers.team`) gives each member
+only its own agents' observations and the messages they received.
 
-Single robots, centrally controlled groups (formations) and teams of agents that each run their
-own estimator and talk to neighbours all fit this shape: a centralised searcher uses all
-observations at once; a decentralised one (:class:`odorloc.searchers.team.PerAgentTeam`) lets each
-agent see only its own observation and the messages it received.
+A searcher is a *recipe*: its parameters name the parts it composes (behaviours, estimators,
+planners, measurement models) and :meth:`Searcher.act` wires them together.
 """
 
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from collections.abc import Sequence
-from dataclasses import dataclass, field
-from typing import Any, Literal
+from collections.abc import Mapping, Sequence
+from typing import Any, ClassVar, Protocol
 
 import numpy as np
 
-from odorloc.world.arena import Arena
+from odorloc.core.params import Params
+from odorloc.core.types import Action, Observation, SearchContext
 
-CommandKind = Literal["velocity", "waypoint", "move", "hold"]
-
-
-@dataclass(frozen=True, eq=False)
-class Message:
-    """A payload broadcast by agent ``sender``; ``nbytes`` is charged per recipient."""
-
-    sender: int
-    payload: dict[str, np.ndarray]
-
-    @property
-    def nbytes(self) -> int:
-        """Size of the payload's arrays in bytes (what a radio would send)."""
-        return int(sum(np.asarray(v).nbytes for v in self.payload.values()))
+__all__ = ["Belief", "Searcher"]
 
 
-@dataclass(frozen=True, eq=False)
-class Observation:
-    """What one agent senses at one control step.
+class Belief(Protocol):
+    """What a recorded belief offers: arrays for the recording."""
 
-    Attributes
-    ----------
-    agent : int
-        Agent index within the team.
-    t : float
-        Time, seconds.
-    position : (d,) ndarray, metres
-    heading : float
-        Heading angle, rad (x axis = 0, counter-clockwise).
-    gas : float
-        Gas sensor output after its processing (concentration units, or encounter count for
-        encounter sensors).
-    detection : bool
-        Binarised gas reading (``gas`` above the sensor threshold, or at least one encounter).
-    wind : (d,) ndarray, m/s
-        Anemometer reading of the air velocity, in the world frame.
-    ready : bool
-        ``True`` when the agent has finished its last waypoint/move (and hover); velocity
-        commands are always ready.
-    messages : tuple of Message
-        Messages from neighbours received since the last step.
-    energy : float
-        Energy used so far, J (0 for platforms without an energy model).
-    """
-
-    agent: int
-    t: float
-    position: np.ndarray
-    heading: float
-    gas: float
-    detection: bool
-    wind: np.ndarray
-    ready: bool = True
-    messages: tuple[Message, ...] = ()
-    energy: float = 0.0
-
-
-@dataclass(frozen=True, eq=False)
-class Command:
-    """A motion command for one agent.
-
-    ``velocity``: move with ``value`` (m/s, clipped to the platform's limits) for one period.
-    ``waypoint``: go to the absolute position ``value`` (m), over as many periods as needed.
-    ``move``: go to ``position + value`` (a displacement, m), e.g. one of a discrete move set.
-    ``hold``: stay in place (``value`` ignored).
-    """
-
-    kind: CommandKind
-    value: np.ndarray = field(default_factory=lambda: np.zeros(0))
-
-    @staticmethod
-    def velocity(v: Sequence[float] | np.ndarray) -> Command:
-        """A velocity command, m/s."""
-        return Command("velocity", np.asarray(v, float))
-
-    @staticmethod
-    def waypoint(p: Sequence[float] | np.ndarray) -> Command:
-        """A waypoint command, absolute position in metres."""
-        return Command("waypoint", np.asarray(p, float))
-
-    @staticmethod
-    def move(d: Sequence[float] | np.ndarray) -> Command:
-        """A relative move, displacement in metres."""
-        return Command("move", np.asarray(d, float))
-
-    @staticmethod
-    def hold() -> Command:
-        """Stay in place."""
-        return Command("hold")
-
-
-@dataclass(frozen=True, eq=False)
-class Declaration:
-    """The searcher's claim that the source(s) are at ``positions`` (``(K, d)`` metres)."""
-
-    positions: np.ndarray
-    confidence: float = 1.0
-
-    def __post_init__(self) -> None:
-        p = np.atleast_2d(np.asarray(self.positions, float))
-        object.__setattr__(self, "positions", p)
-
-
-@dataclass(frozen=True, eq=False)
-class Action:
-    """A searcher's answer for one control step.
-
-    Attributes
-    ----------
-    commands : sequence of Command or None
-        One per agent; ``None`` keeps the agent's current command.
-    messages : dict of int to dict of str to ndarray
-        Payloads each agent broadcasts to its neighbours this step.
-    declaration : Declaration, optional
-        Set when the searcher declares; the episode then ends.
-    """
-
-    commands: Sequence[Command | None]
-    messages: dict[int, dict[str, np.ndarray]] = field(default_factory=dict)
-    declaration: Declaration | None = None
-
-
-@dataclass(frozen=True, eq=False)
-class SearchContext:
-    """What a searcher knows before the episode starts.
-
-    Attributes
-    ----------
-    arena : Arena
-        The map (bounds and obstacles), as a robot with a LiDAR map would know it.
-    dt : float
-        Control period, seconds.
-    n_agents : int
-    start : (n_agents, d) ndarray, metres
-    max_speed : float
-        Platform speed limit, m/s.
-    gas_threshold : float
-        The gas sensor's detection threshold (reading units).
-    info : dict
-        Scenario hints a method may use (e.g. the search-region bounds), documented per scenario.
-    """
-
-    arena: Arena
-    dt: float
-    n_agents: int
-    start: np.ndarray
-    max_speed: float
-    gas_threshold: float = 0.0
-    info: dict[str, Any] = field(default_factory=dict)
+    def snapshot(self) -> dict[str, np.ndarray]:
+        """Arrays describing the belief (particles and weights, grid masses, ...)."""
+        ...
 
 
 class Searcher(ABC):
     """Base class of search strategies.
 
-    Subclasses keep their parameters immutable (a :class:`~odorloc.params.Params` in
-    ``self.params``) and all evolving state in attributes reset by :meth:`reset`.
+    Subclasses keep their parameters immutable (a :class:`~odorloc.core.params.Params` in
+    ``self.params``) and all evolving state in attributes set by :meth:`reset`.
+
+    Class attributes
+    ----------------
+    dims : tuple of int
+        Spatial dimensions the searcher works in.
+    max_agents : int or None
+        Most agents one instance can drive (``None``: any number). A single-agent searcher in a
+        team scenario runs inside a ``per-agent`` team.
     """
 
+    params: Params
+    dims: ClassVar[tuple[int, ...]] = (2, 3)
+    max_agents: ClassVar[int | None] = None
+
+    def __init__(self, params: Params) -> None:
+        self.params = params
+
     def reset(self, ctx: SearchContext, rng: np.random.Generator) -> None:
-        """Prepare for a new episode."""
+        """Prepare for a new episode (subclasses call this first)."""
         self.ctx = ctx
 
     @abstractmethod
     def act(self, observations: Sequence[Observation], rng: np.random.Generator) -> Action:
-        """Choose the next commands from this step's observations (one per agent)."""
+        """Choose the next commands from this step's observations (one per controlled agent)."""
 
-    def belief(self) -> Any | None:
-        """The current belief (a ParticleBelief, GridBelief, map...) for recording, or ``None``."""
+    def belief(self) -> Belief | None:
+        """The current belief (particles, grid, evidence map, ...) for recording, or ``None``."""
         return None
+
+    def beliefs(self) -> Mapping[int, Belief]:
+        """Every belief to record, keyed by the agent that holds it (``-1``: a central one)."""
+        b = self.belief()
+        return {} if b is None else {-1: b}
 
     def diagnostics(self) -> dict[str, float]:
         """Scalars worth recording each step (entropy, phase code, ...). Default none."""
+        return {}
+
+    def final_metrics(self) -> dict[str, Any]:
+        """Extra columns for the episode's result row (default none)."""
         return {}

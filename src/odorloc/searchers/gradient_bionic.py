@@ -8,10 +8,10 @@ equations, so this is the standard combination from the literature it cites):
   When the fit is well posed (positions spread over at least ``min_spread`` metres along both
   principal axes) and ``|g| >= min_gradient``, the robot steps along ``g / |g| + b u`` (``u`` the
   upwind unit vector, ``b = upwind_bias``); otherwise it steps upwind (anemotaxis).
-- **Surge** (signal lost for ``lost_after`` steps): ``surge_steps`` steps straight upwind.
-- **Cast**: legs across the wind (at ``cast_angle_deg`` from upwind, alternating sides) whose
-  length starts at ``cast_amplitude`` and grows by ``cast_growth`` each leg. The same casting
-  is the plume-finding behaviour before the first detection.
+- **Surge** (signal lost for ``lost_after`` steps) and **cast**: the moth-inspired behaviour of
+  :mod:`odorloc.behaviours.surge_cast` (``surge_steps`` steps upwind, then crosswind legs at
+  ``cast_angle_deg`` growing from ``cast_amplitude`` by ``cast_growth``). Casting is also the
+  plume-finding behaviour before the first detection.
 - **Declaration** (peak confirmed): over the last ``declare_steps`` steps the robot has stayed
   within ``declare_radius`` of the mean of those positions (it circles a peak instead of
   climbing), with a detection on at least ``declare_fraction`` of them, and the last fitted
@@ -19,10 +19,10 @@ equations, so this is the standard combination from the literature it cites):
   those steps is at least ``declare_peak_fraction`` of the best reading so far (a plateau far
   from the source is not a peak). The declared position is
   the reading-weighted mean of those positions (readings clipped at 0; the plain mean if all are
-  0), which averages out the turbulent noise of single readings. ``declare_steps = 30``
-  (15 s at 0.5 s): with 20 steps a random walk inside the plume near the start often passed
-  for a peak (about half of the declarations from (2.40, 4.55) in the indoor-ventilated
-  scenario were ~4 m off); with 30 steps the declarations that happen are within 0.5 m.
+  0), which averages out the turbulent noise of single readings. ``declare_steps`` is 30
+  (15 s at 0.5 s): shorter windows let a random walk inside the plume near the start pass for a
+  peak.
+- **Blocked steps** turn to the nearest free direction (0, +-45, +-90, +-135, 180 degrees).
 """
 
 from __future__ import annotations
@@ -34,16 +34,13 @@ from collections.abc import Sequence
 import numpy as np
 from pydantic import Field
 
-from odorloc.params import NonNegative, Params, Positive
-from odorloc.registry import register
-from odorloc.searchers.base import (
-    Action,
-    Command,
-    Declaration,
-    Observation,
-    SearchContext,
-    Searcher,
-)
+from odorloc.behaviours.escape import first_free
+from odorloc.behaviours.surge_cast import SurgeCast, SurgeCastParams
+from odorloc.core.params import NonNegative, Params, Positive
+from odorloc.core.registry import register
+from odorloc.core.types import Action, Command, Declaration, Observation, SearchContext
+from odorloc.geometry.vectors import fan, upwind_unit
+from odorloc.searchers.base import Searcher
 
 __all__ = ["GradientBionicParams", "GradientBionicSearcher", "fit_gradient"]
 
@@ -97,14 +94,30 @@ class GradientBionicParams(Params):
     declare_gradient: NonNegative = math.inf
     declare_peak_fraction: float = Field(0.0, ge=0.0, le=1.0)
 
+    def surge_cast(self) -> SurgeCastParams:
+        """The surge/cast part of these parameters."""
+        return SurgeCastParams(
+            surge_steps=self.surge_steps,
+            cast_angle_deg=self.cast_angle_deg,
+            cast_amplitude=self.cast_amplitude,
+            cast_growth=self.cast_growth,
+            cast_max=self.cast_max,
+        )
+
+
+_TURNS = (0, 45, -45, 90, -90, 135, -135, 180)
+
 
 @register("searcher", "gradient-bionic", GradientBionicParams, "gradient following + surge/cast")
 class GradientBionicSearcher(Searcher):
     """Gradient following while the signal holds, upwind surge then widening casts when it is
     lost (moth-inspired); declares at a confirmed concentration peak. Single agent."""
 
+    params: GradientBionicParams
+    max_agents = 1
+
     def __init__(self, params: GradientBionicParams | None = None) -> None:
-        self.params = params or GradientBionicParams()
+        super().__init__(params or GradientBionicParams())
 
     def reset(self, ctx: SearchContext, rng: np.random.Generator) -> None:
         """Start casting (plume finding) with empty reading memory."""
@@ -114,10 +127,7 @@ class GradientBionicSearcher(Searcher):
         self._readings: deque[tuple[np.ndarray, float]] = deque(maxlen=p.fit_readings)
         self.mode = "cast"
         self._since_detection = math.inf
-        self._surge_left = 0
-        self._cast_side = 1.0
-        self._cast_leg = p.cast_amplitude
-        self._cast_done = 0.0
+        self._surge_cast = SurgeCast(p.surge_cast())
         self._best = -math.inf
         self._best_pos: np.ndarray | None = None
         self._recent: deque[tuple[np.ndarray, float, bool]] = deque(maxlen=p.declare_steps)
@@ -141,13 +151,14 @@ class GradientBionicSearcher(Searcher):
         self._recent.append((pos.copy(), float(o.gas), bool(o.detection)))
         decl = self._peak_confirmed()
         if decl is not None:
-            return Action([Command.hold()], declaration=Declaration(decl[None, :]))
+            return Action([Command.hold()], declaration=Declaration(decl[None, :], agent=o.agent))
 
         # Mode transitions.
         if o.detection:
             self.mode = "gradient"
         elif self.mode == "gradient" and self._since_detection >= p.lost_after:
-            self.mode, self._surge_left = "surge", p.surge_steps
+            self.mode = "surge"
+            self._surge_cast.start_surge()
         if not o.ready:
             return Action([None])
         return Action([self._move(o, pos, rng)])
@@ -173,62 +184,28 @@ class GradientBionicSearcher(Searcher):
         return (cs @ xs) / cs.sum() if cs.sum() > 0 else centre
 
     # ----------------------------------------------------------------- motion
-    def _upwind(self, o: Observation) -> np.ndarray:
-        w = np.asarray(o.wind, float)
-        u = np.zeros(len(w))
-        if math.hypot(w[0], w[1]) > 1e-9:
-            u[:2] = -w[:2] / math.hypot(w[0], w[1])
-        else:
-            u[:2] = [math.cos(o.heading), math.sin(o.heading)]
-        return u
-
-    def _free_move(
-        self, pos: np.ndarray, direction: np.ndarray, rng: np.random.Generator
-    ) -> Command:
+    def _free_move(self, pos: np.ndarray, direction: np.ndarray) -> Command:
         """Step along ``direction``, or the nearest free rotation of it (±45°, ±90°, ...)."""
-        arena = self.ctx.arena
-        for turn in (0, 45, -45, 90, -90, 135, -135, 180):
-            a = math.radians(turn)
-            c, s = math.cos(a), math.sin(a)
-            d = np.array(direction, float)
-            d[0], d[1] = c * direction[0] - s * direction[1], s * direction[0] + c * direction[1]
-            d = d / max(float(np.linalg.norm(d)), 1e-12) * self.step
-            if arena.segment_free(pos, pos + d)[0]:
-                return Command.move(d)
-        return Command.hold()
+        cand = np.array(
+            [d / max(float(np.linalg.norm(d)), 1e-12) * self.step for d in fan(direction, _TURNS)]
+        )
+        k = first_free(self.ctx.arena, pos, cand)
+        return Command.hold() if k is None else Command.move(cand[k])
 
     def _move(self, o: Observation, pos: np.ndarray, rng: np.random.Generator) -> Command:
         p = self.params
-        up = self._upwind(o)
+        up = upwind_unit(o.wind, o.heading)
         if self.mode == "gradient":
             g = self._gradient
             gn = 0.0 if g is None else float(np.linalg.norm(g))
             if g is not None and gn > max(p.min_gradient, 1e-12):
                 # Unit gradient plus an upwind bias: single readings in a turbulent plume give
                 # noisy gradients; the bias keeps the robot progressing towards the source.
-                return self._free_move(pos, g / gn + p.upwind_bias * up, rng)
-            return self._free_move(pos, up, rng)
-        if self.mode == "surge" and self._surge_left > 0:
-            self._surge_left -= 1
-            if self._surge_left == 0:
-                self.mode, self._cast_leg, self._cast_done = "cast", p.cast_amplitude, 0.0
-            return self._free_move(pos, up, rng)
-        self.mode = "cast"
-        if self._cast_done >= self._cast_leg:
-            self._cast_side = -self._cast_side
-            self._cast_done = 0.0
-            self._cast_leg = min(self._cast_leg * p.cast_growth, p.cast_max)
-        a = math.radians(p.cast_angle_deg) * self._cast_side
-        d = np.array(up)
-        d[0], d[1] = (
-            math.cos(a) * up[0] - math.sin(a) * up[1],
-            math.sin(a) * up[0] + math.cos(a) * up[1],
-        )
-        if not self.ctx.arena.segment_free(pos, pos + d * self.step)[0]:
-            # A wall ends the leg early: turn to the other side.
-            self._cast_done = self._cast_leg
-        self._cast_done += self.step
-        return self._free_move(pos, d, rng)
+                return self._free_move(pos, g / gn + p.upwind_bias * up)
+            return self._free_move(pos, up)
+        d = self._surge_cast.direction(self.ctx.arena, pos, up, self.step)
+        self.mode = "surge" if self._surge_cast.surging else "cast"
+        return self._free_move(pos, d)
 
     def diagnostics(self) -> dict[str, float]:
         """``phase`` (0 cast, 1 gradient, 2 surge), ``best`` reading, ``gradient`` magnitude."""

@@ -36,81 +36,27 @@ from typing import Literal
 import numpy as np
 from pydantic import Field
 
-from odorloc.inference.belief import ParticleBelief
-from odorloc.inference.likelihoods import PangFarrellLikelihood, PangFarrellParams, wind_variance
-from odorloc.inference.particle_filter import (
+from odorloc.behaviours.escape import first_free
+from odorloc.behaviours.zigzag import Zigzag
+from odorloc.core.params import NonNegative, Params, Positive
+from odorloc.core.registry import ComponentRef, Ref, register
+from odorloc.core.types import Action, Command, Declaration, Observation, SearchContext
+from odorloc.geometry.vectors import ring, upwind_unit
+from odorloc.inference.belief import ParticleBelief, histogram_entropy
+from odorloc.inference.particles import (
+    ArenaConstraint,
     ConvergenceParams,
+    DualConvergence,
     ParticleFilter,
+    Resampler,
     backtrack_initialise,
 )
-from odorloc.inference.resampling import (
-    Resampler,
-    RouletteParams,
-    RouletteResampler,
-    SystematicParams,
-    SystematicResampler,
-)
-from odorloc.params import NonNegative, Params, Positive
+from odorloc.models.pang_farrell import PangFarrellModel, PangFarrellParams, wind_variance
 from odorloc.planning.astar import astar_path
 from odorloc.planning.entropy import EntropyPlanner, EntropyPlannerParams
-from odorloc.registry import register
-from odorloc.searchers.base import (
-    Action,
-    Command,
-    Declaration,
-    Observation,
-    SearchContext,
-    Searcher,
-)
-from odorloc.searchers.simple import zigzag_leg
-from odorloc.world.arena import Arena
+from odorloc.searchers.base import Searcher
 
-__all__ = ["PFEntropyParams", "PFEntropySearcher", "ZigzagLegs"]
-
-
-def _upwind_unit(wind: np.ndarray, fallback_heading: float) -> np.ndarray:
-    u = np.zeros(len(wind))
-    if math.hypot(wind[0], wind[1]) > 1e-9:
-        u[:2] = -np.asarray(wind[:2]) / math.hypot(wind[0], wind[1])
-    else:
-        u[:2] = [math.cos(fallback_heading), math.sin(fallback_heading)]
-    return u
-
-
-class ZigzagLegs:
-    """State of the Z-shaped search (indoor PF paper, section 2.1).
-
-    Parameters
-    ----------
-    angle : float, rad
-        Angle between a leg and the upwind (or downwind) direction.
-    max_leg : float or None, metres
-        Leg length after which the robot turns even without an obstacle.
-    """
-
-    def __init__(self, angle: float, max_leg: float | None) -> None:
-        self.angle = angle
-        self.max_leg = max_leg
-        self.side = 1.0
-        self.along = 1.0  # +1: legs angled upwind, -1: downwind
-        self.travelled = 0.0
-
-    def next_move(
-        self, arena: Arena, pos: np.ndarray, wind: np.ndarray, heading: float, step: float
-    ) -> np.ndarray | None:
-        """Displacement ``(d,)`` of the next zigzag step (metres), ``None`` if boxed in."""
-        up = _upwind_unit(wind, heading)
-        if self.max_leg is not None and self.travelled >= self.max_leg:
-            self.side, self.travelled = -self.side, 0.0
-        leg = zigzag_leg(arena, pos, up, self.angle, self.side, self.along, step)
-        if leg is None:
-            return None
-        d, side, along = leg
-        if (side, along) != (self.side, self.along):
-            self.travelled = 0.0
-        self.side, self.along = side, along
-        self.travelled += step
-        return d * step
+__all__ = ["PFEntropyParams", "PFEntropySearcher"]
 
 
 class PFEntropyParams(Params):
@@ -126,7 +72,7 @@ class PFEntropyParams(Params):
         ``S_p`` of eq. 10 (not given in the paper; 0.1 was tuned on the indoor-ventilated
         scenario).
     time_scale : float, s
-        Turns wind variance x elapsed time into m^2 (see :mod:`odorloc.inference.likelihoods`).
+        Turns wind variance x elapsed time into m^2 (see :mod:`odorloc.models.pang_farrell`).
     min_wind_variance : float, m^2/s^2
         Floor on the recorded wind variance (not in the paper; 0.05 chosen as ``sensor_area``).
     p_floor : float
@@ -143,9 +89,9 @@ class PFEntropyParams(Params):
         Defaults here: ``r_conv = 0.5`` m read as a radius (``variance="radius"``: RMS particle
         distance ``sqrt(trace) <= 0.5`` m) and ``r_err = 0.25`` m, i.e. the 20 estimates must
         fit in a tolerance circle of 0.5 m *diameter*. With the literal reading (trace <= 0.5
-        read as a number, all estimates within 0.5 m of their mean) the filter declared while
-        its estimate was still trailing the robot upwind: 25 % success from (2.40, 4.55) in the
-        indoor-ventilated scenario versus 94 % with these defaults (16 episodes each).
+        read as a number, all estimates within 0.5 m of their mean) the filter declares while
+        its estimate still trails the robot upwind; the reproduction reports both readings
+        side by side (``pf-entropy-literal``).
     history : int
         Number of estimates kept and required (paper: 20).
     history_on_detection : bool
@@ -153,13 +99,11 @@ class PFEntropyParams(Params):
         the paper read literally) instead of at every step.
     variance : {"trace", "radius", "max_axis"}
         Particle spread measure of the convergence test.
-    resampler : {"roulette", "systematic"}
+    resampler : dict
+        The resampler, ``{type: name, **params}`` from the registry (paper: ``roulette`` with
+        survival floor 0.5, 5 children, 0.25 m^2; e.g. ``{type: systematic, jitter_std: 0.1}``).
     resample_threshold : float
         Resample when ``N_eff < resample_threshold * N`` (paper: 0.5).
-    roulette : RouletteParams
-        Roulette settings (paper: survival floor 0.5, 5 children, 0.25 m^2).
-    systematic_jitter : float, metres
-        Roughening std of the systematic resampler.
     step_length : float or None, metres
         Length of one planned move; ``None`` = one control period at the platform's top speed.
     move_frame : {"robot", "wind", "world"}
@@ -185,7 +129,7 @@ class PFEntropyParams(Params):
         Cell size of the particle histogram behind the ``entropy`` diagnostic.
     """
 
-    n_particles: int = Field(1000, ge=2)
+    n_particles: int = Field(1000, ge=2, le=10_000_000)
     mu: float = Field(0.9, gt=0.0, le=1.0)
     sensor_area: Positive = 0.1
     time_scale: Positive = 1.0
@@ -198,10 +142,8 @@ class PFEntropyParams(Params):
     history: int = Field(20, ge=1)
     history_on_detection: bool = False
     variance: Literal["trace", "radius", "max_axis"] = "radius"
-    resampler: Literal["roulette", "systematic"] = "roulette"
+    resampler: Ref("resampler") = ComponentRef(type="roulette")
     resample_threshold: float = Field(0.5, ge=0.0, le=1.0)
-    roulette: RouletteParams = RouletteParams()
-    systematic_jitter: NonNegative = 0.1
     step_length: Positive | None = None
     move_frame: Literal["robot", "wind", "world"] = "robot"
     zigzag_angle_deg: float = Field(45.0, ge=0.0, le=90.0)
@@ -231,10 +173,8 @@ class PFEntropyParams(Params):
         )
 
     def make_resampler(self) -> Resampler:
-        """The configured resampler."""
-        if self.resampler == "roulette":
-            return RouletteResampler(self.roulette)
-        return SystematicResampler(SystematicParams(jitter_std=self.systematic_jitter))
+        """The configured resampler (built through the registry)."""
+        return self.resampler.build("resampler", field="searcher.resampler")
 
 
 @register("searcher", "pf-entropy", PFEntropyParams, "plume-model PF + expected-entropy moves")
@@ -242,11 +182,14 @@ class PFEntropySearcher(Searcher):
     """Zigzag until the first detection, then a Pang & Farrell particle filter with
     expected-entropy moves and the dual convergence test (indoor PF paper). Single agent."""
 
+    params: PFEntropyParams
+    max_agents = 1
+
     def __init__(self, params: PFEntropyParams | None = None) -> None:
-        self.params = params or PFEntropyParams()
-        self.model = PangFarrellLikelihood(self.params.likelihood_params())
+        super().__init__(params or PFEntropyParams())
+        self.model = PangFarrellModel(self.params.likelihood_params())
         self.planner = EntropyPlanner(EntropyPlannerParams(frame=self.params.move_frame))
-        self.convergence_params = self.params.convergence_params()
+        self.stopping = DualConvergence(self.params.convergence_params())
 
     # ----------------------------------------------------------------- lifecycle
     def reset(self, ctx: SearchContext, rng: np.random.Generator) -> None:
@@ -256,7 +199,7 @@ class PFEntropySearcher(Searcher):
         self.step = p.step_length if p.step_length is not None else ctx.max_speed * ctx.dt
         n_var = max(2, round(p.wind_var_window / ctx.dt))
         self._winds: deque[np.ndarray] = deque(maxlen=max(p.window, n_var, p.wind_average))
-        self._zigzag = ZigzagLegs(math.radians(p.zigzag_angle_deg), p.zigzag_leg)
+        self._zigzag = Zigzag(math.radians(p.zigzag_angle_deg), p.zigzag_leg)
         self.pf: ParticleFilter | None = None
         self._path: list[np.ndarray] = []
         self._n_var = n_var
@@ -279,18 +222,23 @@ class PFEntropySearcher(Searcher):
             pf = self.pf
             pf.update(
                 self.model.log_likelihood(
-                    bool(o.detection), pos, window, self.ctx.dt, pf.positions, wvar
+                    bool(o.detection),
+                    pos,
+                    pf.positions,
+                    wind_window=window,
+                    dt=self.ctx.dt,
+                    wind_var=wvar,
                 ),
                 record=bool(o.detection) or not self.params.history_on_detection,
             )
-            status = pf.convergence(self.convergence_params)
+            status = self.stopping.status(pf)
             self._converged = status.converged
             near = (
                 self.params.approach_radius is None
                 or np.linalg.norm(pf.estimate() - pos) <= self.params.approach_radius
             )
             if status.converged and near:
-                declaration = Declaration(pf.estimate()[None, :])
+                declaration = Declaration(pf.estimate()[None, :], agent=o.agent)
             elif not status.converged:
                 pf.resample_if_needed(rng)
         self._winds.append(wind)
@@ -341,9 +289,11 @@ class PFEntropySearcher(Searcher):
             resampler=p.make_resampler(),
             resample_threshold=p.resample_threshold,
             history=p.history,
-            arena=self.ctx.arena,
+            constraint=ArenaConstraint(self.ctx.arena),
         )
-        self._entropy_init = histogram_entropy(self.pf.belief(), self.ctx.arena, p.entropy_cell)
+        self._entropy_init = histogram_entropy(
+            self.pf.belief(), self.ctx.arena.lower, self.ctx.arena.upper, p.entropy_cell
+        )
 
     def _next_command(
         self,
@@ -358,8 +308,9 @@ class PFEntropySearcher(Searcher):
             return Command.waypoint(self._path.pop(0))
         if self.pf is None:
             recent = np.mean(list(self._winds)[-self.params.wind_average :], axis=0)
-            d = self._zigzag.next_move(arena, pos, recent, o.heading, self.step)
-            return Command.move(d) if d is not None else self._escape(pos, rng)
+            up = upwind_unit(recent, o.heading)
+            d = self._zigzag.direction(arena, pos, up, self.step, self.step)
+            return Command.move(d * self.step) if d is not None else self._escape(pos, rng)
 
         if self._converged and self.params.approach_radius is not None:
             return self._approach(pos, self.pf.estimate(), rng)
@@ -367,16 +318,11 @@ class PFEntropySearcher(Searcher):
         # Hypothetical reading one record later: the window (already holding the current wind,
         # appended in act) is the one the next update will use (eq. 10).
         nxt = self._window_before(wind)
-        dt = self.ctx.dt
-
-        def likelihood_fn(z: int, sensor_positions: np.ndarray, hyp: np.ndarray) -> np.ndarray:
-            p1 = self.model.detection_probability(sensor_positions, nxt, dt, hyp, wvar)
-            return p1 if z == 1 else 1.0 - p1
-
+        model = self.model.bind(wind_window=nxt, dt=self.ctx.dt, wind_var=wvar)
         plan = self.planner.plan(
             self.pf.belief(),
             pos,
-            likelihood_fn,
+            model,
             heading=o.heading,
             wind=wind,
             arena=arena,
@@ -410,16 +356,10 @@ class PFEntropySearcher(Searcher):
         return self._escape(pos, rng)
 
     def _escape(self, pos: np.ndarray, rng: np.random.Generator) -> Command:
-        """A free step in a random direction (boxed in by obstacles), else hold."""
-        arena = self.ctx.arena
-        angles = rng.permutation(16) * (2.0 * math.pi / 16)
-        for a in angles:
-            d = np.zeros(arena.dim)
-            d[:2] = [math.cos(a), math.sin(a)]
-            d *= self.step
-            if arena.segment_free(pos, pos + d)[0]:
-                return Command.move(d)
-        return Command.hold()
+        """A free step in a random one of 16 directions (boxed in by obstacles), else hold."""
+        moves = ring(16, self.ctx.arena.dim)[rng.permutation(16)] * self.step
+        k = first_free(self.ctx.arena, pos, moves)
+        return Command.hold() if k is None else Command.move(moves[k])
 
     # ----------------------------------------------------------------- reporting
     @property
@@ -435,7 +375,12 @@ class PFEntropySearcher(Searcher):
         """Row fields: posterior entropy (nats) at initialisation and at the end of the episode,
         so a sweep can check that entropy falls as the robot closes in."""
         end = (
-            histogram_entropy(self.pf.belief(), self.ctx.arena, self.params.entropy_cell)
+            histogram_entropy(
+                self.pf.belief(),
+                self.ctx.arena.lower,
+                self.ctx.arena.upper,
+                self.params.entropy_cell,
+            )
             if self.pf is not None
             else math.nan
         )
@@ -450,19 +395,11 @@ class PFEntropySearcher(Searcher):
         return {
             "phase": 1.0,
             "ess": b.ess,
-            "entropy": histogram_entropy(b, self.ctx.arena, self.params.entropy_cell),
+            "entropy": histogram_entropy(
+                b, self.ctx.arena.lower, self.ctx.arena.upper, self.params.entropy_cell
+            ),
             "weight_entropy": b.entropy,
             "spread": self.pf.spread(self.params.variance),
             "n_particles": float(self.pf.n),
             "expected_entropy": self._last_entropy,
         }
-
-
-def histogram_entropy(belief: ParticleBelief, arena: Arena, cell: float) -> float:
-    """Shannon entropy (nats) of the weighted particle histogram on ``cell``-sized bins."""
-    bins = [max(1, math.ceil(s / cell)) for s in arena.size]
-    rng_ = list(zip(arena.lower, arena.upper, strict=True))
-    h, _ = np.histogramdd(belief.positions, bins=bins, range=rng_, weights=belief.weights)
-    q = h.ravel()
-    q = q[q > 0] / q.sum()
-    return float(-np.sum(q * np.log(q)))

@@ -1,102 +1,172 @@
-"""Decentralised teams: every agent runs its own searcher and talks only through messages.
+"""Teams: one searcher per agent, or one controller per group, coordinating through messages.
 
-:class:`PerAgentTeam` wraps one single-agent searcher per agent. Each member sees only its own
-observation (with the messages its neighbours sent within the communication radius, delivered
-by the engine) and broadcasts what its own :class:`~odorloc.searchers.base.Action` says; the
-engine accounts the bytes. A centralised controller (a formation) instead implements
-:class:`~odorloc.searchers.base.Searcher` directly and sees every observation.
+:class:`PerAgentTeam` (``per-agent``) wraps one searcher per agent. Each member controls only its
+own agent: it sees only that agent's observation (with the messages neighbours sent within the
+communication radius, delivered by the episode) and broadcasts what its own action says; the
+episode accounts the bytes. :class:`PerGroupTeam` (``per-group``) runs one controller per group of
+the scenario (``agents.groups``), which sees the observations of its group's agents only; groups
+know of each other only what they tell each other in messages.
+
+Members keep the global agent ids (observations, messages, declarations), their own random
+streams, and their beliefs are all recorded. A member's declaration is forwarded tagged with its
+agent and group, so the scenario's end rule (``task.end``) decides whether it ends the episode;
+with ``declare: all`` the team instead declares once, when every member has declared.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from dataclasses import replace
-from typing import Any
+from collections.abc import Mapping, Sequence
+from typing import Any, ClassVar, Literal
 
 import numpy as np
-from pydantic import Field
 
-from odorloc import registry
-from odorloc.params import Params
-from odorloc.searchers.base import (
-    Action,
-    Command,
-    Declaration,
-    Observation,
-    SearchContext,
-    Searcher,
-)
+from odorloc.core.errors import ConfigError
+from odorloc.core.params import Params
+from odorloc.core.registry import ComponentRef, Ref, register
+from odorloc.core.types import Action, Command, Declaration, Observation, SearchContext
+from odorloc.searchers.base import Belief, Searcher
+
+__all__ = ["PerAgentTeam", "PerGroupTeam", "TeamParams"]
 
 
-class PerAgentTeamParams(Params):
-    """Parameters of :class:`PerAgentTeam`.
+class TeamParams(Params):
+    """Parameters of the teams.
 
     Attributes
     ----------
     member : dict
-        The members' searcher: ``{"type": name, **params}`` (each agent gets its own instance).
-    declare : "first" | "all"
-        The team declares when the first member declares (its positions), or only once every
-        member has declared (all members' positions, stacked).
+        The members' searcher, ``{"type": name, **params}``; every agent (or group) gets its
+        own instance. Checked against the searcher registry when the scenario loads.
+    declare : {"each", "all"}
+        ``each``: every member's first declaration is passed on as it is made; ``all``: the
+        team declares once every member has, all members' positions stacked.
     """
 
-    member: dict[str, Any] = Field(default_factory=lambda: {"type": "random-walk"})
-    declare: str = Field("first", pattern="^(first|all)$")
+    member: Ref("searcher") = ComponentRef(type="random-walk")
+    declare: Literal["each", "all"] = "each"
 
 
-@registry.register("searcher", "per-agent", PerAgentTeamParams, "one searcher per agent")
+@register("searcher", "per-agent", TeamParams, "one searcher per agent")
 class PerAgentTeam(Searcher):
     """One independent searcher per agent; coordination only through messages."""
 
-    def __init__(self, params: PerAgentTeamParams) -> None:
-        self.params = params
-        values = dict(params.member)
-        name = values.pop("type", None)
-        if not isinstance(name, str):
-            from odorloc.errors import ConfigError
+    params: TeamParams
+    unit: ClassVar[str] = "agent"
 
-            raise ConfigError("searcher.member.type", "a member searcher name is required")
-        self._entry = registry.entry("searcher", name, field="searcher.member.type")
-        self._member_params = registry.make_params(
-            "searcher", name, values, field="searcher.member"
-        )
+    def _units(self, ctx: SearchContext) -> list[tuple[tuple[int, ...], int | None]]:
+        """``(agent ids, group index)`` of each member."""
+        out = []
+        for a in ctx.agent_ids:
+            g = ctx.group_of(a)
+            out.append(((a,), None if g is None else g.index))
+        return out
 
     def reset(self, ctx: SearchContext, rng: np.random.Generator) -> None:
         super().reset(ctx, rng)
+        ref = self.params.member
+        entry_cls = None
+        self.units = self._units(ctx)
         self.members: list[Searcher] = []
         # Each member draws from its own stream, so adding an agent does not change the others.
-        for k, child in enumerate(rng.spawn(ctx.n_agents)):
-            m = self._entry.build(self._member_params)
-            m.reset(replace(ctx, n_agents=1, start=ctx.start[k : k + 1]), child)
+        for (agents, _), child in zip(self.units, rng.spawn(len(self.units)), strict=True):
+            m = ref.build("searcher", field="searcher.member")
+            entry_cls = type(m)
+            if entry_cls.max_agents is not None and len(agents) > entry_cls.max_agents:
+                raise ConfigError(
+                    "searcher.member.type",
+                    f"{ref.type!r} drives at most {entry_cls.max_agents} agent(s), a member "
+                    f"controls {len(agents)}",
+                )
+            m.reset(ctx.subset(agents), child)
             self.members.append(m)
-        self._rngs = rng.spawn(ctx.n_agents)
-        self._declared: list[Declaration | None] = [None] * ctx.n_agents
+        self._rngs = rng.spawn(len(self.units))
+        self._declared: list[Declaration | None] = [None] * len(self.units)
+        self._team_declared = False
 
     def act(self, observations: Sequence[Observation], rng: np.random.Generator) -> Action:
-        commands: list[Command | None] = []
-        messages: dict[int, dict[str, np.ndarray]] = {}
-        for k, (m, o) in enumerate(zip(self.members, observations, strict=True)):
-            a = m.act([replace(o, agent=0)], self._rngs[k])
-            commands.append(a.commands[0])
-            if 0 in a.messages:
-                messages[k] = a.messages[0]
-            if a.declaration is not None and self._declared[k] is None:
-                self._declared[k] = a.declaration
-        decl = None
-        done = [d for d in self._declared if d is not None]
-        if self.params.declare == "first" and done:
-            decl = done[0]
-        elif self.params.declare == "all" and len(done) == len(self.members):
-            decl = Declaration(
-                np.vstack([d.positions for d in done]),
-                confidence=float(np.mean([d.confidence for d in done])),
+        ctx = self.ctx
+        commands: list[Command | None] = [None] * ctx.n_agents
+        messages: dict[int, Mapping[str, np.ndarray]] = {}
+        compute: dict[int, float] = {}
+        new: list[Declaration] = []
+        for k, (m, (agents, group)) in enumerate(zip(self.members, self.units, strict=True)):
+            rows = [ctx.index(a) for a in agents]
+            a = m.act([observations[r] for r in rows], self._rngs[k])
+            if len(a.commands) != len(agents):
+                raise RuntimeError(
+                    f"member {k} returned {len(a.commands)} commands for {len(agents)} agents"
+                )
+            for r, c in zip(rows, a.commands, strict=True):
+                commands[r] = c
+            for sender, payload in a.messages.items():
+                if sender not in agents:
+                    raise RuntimeError(f"member {k} sent a message as agent {sender}")
+                messages[int(sender)] = payload
+            compute.update(a.compute_bits)
+            if a.declarations and self._declared[k] is None:
+                d = a.declarations[0]
+                tagged = Declaration(
+                    d.positions,
+                    d.confidence,
+                    agent=d.agent if d.agent is not None else agents[0],
+                    group=d.group if d.group is not None else group,
+                )
+                self._declared[k] = tagged
+                new.append(tagged)
+        decls: tuple[Declaration, ...] = ()
+        if self.params.declare == "each":
+            decls = tuple(new)
+        elif not self._team_declared and all(d is not None for d in self._declared):
+            done = [d for d in self._declared if d is not None]
+            self._team_declared = True
+            decls = (
+                Declaration(
+                    np.vstack([d.positions for d in done]),
+                    confidence=float(np.mean([d.confidence for d in done])),
+                ),
             )
-        return Action(commands, messages=messages, declaration=decl)
+        return Action(commands, messages=messages, declarations=decls, compute_bits=compute)
 
-    def belief(self) -> Any | None:
-        """The first member's belief (members keep their own)."""
+    def beliefs(self) -> Mapping[int, Belief]:
+        """Every member's belief, keyed by the (first) agent it belongs to."""
+        out: dict[int, Belief] = {}
+        for m, (agents, _) in zip(self.members, self.units, strict=True):
+            b = m.belief()
+            if b is not None:
+                out[agents[0]] = b
+        return out
+
+    def belief(self) -> Belief | None:
+        """The first member's belief."""
         return self.members[0].belief() if self.members else None
 
-    def member_beliefs(self) -> list[Any | None]:
-        """Every member's belief, in agent order."""
-        return [m.belief() for m in self.members]
+    def diagnostics(self) -> dict[str, float]:
+        """The first member's diagnostics."""
+        return self.members[0].diagnostics() if self.members else {}
+
+    def final_metrics(self) -> dict[str, Any]:
+        """The first member's extra columns as they are, the others' suffixed ``_<agent>``."""
+        out: dict[str, Any] = {}
+        for k, (m, (agents, _)) in enumerate(zip(self.members, self.units, strict=True)):
+            for key, v in m.final_metrics().items():
+                out[key if k == 0 else f"{key}_{agents[0]}"] = v
+        return out
+
+
+@register("searcher", "per-group", TeamParams, "one controller per group of agents")
+class PerGroupTeam(PerAgentTeam):
+    """One controller per group (``agents.groups``); without groups, one for the whole team."""
+
+    unit = "group"
+
+    def _units(self, ctx: SearchContext) -> list[tuple[tuple[int, ...], int | None]]:
+        if not ctx.groups:
+            return [(ctx.agent_ids, None)]
+        grouped = {a for g in ctx.groups for a in g.agents}
+        units: list[tuple[tuple[int, ...], int | None]] = [
+            (tuple(a for a in g.agents if a in ctx.agent_ids), g.index) for g in ctx.groups
+        ]
+        loose = tuple(a for a in ctx.agent_ids if a not in grouped)
+        if loose:
+            units.append((loose, None))
+        return [u for u in units if u[0]]

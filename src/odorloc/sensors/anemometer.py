@@ -19,10 +19,11 @@ import numpy as np
 from numpy.typing import ArrayLike
 from pydantic import Field
 
-from odorloc.errors import ConfigError
-from odorloc.params import NonNegative, Params
-from odorloc.registry import register
-from odorloc.sensors.gas import check_dt, position_point
+from odorloc.core.errors import ConfigError
+from odorloc.core.params import NonNegative, Params
+from odorloc.core.registry import register
+from odorloc.core.timestep import check_dt
+from odorloc.sensors.base import position_point
 
 if TYPE_CHECKING:
     from odorloc.wind.base import WindModel

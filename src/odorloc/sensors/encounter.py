@@ -12,10 +12,12 @@ import numpy as np
 from numpy.typing import ArrayLike
 from pydantic import Field
 
-from odorloc.errors import ConfigError
-from odorloc.params import Params, Positive
-from odorloc.registry import register
-from odorloc.sensors.gas import GasReading, check_dt, position_point
+from odorloc.core.errors import ConfigError
+from odorloc.core.params import Params, Positive
+from odorloc.core.registry import register
+from odorloc.core.timestep import check_dt
+from odorloc.core.types import SensorInfo
+from odorloc.sensors.base import GasReading, GasSensor, position_point
 
 if TYPE_CHECKING:
     from odorloc.plume.base import PlumeModel
@@ -35,18 +37,22 @@ class EncounterSensorParams(Params):
 
 
 @register("gas_sensor", "encounter", EncounterSensorParams, "Poisson particle-encounter counter")
-class EncounterSensor:
+class EncounterSensor(GasSensor):
     """Counts odor-particle encounters during each call period.
 
     ``measure`` returns a :class:`~odorloc.sensors.gas.GasReading` with ``value`` = hits (float),
     ``raw`` = expected hits ``gain R dt`` and ``detection`` = ``hits >= threshold``.
     """
 
+    kind = "encounter"
+
     def __init__(self, params: EncounterSensorParams) -> None:
         self.params = params
 
-    def reset(self, rng: np.random.Generator | None = None) -> None:
-        """The counter has no state between periods."""
+    @property
+    def info(self) -> SensorInfo:
+        """Threshold in hits per call period."""
+        return SensorInfo(self.kind, float(self.params.threshold), "hits", False)
 
     def expected(self, plume: PlumeModel, position: ArrayLike, dt: float) -> float:
         """Expected hits in ``dt`` seconds at ``position``."""

@@ -20,53 +20,20 @@ is this class with ``threshold`` set and ``binarize=True``.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike
 
-from odorloc.errors import ConfigError
-from odorloc.params import Finite, NonNegative, Params, Positive
-from odorloc.registry import register
+from odorloc.core.errors import ConfigError
+from odorloc.core.params import Finite, NonNegative, Params, Positive
+from odorloc.core.registry import register
+from odorloc.core.timestep import check_dt
+from odorloc.core.types import SensorInfo
+from odorloc.sensors.base import GasReading, GasSensor, position_point
 
 if TYPE_CHECKING:
     from odorloc.plume.base import PlumeModel
-
-
-@dataclass(frozen=True)
-class GasReading:
-    """One gas-sensor reading.
-
-    Attributes
-    ----------
-    value : float
-        Output after the sensor's processing (concentration units, or a count).
-    raw : float
-        True concentration (or expected count) at the sensor position at this call.
-    detection : bool
-        Binarised reading.
-    """
-
-    value: float
-    raw: float
-    detection: bool
-
-
-def check_dt(dt: float) -> float:
-    """``dt`` as a float; :class:`ConfigError` unless finite and > 0."""
-    dt = float(dt)
-    if not (math.isfinite(dt) and dt > 0):
-        raise ConfigError("dt", f"must be a finite number > 0, got {dt}")
-    return dt
-
-
-def position_point(position: ArrayLike, dim: int) -> np.ndarray:
-    """A sensor position as a ``(1, dim)`` array; :class:`ConfigError` if malformed."""
-    p = np.asarray(position, float).reshape(-1)
-    if p.shape != (dim,) or not np.all(np.isfinite(p)):
-        raise ConfigError("position", f"expected {dim} finite components, got {np.shape(position)}")
-    return p[None, :]
 
 
 class ConcentrationSensorParams(Params):
@@ -106,7 +73,7 @@ class ConcentrationSensorParams(Params):
 
 
 @register("gas_sensor", "concentration", ConcentrationSensorParams, "gas concentration sensor")
-class ConcentrationSensor:
+class ConcentrationSensor(GasSensor):
     """A concentration sensor with delay, lag, gain, noise, saturation and threshold.
 
     Parameters
@@ -114,12 +81,20 @@ class ConcentrationSensor:
     params : ConcentrationSensorParams
     """
 
+    kind = "concentration"
+
     def __init__(self, params: ConcentrationSensorParams) -> None:
         self.params = params
         self._buf: np.ndarray | None = None
         self._head = 0
         self._y = 0.0
         self._dt: float | None = None
+
+    @property
+    def info(self) -> SensorInfo:
+        """Threshold in the sensor's output units (``"reading"``)."""
+        p = self.params
+        return SensorInfo(self.kind, float(p.threshold), "reading", bool(p.binarize))
 
     def reset(self, rng: np.random.Generator | None = None) -> None:
         """Forget the delay buffer and the lag state (``rng`` unused: no random initial state)."""

@@ -29,8 +29,8 @@ from numpy.typing import ArrayLike
 from pydantic import Field
 from scipy.signal import lfilter
 
-from odorloc.errors import ConfigError
-from odorloc.params import NonNegative, Params, Positive
+from odorloc.core.errors import ConfigError
+from odorloc.core.params import NonNegative, Params, Positive
 
 
 class PreprocessorParams(Params):

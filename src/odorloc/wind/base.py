@@ -1,7 +1,7 @@
 """The wind-model interface.
 
 A wind model is a velocity field that may evolve in time. Parameters are immutable
-(:class:`odorloc.params.Params`); the evolving state lives in the model instance and is
+(:class:`odorloc.core.params.Params`); the evolving state lives in the model instance and is
 reset by :meth:`WindModel.reset`.
 """
 
@@ -12,9 +12,9 @@ from abc import ABC, abstractmethod
 import numpy as np
 from numpy.typing import ArrayLike
 
-from odorloc.errors import ConfigError
-from odorloc.timestep import TimeStepped
-from odorloc.world.arena import Arena, as_points
+from odorloc.core.errors import ConfigError
+from odorloc.core.timestep import TimeStepped
+from odorloc.geometry.arena import Arena, as_points
 
 
 class WindModel(TimeStepped, ABC):

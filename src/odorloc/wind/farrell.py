@@ -25,11 +25,11 @@ import math
 import numpy as np
 from pydantic import Field, field_validator
 
-from odorloc.params import Finite, NonNegative, Params, Positive
-from odorloc.registry import register
+from odorloc.core.params import Finite, NonNegative, Params, Positive
+from odorloc.core.registry import register
+from odorloc.geometry.arena import Arena
 from odorloc.wind.base import WindModel
 from odorloc.wind.meander import SecondOrderNoise
-from odorloc.world.arena import Arena
 
 
 class FarrellWindParams(Params):

@@ -25,10 +25,10 @@ from typing import Literal
 import numpy as np
 from scipy.linalg import expm
 
-from odorloc.params import Finite, NonNegative, Params, Positive
-from odorloc.registry import register
+from odorloc.core.params import Finite, NonNegative, Params, Positive
+from odorloc.core.registry import register
+from odorloc.geometry.arena import Arena
 from odorloc.wind.base import WindModel
-from odorloc.world.arena import Arena
 
 SwingMode = Literal["tanh", "clip", "gaussian"]
 

@@ -38,12 +38,12 @@ from pydantic import field_validator, model_validator
 from scipy.ndimage import label
 from scipy.sparse.linalg import spsolve
 
-from odorloc.errors import ConfigError
-from odorloc.params import Finite, NonNegative, Params, Positive
-from odorloc.registry import register
+from odorloc.core.errors import ConfigError
+from odorloc.core.params import Finite, NonNegative, Params, Positive
+from odorloc.core.registry import register
+from odorloc.geometry.arena import Arena
 from odorloc.wind.base import WindModel
 from odorloc.wind.meander import SecondOrderNoise, SwingMode, swing
-from odorloc.world.arena import Arena
 
 Side = Literal["left", "right", "bottom", "top"]
 

@@ -4,20 +4,21 @@ from __future__ import annotations
 
 import numpy as np
 
-from odorloc.errors import ConfigError
-from odorloc.params import Params, Vector
-from odorloc.registry import register
+from odorloc.core.errors import ConfigError
+from odorloc.core.params import Params, Vector
+from odorloc.core.registry import register
+from odorloc.geometry.arena import Arena
 from odorloc.wind.base import WindModel
-from odorloc.world.arena import Arena
 
 
 class UniformWindParams(Params):
     """Parameters of :class:`UniformWind`.
 
-    velocity : (d,) tuple of float, m/s
+    velocity : (d,) tuple of float, m/s, optional
+        The wind; ``None`` (default) is 1 m/s along +x in the arena's dimension.
     """
 
-    velocity: Vector = (1.0, 0.0)
+    velocity: Vector | None = None
 
 
 @register("wind", "uniform", UniformWindParams, "uniform constant wind")
@@ -28,12 +29,13 @@ class UniformWind(WindModel):
 
     def __init__(self, params: UniformWindParams, arena: Arena) -> None:
         super().__init__(arena)
-        if len(params.velocity) != arena.dim:
-            raise ConfigError(
-                "wind.velocity", f"needs {arena.dim} components, got {len(params.velocity)}"
-            )
+        v = params.velocity
+        if v is None:
+            v = (1.0,) + (0.0,) * (arena.dim - 1)
+        if len(v) != arena.dim:
+            raise ConfigError("wind.velocity", f"needs {arena.dim} components, got {len(v)}")
         self.params = params
-        self._u = np.asarray(params.velocity, float)
+        self._u = np.asarray(v, float)
 
     def _velocity(self, points: np.ndarray, t: float) -> np.ndarray:
         return np.broadcast_to(self._u, points.shape).copy()

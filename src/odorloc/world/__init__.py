@@ -1,7 +1,5 @@
-"""Arenas, odor sources and the composed simulated world."""
+"""The composed simulated world: an arena, a wind field and a plume on one clock."""
 
-from odorloc.world.arena import Arena, as_points
-from odorloc.world.sources import Modulation, Source
 from odorloc.world.world import World
 
-__all__ = ["Arena", "Modulation", "Source", "World", "as_points"]
+__all__ = ["World"]

@@ -2,19 +2,18 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 
-from odorloc.errors import ConfigError
-from odorloc.timestep import check_dt
-from odorloc.world.arena import Arena
-
-if TYPE_CHECKING:
-    # Type-only: the plume and wind packages import ``odorloc.world`` themselves.
-    from odorloc.plume.base import PlumeModel
-    from odorloc.wind.base import WindModel
+from odorloc.core.errors import ConfigError
+from odorloc.core.timestep import check_dt
+from odorloc.geometry.arena import Arena
+from odorloc.plume.base import PlumeModel
+from odorloc.plume.replay import Movie, ReplayParams, ReplayPlume, ReplayWind, record_movie
+from odorloc.plume.sources import Source
+from odorloc.wind.base import WindModel
 
 
 @dataclass(eq=False)
@@ -56,3 +55,30 @@ class World:
         check_dt(dt)
         self.wind.step(dt, rng)
         self.plume.step(dt, rng)
+
+    def record(
+        self,
+        duration: float,
+        frame_dt: float,
+        rng: np.random.Generator,
+        *,
+        dt: float | None = None,
+        wind_shape: Sequence[int] | None = None,
+    ) -> Movie:
+        """Record this world as a :class:`~odorloc.plume.replay.Movie` (see
+        :func:`~odorloc.plume.replay.record_movie`)."""
+        return record_movie(
+            (self.plume, self.wind), duration, frame_dt, rng, dt=dt, wind_shape=wind_shape
+        )
+
+    @classmethod
+    def replay(
+        cls, movie: Movie, sources: Sequence[Source] | None = None, loop: bool = False
+    ) -> World:
+        """A world playing ``movie`` back: its arena, a replayed wind and plume (with
+        ``sources``, default the recorded ones)."""
+        params = ReplayParams(loop=loop)
+        arena = movie.arena()
+        wind = ReplayWind(params, arena, movie=movie)
+        plume = ReplayPlume(params, arena, wind, sources, movie=movie)
+        return cls(arena, wind, plume)

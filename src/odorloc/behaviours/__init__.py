@@ -1,0 +1,9 @@
+"""Reactive behaviours: one implementation of each motion rule, used by every searcher.
+
+- :mod:`.escape`: the first free direction among candidates (walls and obstacles);
+- :mod:`.zigzag`: Z-shaped legs at an angle to the wind (indoor PF paper, Fig. 1);
+- :mod:`.surge_cast`: moth-inspired upwind surge, then widening crosswind casts;
+- :mod:`.stop_and_go`: one move of at most a period's reach, then standing still to read;
+- :mod:`.monitor`: passive monitoring and the strongest-reading memory;
+- :mod:`.wind`: running wind averages and the upwind direction.
+"""

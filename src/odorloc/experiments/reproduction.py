@@ -1,0 +1,253 @@
+"""The common shape of a paper reproduction: a stored sweep, tables beside the paper, figures.
+
+A reproduction (registry family ``"reproduction"``) lives in its paper package
+(``odorloc/papers/<paper>/reproduction.py``) and subclasses :class:`Reproduction`:
+
+- :meth:`Reproduction.sweep` gives the sweep (scenarios x searchers x grids x episodes, the
+  ``replay`` option for record-once/replay-many); it runs through the ordinary harness, so it is
+  stored as it goes, resumes after a kill, and runs on the local pool or on Dask;
+- :meth:`Reproduction.tables` turns the stored rows into compact tables printed beside the
+  paper's numbers (wide tables go to CSV and the report);
+- :meth:`Reproduction.figures` draws the paper's figures; each figure is drawn on its own, so
+  one that fails is reported and never takes the tables, the other figures or the report down.
+
+:meth:`Reproduction.run` is the template every reproduction follows.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+import traceback
+import warnings
+from abc import ABC, abstractmethod
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, ClassVar
+
+from odorloc.core.errors import ConfigError
+from odorloc.core.params import Params
+from odorloc.core.registry import entry, names
+
+__all__ = [
+    "Figure",
+    "Reproduction",
+    "ReproductionParams",
+    "Table",
+    "fmt",
+    "get",
+    "names_of_reproductions",
+]
+
+
+class ReproductionParams(Params):
+    """Reproductions take their options at :meth:`Reproduction.run`, not as parameters."""
+
+
+@dataclass
+class Table:
+    """A result table: a title, headers, formatted rows, and whether to print it.
+
+    Wide tables (``console=False``) go only to CSV and the report.
+    """
+
+    name: str
+    title: str
+    headers: list[str]
+    rows: list[list[str]]
+    console: bool = True
+    note: str = ""
+
+
+@dataclass
+class Figure:
+    """A figure to draw: a file name, a caption and the function that draws it to a path."""
+
+    name: str
+    caption: str
+    draw: Callable[[Path], Any]
+
+
+def fmt(x: Any, digits: int = 1) -> str:
+    """A number for a table: ``-`` for NaN/None."""
+    if x is None:
+        return "-"
+    try:
+        v = float(x)
+    except (TypeError, ValueError):
+        return str(x)
+    return "-" if math.isnan(v) else f"{v:.{digits}f}"
+
+
+@dataclass
+class Outcome:
+    """What :meth:`Reproduction.run` produced."""
+
+    results: Any
+    tables: list[Table] = field(default_factory=list)
+    figures: list[Path] = field(default_factory=list)
+    failed_figures: list[str] = field(default_factory=list)
+    report: Path | None = None
+    wall_time: float = math.nan
+
+
+class Reproduction(ABC):
+    """Base class of paper reproductions (see the module docstring).
+
+    Class attributes
+    ----------------
+    name, paper, summary : str
+        Registry name, the paper's file in ``shared/papers``, a one-line description.
+    default_episodes : int
+        Episodes per cell of the default run (fits the issue's time budget on 2 cores).
+    paper_episodes : int
+        The paper's own count (``--episodes`` reaches it).
+    """
+
+    name: ClassVar[str] = ""
+    paper: ClassVar[str] = ""
+    summary: ClassVar[str] = ""
+    default_episodes: ClassVar[int] = 10
+    paper_episodes: ClassVar[int] = 10
+
+    def __init__(self, params: ReproductionParams | None = None) -> None:
+        self.params = params or ReproductionParams()
+
+    # ------------------------------------------------------------------ to override
+    @abstractmethod
+    def sweep(self, episodes: int, seed: int) -> dict[str, Any]:
+        """The sweep specification (see :mod:`odorloc.experiments.sweep`)."""
+
+    def group_fn(self) -> Callable[[list[Any]], list[dict[str, Any]]] | None:
+        """The group function of a ``replay`` sweep (default: the harness's)."""
+        return None
+
+    def tables(self, df: Any, seed: int) -> list[Table]:
+        """Tables of the stored rows beside the paper's numbers."""
+        return []
+
+    def figures(self, df: Any, store: Any, out: Path, seed: int) -> list[Figure]:
+        """The paper's figures (drawn one by one by :meth:`run`)."""
+        return []
+
+    def reference(self) -> dict[str, dict[str, Any]]:
+        """The paper's numbers per cell id or searcher label, for the report."""
+        return {}
+
+    # ------------------------------------------------------------------ template
+    def run(
+        self,
+        out: Path,
+        episodes: int | None = None,
+        workers: int = 2,
+        seed: int = 2024,
+        progress: bool = True,
+        backend: str = "local",
+        scheduler: str | None = None,
+    ) -> Outcome:
+        """Run (or resume) the reproduction and write tables, figures and the report to ``out``."""
+        import pandas as pd
+        from rich.console import Console
+        from rich.table import Table as RichTable
+
+        from odorloc.experiments.report import ReportSection, write_report
+        from odorloc.experiments.store import ResultStore
+        from odorloc.experiments.sweep import run_sweep
+
+        n = self.default_episodes if episodes is None else int(episodes)
+        if n < 1:
+            raise ConfigError("episodes", f"must be >= 1, got {n}")
+        out = Path(out)
+        out.mkdir(parents=True, exist_ok=True)
+        console = Console(width=120)
+        t0 = time.perf_counter()
+        store_path = out / "results.sqlite"
+        df = run_sweep(
+            self.sweep(n, seed),
+            store_path,
+            backend=backend,
+            workers=workers,
+            scheduler=scheduler,
+            progress=progress,
+            group_fn=self.group_fn(),
+        )
+        wall = time.perf_counter() - t0
+        df = df[df["episode"] < n] if len(df) else df
+        outcome = Outcome(results=df, wall_time=wall)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            df.to_csv(out / "results.csv", index=False)
+        try:
+            tables = self.tables(df, seed)
+        except Exception:  # the stored rows stay; say what failed
+            tables = []
+            console.print(f"[red]tables failed:[/]\n{traceback.format_exc()}")
+        outcome.tables = tables
+        for tab in tables:
+            pd.DataFrame(tab.rows, columns=tab.headers).to_csv(out / f"{tab.name}.csv", index=False)
+            if tab.console:
+                rt = RichTable(title=tab.title)
+                for i, h in enumerate(tab.headers):
+                    rt.add_column(h, justify="left" if i == 0 else "right")
+                for r in tab.rows:
+                    rt.add_row(*r)
+                console.print(rt)
+                if tab.note:
+                    console.print(tab.note)
+        console.print(f"wall time {wall:.0f} s on {workers} worker(s) ({backend})")
+        sections = []
+        figs: list[tuple[Path, str]] = []
+        with ResultStore(store_path, readonly=True) as store:
+            try:
+                specs = self.figures(df, store, out, seed)
+            except Exception:
+                specs = []
+                outcome.failed_figures.append("figures")
+                console.print(f"[red]figures failed:[/]\n{traceback.format_exc()}")
+            for fig in specs:
+                path = out / fig.name
+                try:
+                    fig.draw(path)
+                except Exception as exc:
+                    outcome.failed_figures.append(fig.name)
+                    console.print(f"[red]figure {fig.name} failed:[/] {type(exc).__name__}: {exc}")
+                    continue
+                outcome.figures.append(path)
+                figs.append((path, fig.caption))
+            sections.append(
+                ReportSection(
+                    title=f"Reproduction: {self.summary}",
+                    text=f"Paper: {self.paper}. {len(df)} episodes, root seed {seed}.",
+                    tables=[(t.title, t.headers, t.rows) for t in tables],
+                    figures=figs,
+                )
+            )
+            try:
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore")
+                    outcome.report = write_report(
+                        store,
+                        out / "report.html",
+                        title=f"{self.name} reproduction",
+                        reference=self.reference(),
+                        sections=sections,
+                        seed=seed,
+                    )
+            except Exception:
+                console.print(f"[red]report failed:[/]\n{traceback.format_exc()}")
+        for p in [*outcome.figures, outcome.report]:
+            if p is not None:
+                console.print(f"wrote {p}")
+        return outcome
+
+
+def names_of_reproductions() -> list[str]:
+    """Registered reproduction names."""
+    return names("reproduction")
+
+
+def get(name: str) -> Reproduction:
+    """A reproduction by name; :class:`ConfigError` naming it if unknown."""
+    e = entry("reproduction", name, field="paper")
+    return e.build(ReproductionParams())

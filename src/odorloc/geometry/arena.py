@@ -1,0 +1,277 @@
+"""Bounded 2D/3D arenas with obstacles stored as an occupancy grid.
+
+All queries are vectorised over points: ``points`` is a ``(Q, d)`` array in metres.
+The occupancy grid ``occ`` has shape ``(nx, ny)`` or ``(nx, ny, nz)``: it lives on
+:attr:`Arena.grid`, a :class:`~odorloc.geometry.grid.CellGrid` whose cell ``[i, j(, k)]`` covers
+``lower + (i, j, k) * resolution`` to ``lower + (i+1, j+1, k+1) * resolution``.
+"""
+
+from __future__ import annotations
+
+import csv
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from odorloc.core.errors import ConfigError
+from odorloc.geometry.grid import CellGrid
+
+FloatArray = NDArray[np.float64]
+BoolArray = NDArray[np.bool_]
+
+
+def as_points(points: ArrayLike, dim: int, name: str = "points") -> FloatArray:
+    """Return ``points`` as a float ``(Q, dim)`` array (a single point becomes ``(1, dim)``)."""
+    p = np.asarray(points, dtype=float)
+    if p.ndim == 1:
+        p = p[None, :]
+    if p.ndim != 2 or p.shape[1] != dim:
+        raise ConfigError(name, f"expected shape (Q, {dim}), got {np.shape(points)}")
+    return p
+
+
+@dataclass(frozen=True, eq=False)
+class Arena:
+    """A rectangular (box) arena with an optional occupancy grid of obstacles.
+
+    Parameters
+    ----------
+    lower, upper : (d,) sequence of float, metres
+        Opposite corners of the arena, ``d`` in {2, 3}.
+    resolution : float, metres
+        Edge length of an occupancy cell.
+    occ : (nx, ny[, nz]) bool ndarray, optional
+        ``True`` where a cell is an obstacle. ``None`` means no obstacles.
+    """
+
+    lower: tuple[float, ...]
+    upper: tuple[float, ...]
+    resolution: float = 0.1
+    occ: BoolArray | None = field(default=None, repr=False)
+    grid: CellGrid = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        lo = np.asarray(self.lower, float)
+        hi = np.asarray(self.upper, float)
+        if lo.ndim != 1 or lo.shape != hi.shape or lo.size not in (2, 3):
+            raise ConfigError("arena.lower", "lower and upper must both have 2 or 3 components")
+        if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi))):
+            raise ConfigError("arena.upper", "bounds must be finite")
+        if np.any(hi <= lo):
+            raise ConfigError("arena.upper", f"must exceed lower in every axis ({hi} vs {lo})")
+        if not (np.isfinite(self.resolution) and self.resolution > 0):
+            raise ConfigError("arena.resolution", "must be a finite number > 0")
+        object.__setattr__(self, "lower", tuple(float(x) for x in lo))
+        object.__setattr__(self, "upper", tuple(float(x) for x in hi))
+        shape = tuple(int(n) for n in np.maximum(1, np.ceil((hi - lo) / self.resolution - 1e-9)))
+        object.__setattr__(self, "grid", CellGrid(self.lower, float(self.resolution), shape))
+        if self.occ is not None:
+            occ = np.asarray(self.occ, dtype=bool)
+            if occ.shape != self.grid_shape:
+                raise ConfigError(
+                    "arena.occupancy", f"grid shape {occ.shape} != expected {self.grid_shape}"
+                )
+            occ = occ.copy()
+            occ.setflags(write=False)
+            object.__setattr__(self, "occ", occ if occ.any() else None)
+
+    # ------------------------------------------------------------------ geometry
+    @property
+    def dim(self) -> int:
+        """Number of spatial dimensions (2 or 3)."""
+        return len(self.lower)
+
+    @property
+    def lo(self) -> FloatArray:
+        """Lower corner as an array, metres."""
+        return np.asarray(self.lower)
+
+    @property
+    def hi(self) -> FloatArray:
+        """Upper corner as an array, metres."""
+        return np.asarray(self.upper)
+
+    @property
+    def size(self) -> FloatArray:
+        """Edge lengths ``upper - lower``, metres."""
+        return self.hi - self.lo
+
+    @property
+    def grid_shape(self) -> tuple[int, ...]:
+        """Shape of the occupancy grid: ``ceil(size / resolution)`` per axis."""
+        return self.grid.shape
+
+    def cell_centers(self) -> list[FloatArray]:
+        """Per-axis coordinates of the occupancy cell centres, metres."""
+        return [self.grid.axis_centers(a) for a in range(self.dim)]
+
+    def cell_index(self, points: ArrayLike) -> NDArray[np.intp]:
+        """Occupancy cell index of each point, clipped into the grid: ``(Q, d)`` int."""
+        return self.grid.index(as_points(points, self.dim))
+
+    # ------------------------------------------------------------------ queries
+    def contains(self, points: ArrayLike) -> BoolArray:
+        """``True`` where a point lies inside the bounds (closed box): ``(Q,)``."""
+        p = as_points(points, self.dim)
+        return np.all((p >= self.lo) & (p <= self.hi), axis=1)
+
+    def in_obstacle(self, points: ArrayLike) -> BoolArray:
+        """``True`` where a point lies inside the bounds and in an occupied cell: ``(Q,)``."""
+        p = as_points(points, self.dim)
+        if self.occ is None:
+            return np.zeros(len(p), dtype=bool)
+        inside = self.contains(p)
+        idx = self.cell_index(p)
+        return inside & self.occ[tuple(idx.T)]
+
+    def is_free(self, points: ArrayLike) -> BoolArray:
+        """``True`` where a point is inside the bounds and not in an obstacle: ``(Q,)``."""
+        p = as_points(points, self.dim)
+        ok = self.contains(p)
+        if self.occ is not None:
+            ok &= ~self.occ[tuple(self.cell_index(p).T)]
+        return ok
+
+    def segment_free(self, start: ArrayLike, end: ArrayLike) -> BoolArray:
+        """``True`` where the straight segment from ``start`` to ``end`` stays in free space.
+
+        Segments are sampled at a quarter of the cell size, so an obstacle cell is never
+        skipped. ``start`` and ``end`` broadcast: ``(Q, d)`` or ``(d,)``.
+
+        Returns
+        -------
+        (Q,) bool ndarray
+        """
+        a = as_points(start, self.dim, "start")
+        b = as_points(end, self.dim, "end")
+        a, b = np.broadcast_arrays(a, b)
+        length = np.linalg.norm(b - a, axis=1)
+        n = int(np.ceil(length.max(initial=0.0) / (0.25 * self.resolution))) + 1
+        s = np.linspace(0.0, 1.0, max(n, 2))
+        pts = a[:, None, :] + s[None, :, None] * (b - a)[:, None, :]
+        ok = self.is_free(pts.reshape(-1, self.dim)).reshape(len(a), -1)
+        return ok.all(axis=1)
+
+    def line_of_sight(self, start: ArrayLike, end: ArrayLike) -> BoolArray:
+        """Alias of :meth:`segment_free`: nothing blocks the straight line between the points."""
+        return self.segment_free(start, end)
+
+    def first_hit(self, start: ArrayLike, end: ArrayLike) -> FloatArray:
+        """Fraction ``s`` in [0, 1] of each segment that can be travelled before leaving free space.
+
+        ``1.0`` means the whole segment is free; used by platforms to stop at walls.
+        """
+        a = as_points(start, self.dim, "start")
+        b = as_points(end, self.dim, "end")
+        a, b = np.broadcast_arrays(a, b)
+        length = np.linalg.norm(b - a, axis=1)
+        n = int(np.ceil(length.max(initial=0.0) / (0.1 * self.resolution))) + 1
+        s = np.linspace(0.0, 1.0, max(n, 2))
+        pts = a[:, None, :] + s[None, :, None] * (b - a)[:, None, :]
+        ok = self.is_free(pts.reshape(-1, self.dim)).reshape(len(a), -1)
+        bad = ~ok
+        first_bad = np.where(bad.any(axis=1), bad.argmax(axis=1), len(s))
+        frac = np.where(first_bad >= len(s), 1.0, s[np.maximum(first_bad - 1, 0)])
+        return np.where(first_bad == 0, 0.0, frac)
+
+    def clip(self, points: ArrayLike) -> FloatArray:
+        """Points clipped into the bounds (not out of obstacles), ``(Q, d)``."""
+        return np.clip(as_points(points, self.dim), self.lo, self.hi)
+
+    # ------------------------------------------------------------------ constructors
+    @classmethod
+    def box(cls, lower: Sequence[float], upper: Sequence[float], resolution: float = 0.1) -> Arena:
+        """An empty box arena."""
+        return cls(tuple(lower), tuple(upper), resolution)
+
+    def with_boxes(self, boxes: Sequence[tuple[Sequence[float], Sequence[float]]]) -> Arena:
+        """A copy with axis-aligned box obstacles ``[(lower, upper), ...]`` marked occupied.
+
+        A cell is occupied when its centre lies inside a box.
+        """
+        occ = np.zeros(self.grid_shape, bool) if self.occ is None else self.occ.copy()
+        centers = np.meshgrid(*self.cell_centers(), indexing="ij")
+        for k, (blo, bhi) in enumerate(boxes):
+            blo_a, bhi_a = np.asarray(blo, float), np.asarray(bhi, float)
+            if blo_a.shape != (self.dim,) or bhi_a.shape != (self.dim,):
+                raise ConfigError(f"obstacles[{k}]", f"box corners need {self.dim} components")
+            if np.any(bhi_a <= blo_a):
+                raise ConfigError(f"obstacles[{k}]", "box upper corner must exceed lower")
+            inside = np.ones(self.grid_shape, bool)
+            for a in range(self.dim):
+                inside &= (centers[a] >= blo_a[a]) & (centers[a] <= bhi_a[a])
+            occ |= inside
+        return Arena(self.lower, self.upper, self.resolution, occ)
+
+    def with_polygons(self, polygons: Sequence[Sequence[Sequence[float]]]) -> Arena:
+        """A copy with 2D polygon obstacles (vertex lists, metres); in 3D they span all heights."""
+        from matplotlib.path import Path as MplPath
+
+        occ = np.zeros(self.grid_shape, bool) if self.occ is None else self.occ.copy()
+        cx, cy = self.cell_centers()[:2]
+        gx, gy = np.meshgrid(cx, cy, indexing="ij")
+        xy = np.column_stack([gx.ravel(), gy.ravel()])
+        for k, poly in enumerate(polygons):
+            v = np.asarray(poly, float)
+            if v.ndim != 2 or v.shape[1] != 2 or len(v) < 3:
+                raise ConfigError(f"polygons[{k}]", "need at least 3 (x, y) vertices")
+            inside = MplPath(v).contains_points(xy).reshape(gx.shape)
+            occ |= inside[..., None] if self.dim == 3 else inside
+        return Arena(self.lower, self.upper, self.resolution, occ)
+
+    @classmethod
+    def from_grid(
+        cls,
+        grid: ArrayLike,
+        resolution: float,
+        origin: Sequence[float] = (0.0, 0.0),
+    ) -> Arena:
+        """An arena whose bounds are those of an occupancy grid ``grid[i, j]`` (x index first)."""
+        g = np.asarray(grid).astype(bool)
+        if g.ndim not in (2, 3):
+            raise ConfigError("occupancy", f"grid must be 2D or 3D, got {g.ndim}D")
+        lo = np.asarray(origin, float)[: g.ndim]
+        if lo.size != g.ndim:
+            raise ConfigError("origin", f"needs {g.ndim} components")
+        hi = lo + np.asarray(g.shape) * resolution
+        return cls(tuple(lo), tuple(hi), resolution, g)
+
+    @classmethod
+    def from_csv(
+        cls, path: str | Path, resolution: float, origin: Sequence[float] = (0.0, 0.0)
+    ) -> Arena:
+        """Load a 2D occupancy grid from CSV.
+
+        Rows are y (the top row is the largest y), columns x; non-zero cells are obstacles.
+        """
+        with open(path, newline="") as fh:
+            rows = [[float(c) for c in r] for r in csv.reader(fh) if r]
+        if not rows or len({len(r) for r in rows}) != 1:
+            raise ConfigError("occupancy_file", f"{path}: rows must be non-empty and equal length")
+        img = np.asarray(rows) != 0
+        return cls.from_grid(img[::-1].T, resolution, origin)
+
+    @classmethod
+    def from_image(
+        cls,
+        path: str | Path,
+        resolution: float,
+        origin: Sequence[float] = (0.0, 0.0),
+        threshold: float = 0.5,
+    ) -> Arena:
+        """Load a 2D occupancy grid from an image (ROS map style: dark pixels are obstacles)."""
+        from PIL import Image
+
+        try:
+            img = np.asarray(Image.open(path).convert("L"), float) / 255.0
+        except OSError as exc:
+            raise ConfigError("occupancy_file", f"cannot read image {path}: {exc}") from None
+        return cls.from_grid((img < threshold)[::-1].T, resolution, origin)
+
+    def distance_to_bounds(self, points: ArrayLike) -> FloatArray:
+        """Distance of each point to the nearest arena face (negative outside), ``(Q,)``."""
+        p = as_points(points, self.dim)
+        return np.minimum(p - self.lo, self.hi - p).min(axis=1)

@@ -1,0 +1,1 @@
+"""Dempster-Shafer evidence grids of several sources, and the map the mapping searchers build."""

@@ -1,0 +1,337 @@
+"""The D-S map of several sources: odor-path maps fused by Dempster's rule (D-S paper).
+
+:class:`DSMapper` bundles two parts so that any motion strategy can build the same map:
+
+* :class:`~odorloc.inference.odor_path.estimator.OdorPathEstimator` turns the robot's wind
+  record into the air-mass path map ``pi`` of the air now at the robot (odor-path paper,
+  eqs. 10-17);
+* :class:`~odorloc.inference.evidence.dempster_shafer.DSGrid` fuses every reading -- detection
+  *and* non-detection -- through that map with Dempster's rule (D-S paper, eqs. 1-4).
+
+Readings of the paper (each configurable, :class:`DSMapParams`):
+
+* Map extent. The grid covers the search region grown by ``map_margin`` (default one cell: the
+  paper's maps mark cells outside the work area too, which "should be ignored"); only the
+  region's cells count in ``sum X``, in planning and in the mapped sources. The paper does not
+  give its cell size, but its residual sums bound it: they exceed ``3 M`` (total ignorance,
+  ``q m(U) = 3`` per cell) unless the region has more than 439 cells, so cells must be below
+  about 0.8 m; 0.5 m is the default.
+* Reading. The binarised gas reading is the event ``D`` or ``notD``; the anemometer reading is
+  the air velocity in the world frame (eq. 1, odor-path paper). Without ``preprocess`` the map
+  of a reading is computed at its own record (the simulated sensor has no delay unless
+  configured).
+* Source estimates. The paper leaves declaration open ("some other methods should be
+  considered next to declare the mapped odor sources"). A mapped source is a connected region
+  with ``m(S) >= source_min_mass``; its position follows ``source_rule``: ``peak`` (default)
+  the region's strongest cell, ranked by the exactly stored doubt ``m(notS) + m(U)`` because
+  long runs of detections round ``m(S)`` to exactly 1.0; ``centroid`` the ``m(S)``-weighted
+  centroid; ``upwind`` the centroid of the region's upwind end. A region is the footprint of
+  where the robot detected (the source plus the plume downwind of it), so the centroid is
+  pulled downwind while the peak marks where the local detection rate is highest.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from typing import Literal
+
+import numpy as np
+from numpy.typing import NDArray
+from pydantic import Field, model_validator
+from scipy import ndimage
+
+from odorloc.core.errors import ConfigError
+from odorloc.core.params import NonNegative, Params, Positive
+from odorloc.core.types import Declaration, Region
+from odorloc.geometry.regions import check_region
+from odorloc.inference.evidence.dempster_shafer import DSGrid, DSParams, EvidenceSource
+from odorloc.inference.odor_path.estimator import OdorPathEstimator, OdorPathParams, PathPatch
+from odorloc.sensors.preprocessing import OnlinePreprocessor, PreprocessorParams
+
+__all__ = ["DSMapParams", "DSMapper", "as_distribution"]
+
+FloatArray = NDArray[np.float64]
+
+
+class DSMapParams(Params):
+    """Parameters of the D-S map (shared by every searcher that builds one).
+
+    Attributes
+    ----------
+    cell_size : float, metres
+        Side of an evidence/path-map cell (0.5 m; see the module notes).
+    map_margin : float, metres, optional
+        The map covers the search region grown by this margin on every side; default one cell
+        (see the module notes).
+    region : ((x0, y0), (x1, y1)), optional
+        Search region, metres; default the task's region, else the arena bounds.
+    t_thr : float, seconds
+        Wind history that opens sub-windows (odor-path paper: 10 s).
+    noise_time_scale : float, seconds
+        ``tau`` of the path-map variance ``(t_c - t_r) tau sigma_u^2`` (odor-path estimator).
+    min_variance : float, m^2/s^2
+        Floor on the wind-velocity variance per axis.
+    kernel : {"point", "cell"}
+        Path-map kernel (odor-path paper eq. 11 or the exact cell integral).
+    ds : DSParams
+        Belief-mass and uncertainty parameters (mu_D 0.9, mu_notD 1.0, zeta 0.6, rho 0.5, q 3).
+    source_min_mass : float
+        ``m(S)`` a cell needs to belong to a mapped source, in (0, 1].
+    source_min_cells : int
+        Smallest connected region counted as a mapped source.
+    source_rule : {"centroid", "upwind", "peak"}
+        Position declared for a mapped region: the centre of its cell with the largest
+        ``m(S)`` (``"peak"``, default, see the module notes), its ``m(S)``-weighted centroid
+        (``"centroid"``, the paper's maps are read by eye), or the weighted centroid
+        of its cells within ``upwind_depth`` of its most upwind cell along the mean recorded
+        wind (``"upwind"``: detections also mark the plume downwind of a source, so a region
+        stretches downwind and its centroid lies downwind of the source).
+    upwind_depth : float, metres
+        Depth of the upwind end used by ``source_rule="upwind"``.
+    path_normalise : {"window", "total"}
+        ``pi`` as the odor-path estimator gives it (each sub-window normalised, the maximum
+        over windows: odor-path paper eq. 17; default), or that map divided by its sum so that
+        ``sum_i pi_i = 1`` (``"total"``: "the probability that the air mass arrived at the
+        robot comes from the cell C_i", D-S paper section 2.2, read as one distribution; each
+        reading then carries far less mass, see the README).
+    preprocess : PreprocessorParams, optional
+        Run the readings through the odor-path paper's pre-processing (eqs. 1-5: delay
+        alignment, moving baseline, signal intensity) before fusing them, for a sensor that
+        lags like the paper's PID. Each aligned reading is fused with the position and wind of
+        the period it belongs to; its detection is ``intensity >= intensity_threshold``.
+        ``None`` (default) fuses every reading at once with the sensor's own detection.
+    intensity_threshold : float
+        Signal intensity ``s`` (eq. 5) that counts as a detection with ``preprocess``.
+    """
+
+    cell_size: Positive = 0.5
+    map_margin: NonNegative | None = None
+    region: Region | None = None
+    t_thr: Positive = 10.0
+    noise_time_scale: Positive = 1.0
+    min_variance: Positive = 1e-4
+    kernel: Literal["point", "cell"] = "point"
+    ds: DSParams = DSParams()
+    source_min_mass: float = Field(0.5, gt=0.0, le=1.0)
+    source_min_cells: int = Field(1, ge=1)
+    source_rule: Literal["centroid", "upwind", "peak"] = "peak"
+    upwind_depth: Positive = 1.5
+    path_normalise: Literal["window", "total"] = "window"
+    preprocess: PreprocessorParams | None = None
+    intensity_threshold: Positive = 0.1
+
+    @model_validator(mode="after")
+    def _check(self) -> DSMapParams:
+        if self.region is not None:
+            check_region(self.region, "region")
+        return self
+
+
+def as_distribution(patch: PathPatch) -> PathPatch:
+    """The path map divided by its sum (unchanged if empty)."""
+    total = float(patch.values.sum()) if patch.values.size else 0.0
+    if total <= 0:
+        return patch
+    return PathPatch(patch.ix0, patch.iy0, patch.values / total, patch.grid, patch.ref_cell)
+
+
+class DSMapper:
+    """Odor-path estimator + Dempster-Shafer grid: the map both mapping searchers build.
+
+    Parameters
+    ----------
+    params : DSMapParams
+    region : ((x0, y0), (x1, y1)), metres
+        Search region (uncertainty and sources are reported over it).
+    dt : float, seconds
+        Record period (the control period).
+    """
+
+    def __init__(self, params: DSMapParams, region: Region, dt: float) -> None:
+        self.params = params
+        self.region = region
+        m = params.cell_size if params.map_margin is None else params.map_margin
+        lower = (region[0][0] - m, region[0][1] - m)
+        upper = (region[1][0] + m, region[1][1] + m)
+        self.estimator = OdorPathEstimator(
+            OdorPathParams(
+                cell_size=params.cell_size,
+                t_thr=params.t_thr,
+                dt=dt,
+                noise_time_scale=params.noise_time_scale,
+                min_variance=params.min_variance,
+                kernel=params.kernel,
+            ),
+            lower,
+            upper,
+        )
+        self.grid = DSGrid(params.ds, self.estimator.grid)
+        self.n_detections = 0
+        self.n_readings = 0
+        self.wind_sum = np.zeros(2)
+        self.initial_uncertainty = self.total_uncertainty()
+        self.last_patch: PathPatch | None = None
+        self._pre = OnlinePreprocessor(params.preprocess) if params.preprocess else None
+        self._pending: deque[tuple[float, np.ndarray]] = deque()
+
+    def update(
+        self,
+        t: float,
+        position: np.ndarray,
+        wind: np.ndarray,
+        detected: bool,
+        reading: float | None = None,
+    ) -> PathPatch | None:
+        """Fuse one reading: record it, compute its air-mass path map, update the grid.
+
+        Parameters
+        ----------
+        t : float, seconds
+        position : (d,) ndarray, metres
+            Sensor position (the first two components are used).
+        wind : (d,) ndarray, m/s
+            Anemometer reading, world frame.
+        detected : bool
+            Detection (eq. 4-a) or non-detection (eq. 4-b), D-S paper.
+        reading : float, optional
+            The raw gas reading (needed with ``preprocess``).
+
+        Returns
+        -------
+        PathPatch or None
+            The air-mass path map ``pi`` of the reading fused now; with ``preprocess``, of the
+            aligned reading of ``delay`` seconds ago (``None`` until the first one is due).
+        """
+        if self._pre is None:
+            return self._fuse(t, position, wind, detected)
+        if reading is None:
+            raise ConfigError("reading", "the pre-processing needs the raw gas reading")
+        self._pending.append((float(t), np.asarray(position, float)[:2].copy()))
+        sample = self._pre.update(float(reading), np.asarray(wind, float)[:2])
+        if sample is None:
+            return None
+        t_j, pos_j = self._pending.popleft()
+        det = sample.intensity >= self.params.intensity_threshold
+        return self._fuse(t_j, pos_j, sample.wind, bool(det))
+
+    def _fuse(self, t: float, position: np.ndarray, wind: np.ndarray, detected: bool) -> PathPatch:
+        pos = np.asarray(position, float)[:2]
+        u = np.asarray(wind, float)[:2]
+        self.estimator.update(t, pos, u, 1.0 if detected else 0.0)
+        # The path map is the same for both events; only the masses differ (eq. 4).
+        patch = self.estimator.path_patch()
+        if self.params.path_normalise == "total":
+            patch = as_distribution(patch)
+        self.grid.update(patch, bool(detected))
+        self.n_readings += 1
+        self.n_detections += int(bool(detected))
+        self.wind_sum += u
+        self.last_patch = patch
+        return patch
+
+    def total_uncertainty(self) -> float:
+        """``sum_i X_i`` over the search region (eq. 5)."""
+        return self.grid.total_uncertainty(self.region)
+
+    def sources(self) -> list[EvidenceSource]:
+        """Mapped sources inside the search region, heaviest first (``m(S)`` centroids)."""
+        return self.grid.sources(
+            min_mass=self.params.source_min_mass,
+            min_cells=self.params.source_min_cells,
+            region=self.region,
+        )
+
+    def _regions(self) -> tuple[NDArray[np.intp], list[int]]:
+        """Connected ``m(S) >= source_min_mass`` regions in the search region: the label image
+        and the labels of those with ``source_min_cells`` cells or more, heaviest first (the
+        order of :meth:`sources`)."""
+        p = self.params
+        mask = (self.grid.m_s >= p.source_min_mass) & self.grid.grid.region_mask(self.region)
+        labels, n = ndimage.label(mask, structure=np.ones((3, 3), bool))
+        kept = []
+        for lab in range(1, n + 1):
+            cells = labels == lab
+            if np.count_nonzero(cells) >= p.source_min_cells:
+                kept.append((float(self.grid.m_s[cells].sum()), lab))
+        kept.sort(key=lambda v: -v[0])
+        return labels, [lab for _, lab in kept]
+
+    def upwind_ends(self) -> FloatArray:
+        """``(K, 2)`` upwind-end positions of the mapped regions, same order as :meth:`sources`.
+
+        For each connected region the ``m(S)``-weighted centroid of its cells within
+        ``upwind_depth`` metres (along the mean recorded wind) of its most upwind cell.
+        """
+        g = self.grid.grid
+        labels, kept = self._regions()
+        norm = float(np.hypot(*self.wind_sum))
+        u = self.wind_sum / norm if norm > 0 else np.array([1.0, 0.0])
+        centres = g.centers()
+        along = centres @ u  # metres downwind
+        out = []
+        for lab in kept:
+            cells = labels == lab
+            tip = cells & (along <= along[cells].min() + self.params.upwind_depth)
+            wt = np.where(tip, self.grid.m_s, 0.0)
+            out.append((wt[..., None] * centres).sum((0, 1)) / wt.sum())
+        return np.array(out).reshape(-1, 2)
+
+    def peaks(self) -> FloatArray:
+        """``(K, 2)`` centre of the cell with the largest ``m(S)`` of each mapped region, same
+        order as :meth:`sources` (ranked by ``m(notS) + m(U)``, see below; exact ties: the
+        first cell in index order)."""
+        labels, kept = self._regions()
+        if not kept:
+            return np.zeros((0, 2))
+        # m(S) = 1 - (m(notS) + m(U)) rounds to exactly 1.0 in every cell of a long run of
+        # detections, which would leave the choice to index order; the doubt m(notS) + m(U) is
+        # stored separately and keeps ranking those cells by their evidence
+        doubt = self.grid.m_n + self.grid.m_u
+        pos = ndimage.minimum_position(doubt, labels, kept)
+        return self.grid.grid.center(np.array(pos)).reshape(-1, 2)
+
+    def source_positions(self) -> FloatArray:
+        """``(K, 2)`` mapped source positions by ``source_rule``, heaviest region first."""
+        if self.params.source_rule == "upwind":
+            return self.upwind_ends()
+        if self.params.source_rule == "peak":
+            return self.peaks()
+        return np.array([s.position for s in self.sources()]).reshape(-1, 2)
+
+    def declaration(self) -> Declaration:
+        """The mapped sources as a declaration (see the module notes for the empty case)."""
+        found = self.source_positions()
+        if len(found):
+            return Declaration(found, confidence=1.0)
+        ms = np.where(self.grid.grid.region_mask(self.region), self.grid.m_s, -1.0)
+        best = np.unravel_index(int(np.argmax(ms)), ms.shape)
+        return Declaration(self.grid.grid.center(np.array(best)), confidence=0.0)
+
+    def final_metrics(self) -> dict[str, float]:
+        """Row fields: residual/initial uncertainty, mapped-source count and positions.
+
+        ``mapped_x_k, mapped_y_k`` follow ``source_rule``; ``centroid_*_k``, ``upwind_*_k``
+        and ``peak_*_k`` are the three estimates of the same regions whatever the rule.
+        """
+        found = self.sources()
+        pos = self.source_positions()
+        tips = self.upwind_ends()
+        tops = self.peaks()
+        out: dict[str, float] = {
+            "residual_uncertainty": self.total_uncertainty(),
+            "initial_uncertainty": self.initial_uncertainty,
+            "mapped_sources": float(len(found)),
+            "detections": float(self.n_detections),
+            "max_conflict": float(self.grid.max_conflict),
+        }
+        for k, s in enumerate(found):
+            out[f"mapped_x_{k}"] = float(pos[k, 0])
+            out[f"mapped_y_{k}"] = float(pos[k, 1])
+            out[f"mapped_mass_{k}"] = float(s.total_mass)
+            out[f"upwind_x_{k}"] = float(tips[k, 0])
+            out[f"upwind_y_{k}"] = float(tips[k, 1])
+            out[f"centroid_x_{k}"] = float(s.position[0])
+            out[f"centroid_y_{k}"] = float(s.position[1])
+            out[f"peak_x_{k}"] = float(tops[k, 0])
+            out[f"peak_y_{k}"] = float(tops[k, 1])
+        return out

@@ -1,0 +1,620 @@
+"""Odor-path (air-mass path) probability maps by the dynamic-window method.
+
+Implements the estimator of the odor-path paper (Li, Meng, Li & Zhang, "Mobile robot based odor
+path estimation via dynamic window approach"): given the wind recorded at the robot over the last
+``t_thr`` seconds, where was the air (and the odor patch) now at the robot at earlier times?
+
+For every earlier record time ``t_r`` the patch position is Gaussian around the robot cell moved
+back by the recorded wind (eq. 10); ``S`` is that Gaussian integrated over a cell (eq. 11); the
+sub-dynamic window ``DW(t_r, t_c)`` keeps the cells with ``S >= eta`` -- an axis-aligned ellipse
+(eqs. 12-15); ``S`` is normalised inside each window and the map is the maximum over ``t_r``
+(eqs. 16-17). Only the cells inside each window's bounding box are evaluated, so the cost follows
+``sum |DW|`` rather than the map size ``M``; :meth:`OdorPathEstimator.path_map_full` evaluates the
+same maths on every cell as a reference. The per-window loop is compiled with numba when the
+``fast`` extra is installed (``backend="auto"``); otherwise all windows are evaluated in one
+batched NumPy pass. Both give the same map (tested).
+
+Readings of the paper's flattened or ambiguous formulas (each one configurable):
+
+* Displacement (eq. 10). The paper writes ``v(t_r, t_c) = sum_{i=r}^{c} U(t_i) dt``, which has one
+  term more than the span ``t_c - t_r`` holds. Because a record ``U(t_i)`` is the mean of the
+  readings in ``(t_{i-1}, t_i]`` (eq. 1), the integral over ``[t_r, t_c]`` is
+  ``sum_{i=r+1}^{c} U(t_i) (t_i - t_{i-1})`` -- ``advection="interval"`` (default).
+  ``advection="inclusive"`` uses the literal ``i = r .. c`` sum.
+* Variance (eqs. 10-11). The paper gives the position variance as ``(t_c - t_r) sigma^2`` with
+  ``sigma^2`` the variance of the recorded wind *velocity*, which is not a length squared. We use
+  ``Sigma_r = (t_c - t_r) * tau * sigma_u^2`` per axis, with ``tau = noise_time_scale`` (s):
+  ``tau = 1 s`` reproduces the paper's numbers, ``tau = dt`` is the random walk of independent
+  per-record wind errors. ``sigma_u^2`` is the sample variance (ddof=1) of the wind records that
+  enter the displacement sums (the last ``t_thr`` seconds), per axis, floored at ``min_variance``
+  so that a perfectly steady wind still gives a finite kernel; ``variance="fixed"`` uses
+  ``fixed_variance`` instead.
+* Kernel (eq. 11). ``kernel="point"`` is the paper's approximation ``a^2 N(centre; Sigma)``;
+  ``kernel="cell"`` integrates the Gaussian over the cell exactly (separable error functions).
+  In both cases the window is the ellipse of eq. (12) with ``k`` from eq. (13).
+* Cell coordinates. The paper's ``(i, j)`` is (row = y, column = x) with 1-based linear index
+  ``k`` (eq. 9); arrays here are indexed ``[ix, iy]`` (x first, like every grid in odorloc) and
+  :func:`paper_k` / :func:`from_paper_k` convert. The cell count per axis is
+  ``int(extent / a)`` (eq. 7): a strip narrower than one cell at the upper edges is not mapped.
+* Normalisation. Each sub-window is normalised over its cells *inside the grid* (the paper's
+  window is a set of map cells); ``normalise=False`` keeps the raw ``S``.
+* The map is the air-mass path whatever the reading; eq. (17) zeroes it unless the current signal
+  intensity is positive, which ``require_detection=True`` applies.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from pydantic import model_validator
+from scipy.special import ndtr
+
+from odorloc.core.errors import ConfigError
+from odorloc.core.params import NonNegative, Params, Positive
+from odorloc.geometry.grid import CellGrid
+from odorloc.inference.odor_path.kernel import HAVE_NUMBA, dw_kernel_fast
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.intp]
+
+_TIME_TOL = 1e-9
+
+
+# ---------------------------------------------------------------------------------------- grid
+def paper_k(grid: CellGrid, ix: ArrayLike, iy: ArrayLike) -> IntArray:
+    """The paper's 1-based linear cell index ``k = (i - 1) n + j`` (eq. 9-a).
+
+    Row ``i = iy + 1`` counts along y and column ``j = ix + 1`` along x.
+    """
+    return (np.asarray(iy, np.intp) * grid.nx + np.asarray(ix, np.intp) + 1).astype(np.intp)
+
+
+def from_paper_k(grid: CellGrid, k: ArrayLike) -> tuple[IntArray, IntArray]:
+    """``(ix, iy)`` of the paper's linear index ``k`` (eq. 9-b)."""
+    k = np.asarray(k, np.intp)
+    if np.any((k < 1) | (k > grid.n_cells)):
+        raise ConfigError("k", f"must lie in [1, {grid.n_cells}]")
+    i = (k - 1) // grid.nx + 1
+    j = k - (i - 1) * grid.nx
+    return (j - 1).astype(np.intp), (i - 1).astype(np.intp)
+
+
+# ---------------------------------------------------------------------------------- parameters
+class OdorPathParams(Params):
+    """Parameters of :class:`OdorPathEstimator`.
+
+    Attributes
+    ----------
+    cell_size : float, metres
+        Cell side ``a`` (5 cm in the paper's experiments).
+    t_thr : float, seconds
+        Only records with ``t_c - t_r <= t_thr`` open a sub-window (10 s: 20 records at 0.5 s).
+    dt : float, seconds
+        Nominal record period; weights the first record's wind under ``advection="inclusive"``.
+    history : float, seconds
+        Extra record history kept beyond ``t_thr`` so maps can be computed at earlier record
+        times (e.g. to attribute a delayed sensor reading, eq. 2).
+    eta : float, optional
+        Window threshold on ``S`` (eq. 14); ``None`` means ``1 / M`` (eq. 15).
+    variance : {"online", "fixed"}
+        Wind-velocity variance from the records (eq. 10) or ``fixed_variance``.
+    fixed_variance : (2,) tuple of float, m^2/s^2
+        ``(sigma_x^2, sigma_y^2)`` used when ``variance="fixed"``.
+    min_variance : float, m^2/s^2
+        Floor on each axis' velocity variance.
+    noise_time_scale : float, seconds
+        ``tau`` in ``Sigma = (t_c - t_r) tau sigma_u^2`` (see the module notes).
+    advection : {"interval", "inclusive"}
+        Which records enter the displacement sum (see the module notes).
+    kernel : {"point", "cell"}
+        Point approximation of eq. (11) or the exact cell integral.
+    normalise : bool
+        Normalise ``S`` within each sub-window (section IV).
+    snap_to_cell : bool
+        Use the centre of the robot's cell as ``(x_j, y_j)`` (eq. 11) rather than the exact
+        position.
+    backend : {"auto", "numpy", "numba"}
+        Window kernel: the compiled loop when numba is installed ("auto"), or the batched NumPy
+        form. Both give the same map.
+    """
+
+    cell_size: Positive = 0.05
+    t_thr: Positive = 10.0
+    dt: Positive = 0.5
+    history: NonNegative = 0.0
+    eta: float | None = None
+    variance: Literal["online", "fixed"] = "online"
+    fixed_variance: tuple[Positive, Positive] = (1e-3, 1e-3)
+    min_variance: Positive = 1e-4
+    noise_time_scale: Positive = 1.0
+    advection: Literal["interval", "inclusive"] = "interval"
+    kernel: Literal["point", "cell"] = "point"
+    normalise: bool = True
+    snap_to_cell: bool = True
+    backend: Literal["auto", "numpy", "numba"] = "auto"
+
+    @model_validator(mode="after")
+    def _check(self) -> OdorPathParams:
+        if self.eta is not None and not (math.isfinite(self.eta) and 0.0 < self.eta < 1.0):
+            raise ValueError("eta must lie in (0, 1) or be None (1/M)")
+        return self
+
+
+# ------------------------------------------------------------------------------- result types
+@dataclass(frozen=True, eq=False)
+class SubWindow:
+    """One sub-dynamic window ``DW(t_r, t_c)`` (eq. 12).
+
+    Attributes
+    ----------
+    t_r : float, seconds
+        Record time the window refers to.
+    center : (2,) ndarray, metres
+        Where the air now at the robot was at ``t_r``: robot cell minus the displacement (eq. 10).
+    semi_axes : (2,) ndarray, metres
+        Semi-axes of the window ellipse along x and y, ``sqrt(2 k Sigma)``; zeros if ``k <= 0``.
+    angle : float, rad
+        Ellipse orientation (0: the covariance is diagonal, eq. 11).
+    k : float
+        ``k`` of eq. (13) (already multiplied into ``Sigma = (t_c - t_r) tau sigma^2``).
+    variance : (2,) ndarray, m^2
+        Position variance ``Sigma`` along x and y.
+    box : (4,) tuple of int
+        ``(ix0, ix1, iy0, iy1)``: index bounds (end exclusive) of the window's cells in the grid.
+    n_cells : int
+        Number of grid cells in the window.
+    """
+
+    t_r: float
+    center: FloatArray
+    semi_axes: FloatArray
+    angle: float
+    k: float
+    variance: FloatArray
+    box: tuple[int, int, int, int]
+    n_cells: int
+
+
+@dataclass(frozen=True, eq=False)
+class PathPatch:
+    """A path map stored as its non-zero bounding box.
+
+    Attributes
+    ----------
+    ix0, iy0 : int
+        Grid index of ``values[0, 0]``.
+    values : (bx, by) ndarray
+        Map values in the box; the map is zero outside it.
+    grid : CellGrid
+    ref_cell : (2,) int ndarray
+        Cell of the robot the map was computed for (used to shift it, eq. 7 of the D-S paper).
+    """
+
+    ix0: int
+    iy0: int
+    values: FloatArray
+    grid: CellGrid
+    ref_cell: IntArray
+
+    @property
+    def slices(self) -> tuple[slice, slice]:
+        """Slices of the box in a full ``(nx, ny)`` array."""
+        bx, by = self.values.shape
+        return slice(self.ix0, self.ix0 + bx), slice(self.iy0, self.iy0 + by)
+
+    @property
+    def empty(self) -> bool:
+        """``True`` when the map is zero everywhere."""
+        return self.values.size == 0 or not np.any(self.values > 0)
+
+    def to_dense(self) -> FloatArray:
+        """The full ``(nx, ny)`` map."""
+        out = np.zeros(self.grid.shape)
+        if self.values.size:
+            out[self.slices] = self.values
+        return out
+
+
+# -------------------------------------------------------------------------------- estimator
+@dataclass(frozen=True, eq=False)
+class WindowArrays:
+    """The sub-windows of one map as arrays: record times, centres ``(R, 2)`` m, variances
+    ``(R, 2)`` m^2, ``k`` ``(R,)`` of eq. 13, and the robot cell ``(2,)``."""
+
+    t_c: float
+    t_r: FloatArray  # (R,)
+    center: FloatArray  # (R, 2) metres
+    var: FloatArray  # (R, 2) m^2
+    k: FloatArray  # (R,)
+    ref_cell: IntArray  # (2,)
+
+
+class OdorPathEstimator:
+    """Odor-path probability maps from the robot's wind record (odor-path paper, section IV).
+
+    Parameters
+    ----------
+    params : OdorPathParams
+    lower, upper : (2,) sequence of float, metres
+        Extent of the mapped area.
+
+    Notes
+    -----
+    Feed one record per control period with :meth:`update`; the wind must be the air velocity in
+    the world frame at the robot (for an anemometer on a moving robot, the reading corrected by
+    the robot's own velocity, as in the paper's experiments).
+    """
+
+    def __init__(
+        self, params: OdorPathParams, lower: Sequence[float], upper: Sequence[float]
+    ) -> None:
+        self.params = params
+        self.grid = CellGrid.from_extent(lower, upper, params.cell_size)
+        self.eta = params.eta if params.eta is not None else 1.0 / self.grid.n_cells
+        self.reset()
+
+    # ------------------------------------------------------------------------ records
+    def reset(self) -> None:
+        """Forget all records."""
+        cap = 64
+        self._tt = np.zeros(cap)
+        self._pp = np.zeros((cap, 2))
+        self._ww = np.zeros((cap, 2))
+        self._ss = np.zeros(cap)
+        self._lo = 0
+        self._hi = 0
+
+    def update(
+        self, t: float, position: ArrayLike, wind: ArrayLike, signal: float | bool = 0.0
+    ) -> None:
+        """Store the record of one period.
+
+        Parameters
+        ----------
+        t : float, seconds
+            Record time, strictly after the previous one.
+        position : (2,) array_like, metres
+            Robot (sensor) position at ``t``.
+        wind : (2,) array_like, m/s
+            Air velocity at the robot, mean over the period ending at ``t`` (eq. 1).
+        signal : float or bool
+            Signal intensity ``s(t)`` (eq. 5) or a binary detection; ``> 0`` is a detection.
+        """
+        t = float(t)
+        if not math.isfinite(t):
+            raise ConfigError("t", "must be finite")
+        if self._hi > self._lo and t <= self._tt[self._hi - 1]:
+            raise ConfigError("t", f"must increase (got {t} after {self._tt[self._hi - 1]})")
+        p = np.asarray(position, float).reshape(-1)
+        u = np.asarray(wind, float).reshape(-1)
+        if p.shape != (2,) or not np.all(np.isfinite(p)):
+            raise ConfigError("position", f"needs 2 finite components, got {position!r}")
+        if u.shape != (2,) or not np.all(np.isfinite(u)):
+            raise ConfigError("wind", f"needs 2 finite components, got {wind!r}")
+        s = float(signal)
+        if not math.isfinite(s):
+            raise ConfigError("signal", "must be finite")
+        keep_from = t - self.params.t_thr - self.params.history - _TIME_TOL
+        self._lo += int(np.searchsorted(self._tt[self._lo : self._hi], keep_from, side="left"))
+        if self._hi == len(self._tt):
+            n = self._hi - self._lo
+            cap = max(len(self._tt), 2 * (n + 1))
+            for name in ("_tt", "_pp", "_ww", "_ss"):
+                old = getattr(self, name)
+                new = np.zeros((cap, *old.shape[1:]))
+                new[:n] = old[self._lo : self._hi]
+                setattr(self, name, new)
+            self._lo, self._hi = 0, n
+        i = self._hi
+        self._tt[i] = t
+        self._pp[i] = p
+        self._ww[i] = u
+        self._ss[i] = s
+        self._hi += 1
+
+    @property
+    def n_records(self) -> int:
+        """Number of stored records."""
+        return self._hi - self._lo
+
+    @property
+    def times(self) -> FloatArray:
+        """``(n,)`` stored record times, seconds."""
+        return self._tt[self._lo : self._hi].copy()
+
+    @property
+    def last_time(self) -> float | None:
+        """Time of the newest record, or ``None``."""
+        return float(self._tt[self._hi - 1]) if self._hi > self._lo else None
+
+    @property
+    def last_position(self) -> FloatArray | None:
+        """Robot position of the newest record, metres, or ``None``."""
+        return self._pp[self._hi - 1].copy() if self._hi > self._lo else None
+
+    def detected(self, t_c: float | None = None) -> bool:
+        """``True`` when the signal of the record at ``t_c`` (default newest) is positive."""
+        return bool(self._ss[self._record_index(t_c)] > 0.0)
+
+    def _record_index(self, t_c: float | None) -> int:
+        """Absolute buffer index of the record at ``t_c`` (default newest)."""
+        if self._hi == self._lo:
+            raise ConfigError("t_c", "no records yet")
+        if t_c is None:
+            return self._hi - 1
+        times = self._tt[self._lo : self._hi]
+        c = int(np.argmin(np.abs(times - t_c)))
+        if abs(times[c] - t_c) > 1e-6:
+            raise ConfigError("t_c", f"{t_c} s is not a stored record time")
+        return self._lo + c
+
+    def wind_variance(self, t_c: float | None = None) -> FloatArray:
+        """``(2,)`` wind-velocity variance ``(sigma_x^2, sigma_y^2)`` used at ``t_c``, m^2/s^2."""
+        c = self._record_index(t_c)
+        first = self._first_window(c)
+        return self._velocity_variance(c, first)
+
+    def _first_window(self, c: int) -> int:
+        """Buffer index of the oldest record with ``t_c - t_r <= t_thr``."""
+        limit = self._tt[c] - self.params.t_thr - _TIME_TOL
+        return self._lo + int(np.searchsorted(self._tt[self._lo : c + 1], limit, side="left"))
+
+    def _velocity_variance(self, c: int, first: int) -> FloatArray:
+        p = self.params
+        if p.variance == "fixed":
+            return np.maximum(np.asarray(p.fixed_variance, float), p.min_variance)
+        lo = first + 1 if p.advection == "interval" else first
+        n = c + 1 - lo
+        if n < 2:
+            return np.full(2, p.min_variance)
+        var = self._ww[lo : c + 1].var(axis=0, ddof=1)  # sample variance
+        return np.maximum(var, p.min_variance)
+
+    def window_arrays(self, t_c: float | None = None) -> WindowArrays:
+        """The sub-windows at ``t_c`` as arrays (centres, variances, ``k``): the kernels' input."""
+        p = self.params
+        c = self._record_index(t_c)
+        first = self._first_window(c)
+        times = self._tt[first : c + 1]
+        wind = self._ww[first : c + 1]
+        dts = np.empty(len(times))
+        if first > self._lo:
+            dts[:] = times - self._tt[first - 1 : c]
+        else:
+            dts[0] = p.dt
+            dts[1:] = times[1:] - times[:-1]
+        # suffix[i] = sum_{l >= i} U_l dt_l over the kept records (eq. 10, discretised)
+        suffix = np.cumsum((wind * dts[:, None])[::-1], axis=0)[::-1]
+        n_win = len(times) - 1
+        disp = suffix[1:] if p.advection == "interval" else suffix[:n_win]
+        px, py = float(self._pp[c, 0]), float(self._pp[c, 1])
+        a = self.grid.cell_size
+        x0, y0 = self.grid.lower
+        ix, iy = math.floor((px - x0) / a), math.floor((py - y0) / a)
+        if p.snap_to_cell:
+            px, py = x0 + (ix + 0.5) * a, y0 + (iy + 0.5) * a
+        sig2 = self._velocity_variance(c, first) * p.noise_time_scale
+        age = times[-1] - times[:n_win]
+        var = age[:, None] * sig2[None, :]
+        # eq. (13) with (t_c - t_r) sigma_x sigma_y generalised to sqrt(det Sigma)
+        k = np.log((a * a / (2.0 * np.pi * self.eta * math.sqrt(sig2[0] * sig2[1]))) / age)
+        center = np.empty((n_win, 2))
+        center[:, 0] = px - disp[:, 0]
+        center[:, 1] = py - disp[:, 1]
+        return WindowArrays(
+            t_c=float(times[-1]),
+            t_r=times[:n_win].copy(),
+            center=center,
+            var=var,
+            k=k,
+            ref_cell=np.array([ix, iy], np.intp),
+        )
+
+    # --------------------------------------------------------------------------- kernels
+    def _batch(self, w: WindowArrays) -> tuple[IntArray, FloatArray, IntArray]:
+        """Every sub-window at once, each in its own bounding box padded to a common size.
+
+        Returns
+        -------
+        boxes : (R, 4) int ndarray
+            ``(ix0, ix1, iy0, iy1)`` per window (end exclusive, clipped to the grid).
+        values : (R, Bx, By) ndarray
+            Normalised ``S`` of window ``r`` in ``values[r, :ix1-ix0, :iy1-iy0]``, zero elsewhere
+            and outside the window ellipse.
+        n_cells : (R,) int ndarray
+            Cells of each window inside the grid (0: empty window).
+        """
+        a = self.grid.cell_size
+        lo = np.asarray(self.grid.lower)
+        shape = np.asarray(self.grid.shape)
+        k = w.k
+        valid = k > 0
+        half = np.sqrt(2.0 * np.where(valid, k, 0.0)[:, None] * w.var)
+        # One spare cell per side: membership is decided by the exact ellipse test below.
+        i0 = np.ceil((w.center - half - lo) / a - 0.5).astype(np.intp) - 1
+        i1 = np.floor((w.center + half - lo) / a - 0.5).astype(np.intp) + 2
+        i0 = np.clip(i0, 0, shape)
+        i1 = np.clip(i1, 0, shape)
+        size = np.where(valid[:, None], np.maximum(i1 - i0, 0), 0)
+        boxes = np.column_stack([i0[:, 0], i0[:, 0] + size[:, 0], i0[:, 1], i0[:, 1] + size[:, 1]])
+        n_r = len(k)
+        bx, by = (int(size[:, 0].max()), int(size[:, 1].max())) if n_r else (0, 0)
+        if bx == 0 or by == 0:
+            return boxes, np.zeros((n_r, 0, 0)), np.zeros(n_r, np.intp)
+        ax, ay = np.arange(bx), np.arange(by)
+        ix = np.minimum(i0[:, 0, None] + ax, shape[0] - 1)
+        iy = np.minimum(i0[:, 1, None] + ay, shape[1] - 1)
+        dx = self.grid.x_centers()[ix] - w.center[:, 0, None]  # (R, Bx)
+        dy = self.grid.y_centers()[iy] - w.center[:, 1, None]  # (R, By)
+        vx = w.var[:, 0, None]
+        vy = w.var[:, 1, None]
+        # eq. (12): ellipse membership, written exactly as in the full-grid reference
+        q = (dx * dx / vx)[:, :, None] + (dy * dy / vy)[:, None, :]
+        inside = q <= 2.0 * k[:, None, None]
+        inside &= (ax[None, :] < size[:, 0, None])[:, :, None]
+        inside &= (ay[None, :] < size[:, 1, None])[:, None, :]
+        if self.params.kernel == "point":
+            # eq. (11), separable: a^2 / (2 pi sqrt(det Sigma)) exp(-q / 2)
+            fx = a / np.sqrt(2.0 * np.pi * vx) * np.exp(-0.5 * dx * dx / vx)
+            fy = a / np.sqrt(2.0 * np.pi * vy) * np.exp(-0.5 * dy * dy / vy)
+        else:
+            sx, sy = np.sqrt(vx), np.sqrt(vy)
+            fx = ndtr((dx + 0.5 * a) / sx) - ndtr((dx - 0.5 * a) / sx)
+            fy = ndtr((dy + 0.5 * a) / sy) - ndtr((dy - 0.5 * a) / sy)
+        vals = fx[:, :, None] * fy[:, None, :]
+        vals *= inside
+        n_cells = np.count_nonzero(inside.reshape(n_r, -1), axis=1)
+        total = vals.reshape(n_r, -1).sum(axis=1)
+        ok = total > 0
+        n_cells = np.where(ok, n_cells, 0)
+        if self.params.normalise:
+            vals /= np.where(ok, total, 1.0)[:, None, None]
+        return boxes, vals, n_cells
+
+    def _use_numba(self) -> bool:
+        b = self.params.backend
+        if b == "numba" and not HAVE_NUMBA:
+            raise ConfigError("backend", "numba is not installed (install the 'fast' extra)")
+        return b == "numba" or (b == "auto" and HAVE_NUMBA)
+
+    def _compiled(self, w: WindowArrays) -> tuple[IntArray, IntArray, FloatArray, int, int]:
+        g = self.grid
+        return dw_kernel_fast(
+            np.ascontiguousarray(w.center[:, 0]),
+            np.ascontiguousarray(w.center[:, 1]),
+            np.ascontiguousarray(w.var[:, 0]),
+            np.ascontiguousarray(w.var[:, 1]),
+            np.ascontiguousarray(w.k),
+            g.lower[0],
+            g.lower[1],
+            g.cell_size,
+            g.nx,
+            g.ny,
+            self.params.kernel == "cell",
+            self.params.normalise,
+        )
+
+    # --------------------------------------------------------------------------- outputs
+    def windows(self, t_c: float | None = None) -> list[SubWindow]:
+        """The sub-dynamic windows ``DW(t_r, t_c)`` at ``t_c`` (default: newest record).
+
+        Returns
+        -------
+        list of SubWindow
+            Oldest ``t_r`` first; empty windows are included with ``n_cells == 0``.
+        """
+        w = self.window_arrays(t_c)
+        if self._use_numba():
+            boxes, n_cells, _, _, _ = self._compiled(w)
+        else:
+            boxes, _, n_cells = self._batch(w)
+        out = []
+        for r in range(len(w.t_r)):
+            k = float(w.k[r])
+            n = int(n_cells[r])
+            half = np.sqrt(2.0 * k * w.var[r]) if k > 0 else np.zeros(2)
+            box = tuple(int(b) for b in boxes[r]) if n else (0, 0, 0, 0)
+            out.append(
+                SubWindow(
+                    t_r=float(w.t_r[r]),
+                    center=w.center[r].copy(),
+                    semi_axes=half,
+                    angle=0.0,
+                    k=k,
+                    variance=w.var[r].copy(),
+                    box=box,  # type: ignore[arg-type]
+                    n_cells=n,
+                )
+            )
+        return out
+
+    def path_patch(self, t_c: float | None = None, require_detection: bool = False) -> PathPatch:
+        """The odor-path map at ``t_c`` as its bounding box (eqs. 12-17).
+
+        Parameters
+        ----------
+        t_c : float, optional
+            A stored record time (default: the newest).
+        require_detection : bool
+            Apply eq. (17) literally: the map is zero unless ``s(t_c) > 0``.
+
+        Returns
+        -------
+        PathPatch
+            Cost is proportional to the number of cells in the windows, not to ``M``.
+        """
+        w = self.window_arrays(t_c)
+        c = self._record_index(t_c)
+        empty = PathPatch(0, 0, np.zeros((0, 0)), self.grid, w.ref_cell)
+        if require_detection and not self._ss[c] > 0.0:
+            return empty
+        if self._use_numba():
+            boxes, n_cells, patch, ix0, iy0 = self._compiled(w)
+            if not np.any(n_cells > 0):
+                return empty
+            return PathPatch(int(ix0), int(iy0), patch, self.grid, w.ref_cell)
+        boxes, vals, n_cells = self._batch(w)
+        used = np.flatnonzero(n_cells > 0)
+        if used.size == 0:
+            return empty
+        b = boxes[used]
+        ix0, iy0 = int(b[:, 0].min()), int(b[:, 2].min())
+        ix1, iy1 = int(b[:, 1].max()), int(b[:, 3].max())
+        out = np.zeros((ix1 - ix0, iy1 - iy0))
+        box_list = boxes.tolist()
+        for r in used.tolist():
+            bx0, bx1, by0, by1 = box_list[r]
+            view = out[bx0 - ix0 : bx1 - ix0, by0 - iy0 : by1 - iy0]
+            np.maximum(view, vals[r, : bx1 - bx0, : by1 - by0], out=view)  # eq. (17)
+        return PathPatch(ix0, iy0, out, self.grid, w.ref_cell)
+
+    def path_map(self, t_c: float | None = None, require_detection: bool = False) -> FloatArray:
+        """The odor-path probability map ``pi`` at ``t_c``, ``(nx, ny)`` (eq. 17).
+
+        See :meth:`path_patch` for the parameters.
+        """
+        return self.path_patch(t_c, require_detection).to_dense()
+
+    def path_map_full(
+        self, t_c: float | None = None, require_detection: bool = False
+    ) -> FloatArray:
+        """Reference: the same map evaluating ``S`` on every cell for every window.
+
+        Cost ``O(R M)`` for ``R`` windows; used to test and time :meth:`path_map`.
+
+        Returns
+        -------
+        (nx, ny) ndarray
+        """
+        w = self.window_arrays(t_c)
+        c = self._record_index(t_c)
+        out = np.zeros(self.grid.shape)
+        if require_detection and not self._ss[c] > 0.0:
+            return out
+        a = self.grid.cell_size
+        xc, yc = self.grid.x_centers(), self.grid.y_centers()
+        for r in range(len(w.t_r)):
+            var, k = w.var[r], w.k[r]
+            dx = xc - w.center[r, 0]
+            dy = yc - w.center[r, 1]
+            q = (dx * dx / var[0])[:, None] + (dy * dy / var[1])[None, :]
+            if self.params.kernel == "point":
+                s = a * a / (2.0 * np.pi * np.sqrt(var[0] * var[1])) * np.exp(-0.5 * q)  # eq. 11
+            else:
+                sx, sy = np.sqrt(var)
+                fx = ndtr((dx + 0.5 * a) / sx) - ndtr((dx - 0.5 * a) / sx)
+                fy = ndtr((dy + 0.5 * a) / sy) - ndtr((dy - 0.5 * a) / sy)
+                s = fx[:, None] * fy[None, :]
+            s = np.where(q <= 2.0 * k, s, 0.0)  # eq. (12)
+            if self.params.normalise:
+                total = s.sum()
+                if not total > 0:
+                    continue
+                s = s / total
+            np.maximum(out, s, out=out)
+        return out

@@ -1,0 +1,99 @@
+"""Weights of a belief: log-space normalisation, effective sample size, moments, KL divergence.
+
+Every estimator normalises its log-weights here: subtract the maximum *first*, then the log of the
+sum of the shifted weights, so that huge log-likelihoods (``-1e17``) keep full precision.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from odorloc.core.errors import ConfigError
+
+__all__ = [
+    "effective_sample_size",
+    "gaussian_fit",
+    "kl_gaussian",
+    "normalise_log_weights",
+    "weight_entropy",
+    "weighted_mean",
+]
+
+FloatArray = NDArray[np.float64]
+
+
+def normalise_log_weights(log_w: ArrayLike) -> tuple[FloatArray, FloatArray]:
+    """Normalised log-weights and weights of ``(N,)`` log-weights.
+
+    NaN counts as ``-inf``. If every entry is ``-inf`` (all weights underflowed) the weights are
+    read as uniform: the data then carried no usable information.
+
+    Returns
+    -------
+    log_w : (N,) ndarray
+        ``logsumexp(log_w) == 0``.
+    w : (N,) ndarray
+        ``exp(log_w)``, summing to one.
+    """
+    lw = np.asarray(log_w, float)
+    lw = np.where(np.isnan(lw), -np.inf, lw)
+    if lw.size == 0:
+        raise ConfigError("log_weights", "cannot normalise an empty set")
+    m = lw.max()
+    if not np.isfinite(m):
+        lw = np.full(lw.shape, -math.log(lw.size))
+        return lw, np.exp(lw)
+    shifted = lw - m
+    w = np.exp(shifted)
+    total = w.sum()
+    return shifted - math.log(total), w / total
+
+
+def effective_sample_size(log_weights: ArrayLike) -> float:
+    """Effective sample size ``1 / sum w^2`` of (possibly unnormalised) log-weights, in [1, N]."""
+    _, w = normalise_log_weights(log_weights)
+    return float(1.0 / np.dot(w, w))
+
+
+def weight_entropy(weights: ArrayLike) -> float:
+    """Shannon entropy ``-sum w log w`` of normalised weights, nats."""
+    w = np.asarray(weights, float)
+    nz = w > 0
+    return float(-np.sum(w[nz] * np.log(w[nz])))
+
+
+def weighted_mean(points: ArrayLike, weights: ArrayLike) -> FloatArray:
+    """``sum_i w_i x_i`` of ``(N, d)`` points, ``(d,)``."""
+    return np.asarray(weights, float) @ np.asarray(points, float)
+
+
+def gaussian_fit(points: ArrayLike, weights: ArrayLike) -> tuple[FloatArray, FloatArray]:
+    """Mean ``(d,)`` and covariance ``(d, d)`` of weighted points (weights summing to one)."""
+    x = np.asarray(points, float)
+    w = np.asarray(weights, float)
+    mean = w @ x
+    dx = x - mean
+    return mean, (dx * w[:, None]).T @ dx
+
+
+def kl_gaussian(
+    mean0: ArrayLike, cov0: ArrayLike, mean1: ArrayLike, cov1: ArrayLike, jitter: float = 1e-9
+) -> float:
+    """``KL(N0 || N1)`` between two Gaussians, nats (closed form).
+
+    ``0.5 [tr(S1^-1 S0) + (m1 - m0)^T S1^-1 (m1 - m0) - d + ln(det S1 / det S0)]``; ``jitter``
+    (m^2) is added to both diagonals so that degenerate fits stay finite.
+    """
+    m0, m1 = np.asarray(mean0, float), np.asarray(mean1, float)
+    s0 = np.asarray(cov0, float) + jitter * np.eye(len(m0))
+    s1 = np.asarray(cov1, float) + jitter * np.eye(len(m0))
+    d = len(m0)
+    c1 = np.linalg.cholesky(s1)
+    c0 = np.linalg.cholesky(s0)
+    inv1_s0 = np.linalg.solve(c1, c0)
+    dm = np.linalg.solve(c1, m1 - m0)
+    logdet = 2.0 * (np.log(np.diag(c1)).sum() - np.log(np.diag(c0)).sum())
+    return float(0.5 * (np.sum(inv1_s0 * inv1_s0) + dm @ dm - d + logdet))

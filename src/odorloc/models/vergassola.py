@@ -1,0 +1,240 @@
+"""Vergassola rate model: mean rate of odor-particle encounters (infotaxis), 2D and 3D.
+
+A source releasing ``Q`` particles/s that live ``tau`` seconds, spread with an isotropic
+effective diffusivity ``D`` and are advected by a mean wind of speed ``V`` along the unit vector
+``e`` gives, at the relative position ``r = x - x_s`` of a sensor of radius ``a``:
+
+2D (Vergassola et al. 2007, infotaxis)::
+
+    R(r) = Q / ln(lambda / a) * exp(V (r . e) / (2 D)) * K0(|r| / lambda)
+
+3D (eq. 1, muc-osl-multi-uav paper)::
+
+    R(r) = a Q / |r| * exp(V (r . e) / (2 D)) * exp(-|r| / lambda)
+
+with ``lambda = sqrt(D tau / (1 + V^2 tau / (4 D)))`` (eq. 2, muc-osl-multi-uav paper). The
+multi-UAV paper writes the advection factor as ``exp(-(y_i - y_s) V / (2 D))``, i.e. a wind
+blowing towards ``-y`` (``e = (0, -1, 0)``): odor is enhanced on the side the wind blows to.
+Distances are floored at the sensor radius ``a`` (both forms diverge at the source).
+
+Encounters in ``dt`` are Poisson with mean ``R dt`` (eq. 3, muc-osl-multi-uav paper). The same
+:func:`vergassola_rate` is the truth of :class:`~odorloc.plume.vergassola.VergassolaPlume` and
+the belief of :class:`VergassolaModel`.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike
+from pydantic import Field
+from scipy.special import k0e
+
+from odorloc.core.errors import ConfigError
+from odorloc.core.params import Params, Positive, Vector
+from odorloc.core.registry import register
+from odorloc.models.base import MeasurementModel
+from odorloc.models.poisson import censored_poisson, poisson_log_pmf
+
+__all__ = [
+    "VergassolaModel",
+    "VergassolaModelParams",
+    "correlation_length",
+    "vergassola_rate",
+]
+
+
+def correlation_length(V: float, D: float, tau: float) -> float:
+    """``lambda = sqrt(D tau / (1 + V^2 tau / (4 D)))``, metres (eq. 2, muc-osl-multi-uav)."""
+    return float(np.sqrt(D * tau / (1.0 + V * V * tau / (4.0 * D))))
+
+
+def vergassola_rate(
+    sensor: ArrayLike,
+    sources: ArrayLike,
+    release: ArrayLike = 5.0,
+    *,
+    V: float = 1.0,
+    D: float = 1.0,
+    tau: float = 100.0,
+    a: float = 1.0,
+    direction: ArrayLike | None = None,
+) -> np.ndarray:
+    """Encounter rates for every (sensor position, source hypothesis) pair.
+
+    Parameters
+    ----------
+    sensor : (Q, d) array_like, metres
+        Sensor positions.
+    sources : (N, d) array_like, metres
+        Hypothesised source positions.
+    release : float or (N,) array_like, particles/s
+        Release rate ``Q`` of each hypothesis.
+    V, D, tau, a : float
+        Wind speed (m/s), diffusivity (m^2/s), lifetime (s), sensor radius (m).
+    direction : (d,) array_like, optional
+        Direction the wind blows towards; default ``-y`` (eq. 1, muc-osl-multi-uav).
+
+    Returns
+    -------
+    (Q, N) ndarray, 1/s
+    """
+    x = np.asarray(sensor, float)
+    s = np.asarray(sources, float)
+    if x.ndim == 1:
+        x = x[None, :]
+    if s.ndim == 1:
+        s = s[None, :]
+    dim = x.shape[1]
+    if dim not in (2, 3) or s.shape[1] != dim:
+        raise ConfigError(
+            "sources", f"sensor {x.shape} and sources {s.shape} need equal d in {{2, 3}}"
+        )
+    if direction is None:
+        e = np.zeros(dim)
+        e[1] = -1.0
+    else:
+        e = np.asarray(direction, float)
+        n = float(np.linalg.norm(e))
+        if e.shape != (dim,) or not n > 0:
+            raise ConfigError("wind_direction", f"needs a non-zero {dim}-vector")
+        e = e / n
+    lam = correlation_length(V, D, tau)
+    rel = x[:, None, :] - s[None, :, :]
+    r = np.maximum(np.sqrt((rel**2).sum(axis=2)), a)
+    along = rel @ e
+    q = np.broadcast_to(np.asarray(release, float), (len(s),))
+    if dim == 3:
+        # Combined exponent avoids overflow of the two factors at long range.
+        return (a * q) / r * np.exp(V * along / (2.0 * D) - r / lam)
+    if lam <= a:
+        raise ConfigError("sensor_radius", f"must be below lambda = {lam:.3g} m in 2D")
+    z = r / lam
+    # K0(z) = k0e(z) exp(-z): the scaled form keeps far-field values finite.
+    return q / np.log(lam / a) * k0e(z) * np.exp(V * along / (2.0 * D) - z)
+
+
+class VergassolaModelParams(Params):
+    """Belief-side parameters of the rate model (defaults: the multi-UAV paper's table).
+
+    Attributes
+    ----------
+    Q : float, particles/s
+        Hypothesised release rate.
+    V : float, m/s
+        Mean wind speed.
+    D : float, m^2/s
+        Isotropic effective diffusivity.
+    tau : float, s
+        Particle lifetime.
+    sensor_radius : float, metres
+        Sensor radius ``a``.
+    wind_direction : (d,) tuple of float, optional
+        Direction the wind blows towards; ``None`` is ``-y`` (eq. 1, multi-UAV paper). A
+        ``direction`` condition given at call time overrides it (e.g. the measured wind).
+    max_classes : int
+        Cap on the number of count classes used for planning (the last holds the tail).
+    tail_mass : float
+        Count classes are added until the tail beyond them holds less than this probability
+        for every candidate and hypothesis (or ``max_classes`` is reached).
+    """
+
+    Q: Positive = 5.0
+    V: Positive = 1.0
+    D: Positive = 1.0
+    tau: Positive = 100.0
+    sensor_radius: Positive = 1.0
+    wind_direction: Vector | None = None
+    max_classes: int = Field(16, ge=2, le=256)
+    tail_mass: float = Field(1e-6, gt=0.0, lt=1.0)
+
+
+@register("model", "vergassola", VergassolaModelParams, "Poisson encounters at the Vergassola rate")
+class VergassolaModel(MeasurementModel):
+    """Poisson encounter counts at the Vergassola rate (eqs. 1-3, multi-UAV paper).
+
+    Conditions: ``dt`` (exposure, s; required), ``release`` (``Q`` per hypothesis, default the
+    parameter), ``direction`` (unit vector the wind blows towards, default the parameter).
+    """
+
+    Params = VergassolaModelParams
+
+    def __init__(self, params: VergassolaModelParams | None = None) -> None:
+        self.params = params or VergassolaModelParams()
+
+    @property
+    def length(self) -> float:
+        """Correlation length ``lambda``, metres (eq. 2)."""
+        p = self.params
+        return correlation_length(p.V, p.D, p.tau)
+
+    def rate(
+        self,
+        sensor_positions: ArrayLike,
+        hypotheses: ArrayLike,
+        release: ArrayLike | None = None,
+        direction: ArrayLike | None = None,
+    ) -> np.ndarray:
+        """Encounter rates ``(M, N)``, 1/s, for ``(M, d)`` sensor points, ``(N, d)`` hypotheses."""
+        p = self.params
+        return vergassola_rate(
+            sensor_positions,
+            hypotheses,
+            p.Q if release is None else release,
+            V=p.V,
+            D=p.D,
+            tau=p.tau,
+            a=p.sensor_radius,
+            direction=direction if direction is not None else p.wind_direction,
+        )
+
+    def log_likelihood(
+        self, z: Any, sensor_position: np.ndarray, hypotheses: np.ndarray, **conditions: Any
+    ) -> np.ndarray:
+        """``log Poisson(z | R dt)`` for ``z`` encounters counted at one sensor position, ``(N,)``.
+
+        ``sensor_position`` may also be ``(Q, d)`` with ``z`` ``(Q,)``: the log-probabilities of
+        the sensors are summed.
+        """
+        dt = _exposure(conditions)
+        sp = np.atleast_2d(np.asarray(sensor_position, float))
+        k = np.asarray(z, float).reshape(-1, 1)
+        if k.shape[0] != sp.shape[0]:
+            raise ConfigError("counts", f"{k.shape[0]} counts for {sp.shape[0]} sensor positions")
+        mu = self.rate(sp, hypotheses, conditions.get("release"), conditions.get("direction"))
+        return poisson_log_pmf(k, mu * dt).sum(axis=0)
+
+    def n_classes(self, mean: np.ndarray) -> int:
+        """Count classes needed so that the tail beyond holds < ``tail_mass`` (capped)."""
+        p = self.params
+        m = float(np.max(mean)) if np.size(mean) else 0.0
+        for n in range(2, p.max_classes + 1):
+            if float(censored_poisson(m, n)[-1]) < p.tail_mass:
+                return n
+        return p.max_classes
+
+    def outcome_probabilities(
+        self, sensor_positions: np.ndarray, hypotheses: np.ndarray, **conditions: Any
+    ) -> np.ndarray:
+        """Probabilities of ``0, 1, ..., Z-2`` and ``>= Z-1`` encounters, ``(M, Z, N)``.
+
+        ``Z`` is chosen by :meth:`n_classes` unless the condition ``n_classes`` fixes it.
+        """
+        dt = _exposure(conditions)
+        mu = dt * self.rate(
+            sensor_positions, hypotheses, conditions.get("release"), conditions.get("direction")
+        )
+        z = int(conditions.get("n_classes") or self.n_classes(mu))
+        return np.moveaxis(censored_poisson(mu, z), -1, 1)
+
+    def outcome_values(self, **conditions: Any) -> np.ndarray:
+        """Count of each class (the last class stands for its lower bound)."""
+        return np.arange(int(conditions.get("n_classes") or self.params.max_classes))
+
+
+def _exposure(conditions: dict[str, Any]) -> float:
+    dt = conditions.get("dt")
+    if dt is None or not (np.isfinite(dt) and dt > 0):
+        raise ConfigError("dt", f"the exposure time must be a finite number > 0, got {dt}")
+    return float(dt)

@@ -1,0 +1,526 @@
+"""``odorloc reproduce ds-multi-source``: dynamic route vs rectangular wave (D-S paper, Sec. 4).
+
+Dynamic route (``ds-mapping``) versus the predefined rectangular wave (``ds-rectangular-wave``, 5
+rounds, 2 m lanes), both building the same Dempster-Shafer map, in ``two-sources-farrell``. As in
+the paper (Sec. 4.1) each flow is recorded once as a movie and both routes run on its replay
+(the sweep's ``replay`` option), so they face exactly the same plume and wind.
+
+Per episode the row adds: the residual uncertainty ``sum X_i`` at the paper's scene times
+(``scene_residual_k``), the distance from each true source to the nearest mapped source under
+each source rule (``source_error_i[_rule]``) and the mapped sources farther than the success
+radius from both (``map_false_sources``), and, for the dynamic route, the time and distance at
+which its map first reached the wave's final residual on the same flow
+(``time_to_baseline_residual``, ``distance_to_baseline_residual``).
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from odorloc.core.registry import register
+from odorloc.experiments.reproduction import Figure, Reproduction, ReproductionParams, Table, fmt
+from odorloc.papers.ds_multi_source.reference import PAPER, RATIOS, SCENES
+
+__all__ = ["DSReproduction", "ds_group", "map_errors", "residual_at", "time_to_residual"]
+
+SCENARIO = "two-sources-farrell"
+WAVE = "ds-rectangular-wave"
+DYNAMIC = "ds-mapping"
+SEARCHERS: dict[str, dict[str, Any]] = {
+    WAVE: {"rounds": 5, "lane_spacing": 2.0, "lanes_along": "y"},
+    DYNAMIC: {},
+}
+RULES = ("", "upwind", "peak", "centroid")
+_BELIEF_STRIDE = 40  # one map snapshot every 20 s of a kept episode
+
+
+def map_errors(
+    row: dict[str, Any], sources: np.ndarray, radius: float, kind: str = "mapped", tag: str = ""
+) -> dict[str, Any]:
+    """Per-source errors of the mapped positions ``{kind}_x_k, {kind}_y_k`` in ``row``.
+
+    Returns ``source_error_i{tag}`` (distance from true source ``i`` to the nearest mapped
+    source, NaN if none), ``map_false_sources{tag}`` (mapped sources farther than ``radius``
+    from every true source) and ``map_success{tag}`` (every true source within ``radius``).
+    """
+    k = int(row.get("mapped_sources", 0) or 0)
+    mapped = np.array([[row[f"{kind}_x_{i}"], row[f"{kind}_y_{i}"]] for i in range(k)])
+    out: dict[str, Any] = {}
+    if k:
+        d = np.linalg.norm(mapped.reshape(-1, 2)[:, None, :] - sources[None, :, :2], axis=2)
+        near = d.min(axis=0)
+        out[f"map_false_sources{tag}"] = int(np.sum(d.min(axis=1) > radius))
+    else:
+        near = np.full(len(sources), math.nan)
+        out[f"map_false_sources{tag}"] = 0
+    for i, v in enumerate(near):
+        out[f"source_error_{i}{tag}"] = float(v)
+    out[f"map_success{tag}"] = bool(k and np.all(near <= radius))
+    return out
+
+
+def time_to_residual(rec: Any, target: float) -> tuple[float, float]:
+    """``(time s, distance m)`` at which a recording's ``total_uncertainty`` first reaches
+    ``target`` (NaN if never)."""
+    tu = rec.diagnostics.get("total_uncertainty")
+    if tu is None or not np.isfinite(target):
+        return math.nan, math.nan
+    hit = np.flatnonzero(tu <= target)
+    if hit.size == 0:
+        return math.nan, math.nan
+    k = int(hit[0])
+    steps = np.linalg.norm(np.diff(rec.positions[: k + 1, 0, :2], axis=0), axis=1)
+    return float(rec.t[k]), float(steps.sum())
+
+
+def residual_at(rec: Any, t: float) -> float:
+    """``sum X`` of a recording at time ``t``, seconds (its last value if it ended before)."""
+    tu = rec.diagnostics.get("total_uncertainty")
+    if tu is None or len(tu) == 0:
+        return math.nan
+    k = int(np.searchsorted(rec.t, t, side="right")) - 1
+    return float(tu[min(max(k, 0), len(tu) - 1)])
+
+
+def _label(task: Any) -> str:
+    return str(task.cell.get("searcher_label", task.cell.get("searcher")))
+
+
+def _prepare(sc: Any, task: Any) -> Any:
+    # every episode keeps its per-step diagnostics; map snapshots only where arrays are kept
+    keep = bool(task.keep_arrays)
+    return sc.model_copy(
+        update={
+            "recording": sc.recording.model_copy(
+                update={
+                    "belief_stride": _BELIEF_STRIDE if keep else 10**9,
+                    "plume_stride": 200 if keep else 10**9,
+                }
+            )
+        }
+    )
+
+
+def _extras(task: Any, res: Any, rows: dict[str, dict[str, Any]]) -> dict[str, Any]:
+    from odorloc.experiments.runner import cell_scenario
+
+    radius = cell_scenario(task.cell).task.success_radius
+    row = dict(res.metrics)
+    out: dict[str, Any] = {}
+    for rule in RULES:
+        kind = rule or "mapped"
+        out.update(map_errors(row, res.sources, radius, kind, f"_{rule}" if rule else ""))
+    label = _label(task)
+    rec = res.recording
+    if rec is not None:
+        for k, (t_scene, _, _) in enumerate(SCENES[label]):
+            out[f"scene_residual_{k}"] = residual_at(rec, t_scene)
+    if label == DYNAMIC and rec is not None:
+        base = next((r for cid, r in rows.items() if cid.endswith(f"/{WAVE}")), None)
+        target = float(base["residual_uncertainty"]) if base else math.nan
+        t_eq, d_eq = time_to_residual(rec, target)
+        out.update(time_to_baseline_residual=t_eq, distance_to_baseline_residual=d_eq)
+    return out
+
+
+def ds_group(tasks: list[Any]) -> list[dict[str, Any]]:
+    """Run one flow's group: the wave first (its final residual is the dynamic route's target).
+
+    If the group lacks the wave (a resumed run that stored only it), the wave's episode is run
+    again to get its residual; it is not stored twice.
+    """
+    from odorloc.experiments.runner import run_replay_group
+
+    order = sorted(range(len(tasks)), key=lambda i: _label(tasks[i]) != WAVE)
+    ordered = [tasks[i] for i in order]
+    if ordered and _label(ordered[0]) != WAVE:
+        from dataclasses import replace
+
+        probe = ordered[0]
+        wave_cell = {
+            **probe.cell,
+            "searcher": WAVE,
+            "searcher_label": WAVE,
+            "searcher_params": dict(SEARCHERS[WAVE]),
+        }
+        wave_task = replace(
+            probe,
+            cell=wave_cell,
+            cell_id=probe.cell_id.rsplit("/", 1)[0] + f"/{WAVE}",
+            keep_arrays=False,
+        )
+        rows = run_replay_group(
+            [wave_task, *ordered], record=True, extras=_extras, prepare=_prepare
+        )[1:]
+    else:
+        rows = run_replay_group(ordered, record=True, extras=_extras, prepare=_prepare)
+    back: list[dict[str, Any]] = [{}] * len(tasks)
+    for i, r in zip(order, rows, strict=True):
+        back[i] = r
+    return back
+
+
+def _mean_sd(x: Any) -> tuple[float, float]:
+    a = np.asarray(x, float)
+    a = a[np.isfinite(a)]
+    if a.size == 0:
+        return math.nan, math.nan
+    return float(a.mean()), float(a.std(ddof=1)) if a.size > 1 else 0.0
+
+
+def _ms(x: Any, d: int = 1) -> str:
+    m, s = _mean_sd(x)
+    return f"{fmt(m, d)} ± {fmt(s, d)}"
+
+
+def _count(g: Any, col: str) -> str:
+    if col not in g:
+        return f"0/{len(g)}"
+    return f"{int(g[col].fillna(False).astype(bool).sum())}/{len(g)}"
+
+
+@register("reproduction", "ds-multi-source", ReproductionParams, "Sec. 4 and Figs. 1-2")
+class DSReproduction(Reproduction):
+    """D-S map with the dynamic route vs the rectangular wave, two sources, replayed flows."""
+
+    name = "ds-multi-source"
+    paper = "ds-multi-source-mapping.txt"
+    summary = "Sec. 4 and Figs. 1-2: D-S map with dynamic route vs rectangular wave, two sources"
+    default_episodes = 10
+    paper_episodes = 1
+
+    def __init__(
+        self,
+        params: ReproductionParams | None = None,
+        time_limit: float | None = None,
+        max_speed: float | None = None,
+    ) -> None:
+        super().__init__(params)
+        self.time_limit = time_limit
+        self.max_speed = max_speed
+
+    def sweep(self, episodes: int, seed: int) -> dict[str, Any]:
+        overrides: dict[str, Any] = {}
+        if self.time_limit is not None:
+            overrides["limits.time"] = float(self.time_limit)
+        if self.max_speed is not None:
+            overrides["platform.max_speed"] = float(self.max_speed)
+        return {
+            "name": "ds-multi-source reproduction",
+            "seed": seed,
+            "episodes": episodes,
+            "replay": True,
+            "keep_episodes": [0],
+            "scenarios": [{"name": SCENARIO, "params": overrides}],
+            "searchers": [{"name": k, "params": v} for k, v in SEARCHERS.items()],
+        }
+
+    def group_fn(self) -> Any:
+        return ds_group
+
+    def reference(self) -> dict[str, dict[str, Any]]:
+        return {k: {"mean_time": v["time"], "source": v["source"]} for k, v in PAPER.items()}
+
+    def tables(self, df: Any, seed: int) -> list[Table]:
+        import pandas as pd
+
+        df = df.sort_values(["searcher", "episode"])
+        compact, wide = [], []
+        for label in SEARCHERS:
+            g = df[df.searcher == label]
+            ref = PAPER[label]
+            compact.append(
+                [
+                    label,
+                    str(len(g)),
+                    _ms(g.search_time, 0),
+                    fmt(ref["time"]),
+                    _ms(g.path_length, 0),
+                    fmt(ref["distance"]),
+                    _ms(g.residual_uncertainty, 0),
+                    fmt(ref["residual"]),
+                    _count(g, "map_success"),
+                    _ms(g.map_false_sources),
+                ]
+            )
+            wide.append(
+                [
+                    label,
+                    str(len(g)),
+                    _count(g, "declared"),
+                    _ms(g.search_time),
+                    _ms(g.path_length),
+                    _ms(g.residual_uncertainty),
+                    fmt(_mean_sd(g.initial_uncertainty)[0], 0),
+                    _ms(g.source_error_0, 2),
+                    _ms(g.source_error_1, 2),
+                    *[_count(g, f"map_success{('_' + r) if r else ''}") for r in RULES],
+                    _ms(g.map_false_sources),
+                ]
+            )
+        tables = [
+            Table(
+                "summary",
+                "D-S mapping, ours (mean ± sd over flows) vs paper",
+                [
+                    "method",
+                    "n",
+                    "time s",
+                    "paper",
+                    "distance m",
+                    "paper",
+                    "ΣX",
+                    "paper",
+                    "both found",
+                    "false",
+                ],
+                compact,
+                note="both found: each true source has a mapped source within the success "
+                "radius (source rule 'peak'); false: mapped sources farther from both",
+            ),
+            Table(
+                "summary_wide",
+                "D-S mapping: every column (mean ± sd over flows)",
+                [
+                    "method",
+                    "n",
+                    "declared",
+                    "time s",
+                    "distance m",
+                    "residual ΣX",
+                    "initial ΣX",
+                    "err src1 m",
+                    "err src2 m",
+                    "both (peak)",
+                    "both (upwind)",
+                    "both (peak)",
+                    "both (centroid)",
+                    "false",
+                ],
+                wide,
+                console=False,
+            ),
+        ]
+        dyn = df[df.searcher == DYNAMIC].set_index("episode")
+        rw = df[df.searcher == WAVE].set_index("episode")
+        paired = pd.DataFrame(
+            {
+                "time": dyn.search_time / rw.search_time,
+                "distance": dyn.path_length / rw.path_length,
+                "residual": dyn.residual_uncertainty / rw.residual_uncertainty,
+            }
+        )
+        if "time_to_baseline_residual" in dyn:
+            paired["equal-residual time"] = dyn.time_to_baseline_residual / rw.search_time
+            paired["equal-residual distance"] = dyn.distance_to_baseline_residual / rw.path_length
+        rows = []
+        for c in paired.columns:
+            v = paired[c]
+            paper = RATIOS.get(c)
+            below = int((v < 1).sum())
+            rows.append([c, _ms(v, 2), f"{below}/{int(v.notna().sum())}", fmt(paper, 2)])
+        tables.append(
+            Table(
+                "paired",
+                "Paired per flow, dynamic / wave (paper: ratios of its single run)",
+                ["ratio", "ours", "below 1", "paper"],
+                rows,
+                note="equal-residual: the dynamic route's time and distance when its map first "
+                "reached the wave's final ΣX on the same flow",
+            )
+        )
+        scenes = []
+        for label in SEARCHERS:
+            g = df[df.searcher == label]
+            for k, (t_scene, _, x_paper) in enumerate(SCENES[label]):
+                col = f"scene_residual_{k}"
+                ours = _ms(g[col], 0) if col in g else "-"
+                scenes.append([label, "abc"[k], fmt(t_scene), ours, fmt(x_paper)])
+        tables.append(
+            Table(
+                "scenes",
+                "ΣX over the search region at the paper's scenes (Figs. 1-2)",
+                ["method", "scene", "time s", "ours ΣX", "paper ΣX"],
+                scenes,
+            )
+        )
+        return tables
+
+    def figures(self, df: Any, store: Any, out: Path, seed: int) -> list[Figure]:
+        from odorloc.papers.odor_path.figures import odor_path_figure
+
+        recs = _flow0(df, store)
+        figs = []
+        if recs:
+            figs += [
+                Figure(
+                    "state_maps.png",
+                    "D-S state maps at three moments of flow 0 (cf. paper Figs. 1-2)",
+                    lambda p: _state_map_figure(recs, p),
+                ),
+                Figure(
+                    "uncertainty_vs_time.png",
+                    "Residual uncertainty ΣX against time, flow 0, with the paper's scenes",
+                    lambda p: _uncertainty_figure(recs, p),
+                ),
+            ]
+        figs.append(
+            Figure(
+                "odor_path_calm_gusty.png",
+                "Odor-path maps and sub-window ellipses, calm and gusty wind (odor-path paper "
+                "Figs. 4-5)",
+                odor_path_figure,
+            )
+        )
+        return figs
+
+
+def _flow0(df: Any, store: Any) -> dict[str, Any]:
+    """Flow 0's recordings and final maps per route, from the store's kept arrays."""
+    from odorloc.engine.recorder import Recording
+    from odorloc.experiments.runner import cell_scenario
+    from odorloc.geometry.regions import check_region
+    from odorloc.inference.evidence.mapper import DSMapParams, DSMapper
+
+    out: dict[str, Any] = {}
+    for label in SEARCHERS:
+        g = df[(df.searcher == label) & (df.episode == 0)]
+        if not len(g):
+            continue
+        arrays = store.arrays(str(g.iloc[0].cell_id), 0)
+        if arrays is None:
+            continue
+        rec = Recording.from_arrays(arrays)
+        maps = [(t, b) for t, b in rec.beliefs if "m_s" in b]
+        if not maps:
+            continue
+        sc = cell_scenario({"scenario": SCENARIO})
+        region = check_region(sc.task.region)
+        mapper = DSMapper(DSMapParams(), region, sc.limits.control_dt)
+        out[label] = {
+            "recording": rec,
+            "final": maps[-1],
+            "lower": mapper.grid.grid.lower,
+            "upper": mapper.grid.grid.upper,
+            "region": region,
+        }
+    return out
+
+
+def _snapshots(entry: dict[str, Any], label: str) -> list[tuple[float, dict[str, np.ndarray]]]:
+    """Three map snapshots like the paper's scenes (Figs. 1-2)."""
+    rec = entry["recording"]
+    snaps = [(t, b) for t, b in rec.beliefs if "m_s" in b]
+    if label == WAVE and "waypoint" in rec.diagnostics:
+        # end of rounds 1 and 3, at the round's last corner like the paper's scenes (before
+        # the way back): the waypoint index reaches 1/5 and 3/5 of all waypoints
+        wp = rec.diagnostics["waypoint"]
+        per_round = wp.max() / SEARCHERS[WAVE]["rounds"] if wp.size else 1.0
+        wanted = [rec.t[min(np.searchsorted(wp, r * per_round), len(wp) - 1)] for r in (1, 3)]
+    else:
+        wanted = [400.0, 800.0]
+    picks = []
+    for w in wanted:
+        if snaps:
+            i = int(np.argmin([abs(t - w) for t, _ in snaps]))
+            picks.append(snaps[i])
+    picks.append(entry["final"])
+    return picks
+
+
+def _state_map_figure(recs: dict[str, Any], path: Path) -> None:
+    import matplotlib.pyplot as plt
+    from matplotlib.colors import ListedColormap
+    from matplotlib.patches import Patch, Rectangle
+
+    from odorloc.inference.evidence.dempster_shafer import cell_uncertainty
+
+    cmap = ListedColormap(["0.6", "white", "black"])  # unknown, free, occupied
+    labels = list(recs)
+    fig, axes = plt.subplots(len(labels), 3, figsize=(12, 5.2 * len(labels)), squeeze=False)
+    for r, label in enumerate(labels):
+        entry = recs[label]
+        rec = entry["recording"]
+        lo, hi = entry["lower"], entry["upper"]
+        (rx0, ry0), (rx1, ry1) = entry["region"]
+        for c, (t, snap) in enumerate(_snapshots(entry, label)):
+            ax = axes[r, c]
+            ms, mn = snap["m_s"], snap["m_n"]
+            state = np.zeros(ms.shape, int)
+            state[(mn >= 0.5) & (mn > ms)] = 1
+            state[(ms >= 0.5) & (ms > mn)] = 2
+            ax.imshow(
+                state.T,
+                origin="lower",
+                extent=(lo[0], hi[0], lo[1], hi[1]),
+                cmap=cmap,
+                vmin=0,
+                vmax=2,
+                interpolation="nearest",
+            )
+            k = int(np.searchsorted(rec.t, t, side="right"))
+            pos = rec.positions[:k, 0]
+            ax.plot(pos[:, 0], pos[:, 1], "-", color="tab:green", lw=0.6)
+            if len(pos):
+                ax.plot(*pos[-1, :2], "o", color="tab:green", mec="k")
+            ax.plot(rec.sources[:, 0], rec.sources[:, 1], "*", color="red", mec="k", ms=13)
+            ax.add_patch(Rectangle((rx0, ry0), rx1 - rx0, ry1 - ry0, fill=False, ec="gold", lw=2))
+            d = float(np.sum(np.linalg.norm(np.diff(pos[:, :2], axis=0), axis=1)))
+            x = cell_uncertainty(ms, mn, snap["m_u"])
+            # only the region's cells count (those of the map's margin are ignored, as in the
+            # paper and in the table)
+            xc = lo[0] + (np.arange(ms.shape[0]) + 0.5) * (hi[0] - lo[0]) / ms.shape[0]
+            yc = lo[1] + (np.arange(ms.shape[1]) + 0.5) * (hi[1] - lo[1]) / ms.shape[1]
+            inside = ((xc >= rx0) & (xc <= rx1))[:, None] & ((yc >= ry0) & (yc <= ry1))[None, :]
+            x = np.where(inside, x, 0.0)
+            ax.set_title(f"{label}\nt = {t:.0f} s, {d:.0f} m, ΣX = {x.sum():.0f}", fontsize=9)
+            ax.set_xlim(rx0 - 1.0, rx1 + 1.0)
+            ax.set_ylim(ry0 - 1.0, ry1 + 1.0)
+            ax.set_aspect("equal")
+    handles = [
+        Patch(color="0.6", label="unknown"),
+        Patch(fc="white", ec="k", label="free"),
+        Patch(color="black", label="occupied by a source"),
+    ]
+    fig.legend(handles=handles, loc="lower center", ncol=3)
+    fig.suptitle("D-S state maps at three moments (cf. paper Figs. 1-2); red stars: true sources")
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+
+
+def _uncertainty_figure(recs: dict[str, Any], path: Path) -> None:
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(7, 3.6))
+    colors = {DYNAMIC: "tab:red", WAVE: "tab:blue"}
+    for label, entry in recs.items():
+        rec = entry["recording"]
+        if "total_uncertainty" in rec.diagnostics:
+            ax.plot(
+                rec.t,
+                rec.diagnostics["total_uncertainty"],
+                color=colors.get(label),
+                label=f"{label} (ours, flow 0)",
+            )
+        pts = np.array(SCENES[label])
+        ax.plot(
+            pts[:, 0],
+            pts[:, 2],
+            "*",
+            color=colors.get(label),
+            mec="k",
+            ms=11,
+            label=f"{label} (paper scenes)",
+        )
+    ax.set_yscale("log")
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("Σ X over the search region")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)

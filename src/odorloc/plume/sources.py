@@ -1,0 +1,73 @@
+"""Odor sources: position, release rate and release modulation."""
+
+from __future__ import annotations
+
+import math
+from typing import Literal
+
+import numpy as np
+from pydantic import model_validator
+
+from odorloc.core.params import NonNegative, Params, Positive, Vector
+
+
+class Modulation(Params):
+    """Time modulation of a source's release rate.
+
+    ``kind="constant"``: factor 1. ``kind="onoff"``: 1 during the first ``duty`` fraction of each
+    ``period`` (shifted by ``phase`` seconds), else 0. ``kind="sine"``:
+    ``1 + depth * sin(2 pi (t + phase) / period)``, clipped at 0.
+    """
+
+    kind: Literal["constant", "onoff", "sine"] = "constant"
+    period: Positive = 10.0
+    duty: float = 0.5
+    depth: NonNegative = 0.5
+    phase: float = 0.0
+
+    @model_validator(mode="after")
+    def _check(self) -> Modulation:
+        if not 0.0 < self.duty <= 1.0:
+            raise ValueError("duty must be in (0, 1]")
+        return self
+
+    def factor(self, t: float) -> float:
+        """Release-rate factor at time ``t`` (seconds), dimensionless >= 0."""
+        if self.kind == "constant":
+            return 1.0
+        if self.kind == "onoff":
+            return 1.0 if ((t + self.phase) % self.period) < self.duty * self.period else 0.0
+        return max(0.0, 1.0 + self.depth * math.sin(2.0 * math.pi * (t + self.phase) / self.period))
+
+
+class Source(Params):
+    """A point odor source.
+
+    Parameters
+    ----------
+    position : (d,) tuple of float, metres
+    rate : float
+        Release rate; units follow the plume model (filaments/s for filament plumes, mass/s or
+        the dimensionless ``Q`` of the rate model otherwise).
+    modulation : Modulation
+        Release modulation in time.
+    """
+
+    position: Vector
+    rate: NonNegative = 1.0
+    modulation: Modulation = Modulation()
+
+    @model_validator(mode="after")
+    def _check(self) -> Source:
+        if len(self.position) not in (2, 3):
+            raise ValueError("position must have 2 or 3 components")
+        return self
+
+    def rate_at(self, t: float) -> float:
+        """Instantaneous release rate at ``t`` seconds."""
+        return self.rate * self.modulation.factor(t)
+
+    @property
+    def pos(self) -> np.ndarray:
+        """Position as a ``(d,)`` float array, metres."""
+        return np.asarray(self.position, float)
