@@ -18,10 +18,11 @@ import time
 
 import numpy as np
 
-from odorloc.core.types import Observation, SearchContext
-from odorloc.engine.episode import episode_generators, run_episode, seeds_for
+from odorloc.core.seeds import episode_generators, episode_seeds
+from odorloc.core.types import Observation
+from odorloc.engine.episode import prepare_world, run_episode
 from odorloc.scenarios import Scenario
-from odorloc.scenarios.build import build
+from odorloc.scenarios.build import build, search_context
 
 SCENARIO = {
     "name": "bench-zigzag-filament",
@@ -43,31 +44,30 @@ SCENARIO = {
 def bare_loop(sc: Scenario, world_seed: int, agent_seed: int, steps: int) -> float:
     """Seconds for ``steps`` control periods of only world stepping + searcher calls."""
     b = build(sc)
-    rw, _, ra = episode_generators(world_seed, agent_seed)
+    _, _, ra = episode_generators(world_seed, agent_seed)
     n_sub = round(sc.limits.control_dt / sc.world.dt)
     wdt = sc.limits.control_dt / n_sub
-    b.world.reset(rw)
-    for _ in range(round(sc.world.warmup / wdt)):
-        b.world.step(wdt, rw)
+    world, rw, _ = prepare_world(sc, world_seed, b.world)
     start = np.asarray(sc.agents.starts, float)
-    ctx = SearchContext(b.world.arena, sc.limits.control_dt, 1, start, 0.5)
-    b.searcher.reset(ctx, ra)
+    for k, pl in enumerate(b.platforms):
+        pl.reset(start[k], 0.0)
+    b.searcher.reset(search_context(sc, b), ra)
     obs = [Observation(0, 0.0, start[0], 0.0, 0.0, False, np.array([1.0, 0.0]))]
     t0 = time.perf_counter()
     for _ in range(steps):
         b.searcher.act(obs, ra)
         for _ in range(n_sub):
-            b.world.step(wdt, rw)
+            world.step(wdt, rw)
     return time.perf_counter() - t0
 
 
 def main() -> None:
     sc = Scenario.from_dict(SCENARIO)
-    w, a = seeds_for(0, 0)
+    w, a = episode_seeds(0, "bench", 0)
     run_episode(sc, w, a, record=False)  # warm caches / JIT
     rows = []
     for rep in range(3):
-        w, a = seeds_for(0, rep)
+        w, a = episode_seeds(0, "bench", rep)
         res = run_episode(sc, w, a, record=False)
         m = res.metrics
         # Warm-up happens inside run_episode too; time the bare loop with its own warm-up excluded

@@ -17,7 +17,6 @@ Run: ``python benchmarks/pf_speed.py [--repeat 200]``.
 from __future__ import annotations
 
 import argparse
-import importlib
 import math
 import time
 from collections.abc import Callable
@@ -63,7 +62,9 @@ def update_vectorised(case: dict, model: PangFarrellModel, pf: ParticleFilter) -
     Weights are reset to the case's prior first so that every timed call does the same work.
     """
     pf.replace(case["hyp"], case["log_w"])
-    pf.update(model.log_likelihood(True, case["robot"], case["wind"], DT, pf.positions))
+    pf.update(
+        model.log_likelihood(True, case["robot"], pf.positions, wind_window=case["wind"], dt=DT)
+    )
     pf.needs_resampling()
     return np.asarray(pf.log_weights)
 
@@ -84,14 +85,11 @@ def decision_vectorised(case: dict, model: PangFarrellModel) -> tuple[int, np.nd
     """One planner call: 4 candidates x N particles x W records in one array pass."""
     from odorloc.inference.belief import ParticleBelief
 
-    wind = case["wind"]
-
-    def fn(z: int, s: np.ndarray, h: np.ndarray) -> np.ndarray:
-        p1 = model.detection_probability(s, wind, DT, h)
-        return p1 if z else 1.0 - p1
-
+    bound = model.bind(wind_window=case["wind"], dt=DT)
     planner = EntropyPlanner(EntropyPlannerParams(step_length=0.11))
-    plan = planner.plan(ParticleBelief(case["hyp"], case["log_w"]), case["robot"], fn, heading=0.3)
+    plan = planner.plan(
+        ParticleBelief(case["hyp"], case["log_w"]), case["robot"], bound, heading=0.3
+    )
     return int(plan.index), plan.expected_entropy
 
 
@@ -134,17 +132,13 @@ def table1_wall_time(run: Callable[[], object] | None = None) -> float:
     Parameters
     ----------
     run : callable, optional
-        Called once with no arguments. Default: ``odorloc.experiments.reproduce.indoor_table1``
-        if that module and callable exist.
+        Called once with no arguments. Default: the indoor paper's Table 1 sweep on 2 workers
+        (:func:`odorloc.papers.indoor_pf_entropy.reproduction.table1_wall_time`).
     """
     if run is None:
-        try:
-            mod = importlib.import_module("odorloc.experiments.reproduce")
-        except ModuleNotFoundError:
-            return math.nan
-        run = getattr(mod, "indoor_table1", None)
-        if not callable(run):
-            return math.nan
+        from odorloc.papers.indoor_pf_entropy.reproduction import table1_wall_time as t1
+
+        run = t1
     t0 = time.perf_counter()
     run()
     return time.perf_counter() - t0

@@ -561,3 +561,28 @@ def _stored(path):
 
     with sqlite3.connect(path / "results.sqlite") as con:
         return pd.read_sql("SELECT searcher, episode, finished_at FROM episodes", con)
+
+
+def test_preprocessed_readings_are_fused_at_the_period_they_belong_to() -> None:
+    """With the odor-path paper's pre-processing (eqs. 1-5) a sensor delayed by 1 s (two
+    periods) is read back: each reading is fused with the position and time of the air it
+    sampled, and its detection comes from the signal intensity."""
+    from odorloc.sensors.preprocessing import PreprocessorParams
+
+    p = DSMapperParams(
+        cell_size=0.5,
+        preprocess=PreprocessorParams(delay=1.0, period=0.5),
+        intensity_threshold=0.5,
+    )
+    mp = DSMapper(p, ((0.0, 0.0), (10.0, 10.0)), 0.5)
+    readings = [1.0, 1.0, 1.0, 3.0, 1.0, 1.0]  # the jump belongs to t = 0.5 s (1 s earlier)
+    out = []
+    for i, c in enumerate(readings):
+        pos = np.array([5.0 + 0.5 * i, 5.0])
+        out.append(mp.update(0.5 * i, pos, np.array([1.0, 0.0]), c >= 2.0, reading=c))
+    assert out[0] is None and out[1] is None and all(o is not None for o in out[2:])
+    np.testing.assert_allclose(mp.estimator.times, [0.0, 0.5, 1.0, 1.5])
+    assert mp.n_detections == 1 and mp.n_readings == 4
+    np.testing.assert_allclose(mp.estimator.last_position, [6.5, 5.0])
+    with pytest.raises(ConfigError, match="reading"):
+        mp.update(3.0, np.array([5.0, 5.0]), np.array([1.0, 0.0]), False)

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from conftest import filament_scenario_dict, small_scenario_dict
+from odorloc.core.errors import ConfigError
 from odorloc.core.seeds import episode_seeds
 from odorloc.core.types import Action, Command, Declaration
 from odorloc.engine.episode import run_episode, score_declaration
@@ -133,3 +134,191 @@ def test_recording_roundtrip(tmp_path) -> None:
     assert np.array_equal(back.positions, rec.positions)
     assert np.array_equal(back.plume_frames, rec.plume_frames)
     assert back.meta["scenario"] == "test-room"
+
+
+# ---------------------------------------------------------------------- the stepping episode
+def test_stepping_episode_equals_the_driver() -> None:
+    """Episode.reset/step driven by hand gives the same row as run_episode."""
+    from odorloc.engine.episode import Episode
+
+    sc = Scenario.from_dict(filament_scenario_dict("zigzag"))
+    ref = run_episode(sc, 4, 5)
+    ep = Episode(sc)
+    obs = ep.reset(4, 5)
+    s = ep.built.searcher
+    s.reset(ep.context, ep.agent_rng)
+    n = 0
+    while not ep.done:
+        res = ep.step(s.act(obs, ep.agent_rng), s)
+        obs = res.observations
+        n += 1
+    assert res.done and res.truncated and res.termination == "time_limit"
+    assert res.events[-1].kind == "end"
+    got = ep.result(s.final_metrics())
+    assert _rows_equal(ref.metrics, got.metrics)
+    assert n == got.metrics["steps"] + 1
+    with pytest.raises(RuntimeError, match="over"):
+        ep.step(s.act(obs, ep.agent_rng))
+
+
+class _Script(Searcher):
+    """Holds still; declares the scripted positions at the scripted steps, tagged by group."""
+
+    def __init__(self, script: dict[int, tuple[list, int | None]]) -> None:
+        self.script = script
+
+    def act(self, observations, rng):
+        self.k = getattr(self, "k", -1) + 1
+        decl = None
+        if self.k in self.script:
+            pos, group = self.script[self.k]
+            decl = Declaration(np.asarray(pos, float), group=group)
+        return Action([Command.hold() for _ in observations], declaration=decl)
+
+
+def _two_source_scenario(end: str, **task) -> Scenario:
+    d = small_scenario_dict("passive")
+    d["world"]["sources"] = [{"position": [1.0, 2.5]}, {"position": [3.0, 1.0]}]
+    d["agents"] = {
+        "starts": [[8.0, 2.0], [8.0, 3.0]],
+        "groups": [{"name": "A", "agents": [0]}, {"name": "B", "agents": [1]}],
+    }
+    d["task"] = {"end": end, "success_radius": 0.5, **task}
+    return Scenario.from_dict(d)
+
+
+def test_partial_declarations_find_sources_one_by_one_until_every_group_declared() -> None:
+    sc = _two_source_scenario("all_groups")
+    s = _Script({2: ([[1.1, 2.5]], 0), 6: ([[3.0, 1.2]], 1)})
+    res = run_episode(sc, 1, 2, searcher=s)
+    m = res.metrics
+    assert m["termination"] == "declared" and m["search_time"] == pytest.approx(3.0)
+    assert m["found_time_0"] == pytest.approx(1.0) and m["found_time_1"] == pytest.approx(3.0)
+    assert m["success"] and m["sources_found"] == 2 and m["declarations"] == 2
+    kinds = [e.kind for e in res.events]
+    assert kinds.count("declaration") == 2 and kinds.count("source_found") == 2
+    assert [e.group for e in res.events if e.kind == "declaration"] == [0, 1]
+    # The first declaration alone ends a "first_declaration" episode (one source found).
+    first = run_episode(_two_source_scenario("first_declaration"), 1, 2, searcher=_Script(s.script))
+    assert first.metrics["search_time"] == pytest.approx(1.0) and not first.metrics["success"]
+    assert first.metrics["sources_found"] == 1 and np.isnan(first.metrics["found_time_1"])
+
+
+def test_limits_rule_keeps_going_after_declarations() -> None:
+    sc = _two_source_scenario("limits")
+    res = run_episode(sc, 1, 2, searcher=_Script({1: ([[1.0, 2.5], [3.0, 1.0]], None)}))
+    m = res.metrics
+    assert m["termination"] == "time_limit" and m["search_time"] == pytest.approx(30.0)
+    assert m["declared"] and m["success"]
+
+
+def test_reach_rule_ends_when_an_agent_comes_close() -> None:
+    d = small_scenario_dict("zigzag")
+    d["agents"]["starts"] = [[3.0, 2.5]]
+    d["task"] = {"end": "reach", "reach_radius": 1.2}
+    sc = Scenario.from_dict(d)
+    res = run_episode(sc, 1, 2)
+    m = res.metrics
+    assert m["termination"] == "reached" and m["success"]
+    pos = res.recording.positions[-1, 0]
+    assert m["reach_time"] == m["search_time"]
+    with pytest.raises(ConfigError, match="reach_radius"):
+        Scenario.from_dict({**d, "task": {"end": "reach"}})
+    assert np.linalg.norm(np.asarray(pos) - [1.0, 2.5]) > 1.2 - 0.26  # reached by the last move
+    # An agent that starts within the radius has reached the source at t = 0.
+    d["agents"]["starts"] = [[1.5, 2.5]]
+    at_start = run_episode(Scenario.from_dict(d), 1, 2).metrics
+    assert at_start["termination"] == "reached" and at_start["search_time"] == 0.0
+
+
+def test_time_limit_shorter_than_a_period_is_refused() -> None:
+    d = small_scenario_dict("zigzag")
+    d["limits"] = {"control_dt": 0.5, "time": 0.2}
+    with pytest.raises(ConfigError, match=r"limits\.time"):
+        run_episode(Scenario.from_dict(d), 1, 2)
+
+
+def test_computation_and_radio_are_charged_to_uavs() -> None:
+    """A searcher's reported bits are charged by eq. 7 and its messages by eq. 8."""
+
+    class _Thinker(Searcher):
+        def act(self, observations, rng):
+            return Action(
+                [Command.hold() for _ in observations],
+                messages={0: {"fit": np.zeros(12)}},
+                compute_bits={0: 1e6, 1: 2e6},
+            )
+
+    d = small_scenario_dict("passive")
+    d["world"] = {
+        **d["world"],
+        "arena": {"lower": [0, 0, 0], "upper": [10, 5, 5], "resolution": 0.5},
+    }
+    d["world"]["sources"] = [{"position": [1.0, 2.5, 2.0]}]
+    d["world"]["wind"] = {"type": "uniform", "velocity": [0.5, 0.0, 0.0]}
+    d["platform"] = {"type": "uav"}
+    d["agents"] = {"starts": [[8.0, 2.0, 2.0], [8.0, 3.0, 2.0]], "comm_radius": 5.0}
+    d["limits"]["time"] = 5.0
+    res = run_episode(Scenario.from_dict(d), 1, 2, searcher=_Thinker())
+    m = res.metrics
+    steps = m["steps"]
+    # eq. 7: gamma_c C f_c^2 N_c = 1e-28 * 1000 * 1e18 = 1e-7 J per bit
+    assert m["energy_compute"] == pytest.approx(steps * 3e6 * 1e-7)
+    # eq. 8: P_T N_d / r_T = 0.1 W * (8 * 96 bits) / 1e6 bit/s per delivery (one recipient)
+    assert m["bytes"] == steps * 96
+    assert m["energy_comm"] == pytest.approx(steps * 0.1 * 8 * 96 / 1e6)
+
+
+def test_run_episode_i_is_batch_episode_i(tmp_path) -> None:
+    """`odorloc run S --seed R --episode I` and episode I of `odorloc batch -s S --seed R`."""
+    from typer.testing import CliRunner
+
+    from odorloc.cli import app
+    from odorloc.engine.recorder import Recording
+    from odorloc.experiments.sweep import run_sweep
+
+    spec = {
+        "name": "same",
+        "seed": 17,
+        "episodes": 3,
+        "scenarios": [{"name": "indoor-ventilated", "params": {"limits.time": 20.0}}],
+        "searchers": [{"name": "zigzag"}],
+    }
+    df = run_sweep(spec, tmp_path / "s.sqlite", workers=1, progress=False)
+    row = df[df.episode == 2].iloc[0]
+    out = tmp_path / "run"
+    sc_file = tmp_path / "short.yaml"
+    from odorloc.scenarios import get_scenario
+
+    get_scenario("indoor-ventilated").with_overrides({"limits.time": 20.0}).to_yaml(sc_file)
+    r = CliRunner().invoke(
+        app,
+        [
+            "run",
+            "indoor-ventilated",
+            "--seed",
+            "17",
+            "--episode",
+            "2",
+            "--searcher",
+            "zigzag",
+            "--out",
+            str(out),
+            "--no-animation",
+        ],
+    )
+    assert r.exit_code == 0, r.output
+    rec = Recording.load(out / "recording.npz")
+    # the CLI ran the full 600 s; the sweep's 20 s must coincide with its start step by step
+
+    assert (int(row.world_seed), int(row.agent_seed)) == episode_seeds(17, "indoor-ventilated", 2)
+    short = run_episode(
+        get_scenario("indoor-ventilated").with_overrides(
+            {"limits.time": 20.0, "searcher": {"type": "zigzag"}}
+        ),
+        int(row.world_seed),
+        int(row.agent_seed),
+    )
+    assert short.metrics["path_length"] == pytest.approx(row.path_length, rel=0, abs=0)
+    n = len(short.recording.t)
+    np.testing.assert_array_equal(rec.positions[:n], short.recording.positions)

@@ -36,7 +36,8 @@ def filled(tmp_path):
 
 def test_wal_mode_and_unique_episode(filled):
     st, tasks = filled
-    mode = st._con.execute("PRAGMA journal_mode").fetchone()[0]
+    con = sqlite3.connect(st.path)
+    mode = con.execute("PRAGMA journal_mode").fetchone()[0]
     assert mode == "wal"
     assert len(st) == 16
     row = stub_episode(tasks[0])
@@ -45,7 +46,8 @@ def test_wal_mode_and_unique_episode(filled):
     assert len(st) == 16
     assert st.frame()["search_time"].iloc[0] == row["search_time"]
     with pytest.raises(sqlite3.IntegrityError):
-        st._con.execute("INSERT INTO episodes SELECT * FROM episodes LIMIT 1")
+        con.execute("INSERT INTO episodes SELECT * FROM episodes LIMIT 1")
+    con.close()
     assert st.done_keys() == {(t.cell_id, t.episode) for t in tasks}
 
 

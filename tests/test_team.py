@@ -130,3 +130,37 @@ def _ctx(sc):
     from odorloc.scenarios.build import search_context
 
     return search_context(sc, build(sc))
+
+
+class GroupProbe(Searcher):
+    """Holds still; remembers which agents it saw and declares its group's centroid once."""
+
+    Params = Params
+
+    def reset(self, ctx, rng) -> None:
+        super().reset(ctx, rng)
+        self.seen: set[int] = set()
+
+    def act(self, observations, rng):
+        self.seen |= {o.agent for o in observations}
+        pos = np.mean([o.position for o in observations], axis=0)
+        decl = Declaration(pos[None, :]) if observations[0].t >= 1.0 else None
+        return Action([Command.hold() for _ in observations], declaration=decl)
+
+
+def test_per_group_controllers_see_their_group_only_and_declare_per_group() -> None:
+    d = filament_scenario_dict("per-group", member={"type": "test_team:GroupProbe"})
+    d["agents"] = {
+        "starts": [[8.0, 1.0], [8.5, 1.0], [8.0, 4.0], [8.5, 4.0], [6.0, 2.5]],
+        "groups": [{"name": "A", "agents": [0, 1]}, {"name": "B", "agents": [2, 3]}],
+    }
+    d["task"] = {"end": "all_groups"}
+    d["limits"]["time"] = 5.0
+    sc = Scenario.from_dict(d)
+    b = build(sc)
+    res = run_episode(sc, 1, 2, built=b)
+    seen = [m.seen for m in b.searcher.members]
+    assert seen == [{0, 1}, {2, 3}, {4}]  # the ungrouped agent gets a controller of its own
+    decl = [e for e in res.events if e.kind == "declaration"]
+    assert [e.group for e in decl] == [0, 1, None]
+    assert res.metrics["termination"] == "declared" and res.metrics["search_time"] == 1.0

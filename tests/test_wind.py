@@ -120,8 +120,8 @@ def test_contract_points_of_wrong_dimension_raise(name: str) -> None:
 # ---------------------------------------------------------------------- second-order noise
 def test_noise_discretisation_is_exact_composition() -> None:
     n = SecondOrderNoise(1, omega=0.9, damping=0.4)
-    F1, L1 = n._transition(0.1)
-    F2, L2 = n._transition(0.2)
+    F1, L1 = n.transition(0.1)
+    F2, L2 = n.transition(0.2)
     np.testing.assert_allclose(F1 @ F1, F2, atol=1e-12)
     Q1, Q2 = L1 @ L1.T, L2 @ L2.T
     np.testing.assert_allclose(F1 @ Q1 @ F1.T + Q1, Q2, atol=1e-12)
@@ -423,7 +423,7 @@ def test_potential_scale_modulation_keeps_shape() -> None:
     rng = np.random.default_rng(2)
     w.reset(rng)
     pts = np.array([[1.0, 0.5], [3.0, 2.5], [5.0, 1.5]])
-    base = w._base_velocity(pts)
+    base = w.base_velocity(pts)
     factors = []
     for _ in range(50):
         w.step(0.5, rng)
@@ -461,7 +461,7 @@ def test_potential_params_round_trip_and_rotation() -> None:
     rng = np.random.default_rng(8)
     w.reset(rng)
     pt = np.array([[1.5, 1.5]])
-    base = w._base_velocity(pt)[0]
+    base = w.base_velocity(pt)[0]
     angles = []
     for _ in range(200):
         w.step(0.5, rng)

@@ -147,6 +147,7 @@ class Recorder:
     def __init__(self, scenario: Any, arena: Arena, sources: np.ndarray) -> None:
         self.cfg = scenario.recording
         self.scenario_name = scenario.name
+        self.n_agents = len(scenario.agents.starts)
         self.arena = arena
         self.sources = sources
         self._t: list[float] = []
@@ -230,10 +231,10 @@ class Recorder:
         )
         return Recording(
             t=np.asarray(self._t),
-            positions=np.asarray(self._pos).reshape(len(self._t), -1, d),
-            gas=np.asarray(self._gas, float),
-            detection=np.asarray(self._det, bool),
-            wind=np.asarray(self._wind).reshape(len(self._t), -1, d),
+            positions=np.asarray(self._pos, float).reshape(len(self._t), self.n_agents, d),
+            gas=np.asarray(self._gas, float).reshape(len(self._t), self.n_agents),
+            detection=np.asarray(self._det, bool).reshape(len(self._t), self.n_agents),
+            wind=np.asarray(self._wind, float).reshape(len(self._t), self.n_agents, d),
             diagnostics={k: np.asarray(v) for k, v in self._diag.items()},
             beliefs=self._beliefs,
             plume_t=np.asarray(self._plume_t),

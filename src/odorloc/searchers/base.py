@@ -53,8 +53,8 @@ class Searcher(ABC):
     dims: ClassVar[tuple[int, ...]] = (2, 3)
     max_agents: ClassVar[int | None] = None
 
-    def __init__(self, params: Params) -> None:
-        self.params = params
+    def __init__(self, params: Params | None = None) -> None:
+        self.params = params if params is not None else Params()
 
     def reset(self, ctx: SearchContext, rng: np.random.Generator) -> None:
         """Prepare for a new episode (subclasses call this first)."""

@@ -69,7 +69,7 @@ class PFEntropyParams(Params):
     mu : float
         Sensor detection probability of a present patch (paper: 0.9, eq. 10).
     sensor_area : float, m^2
-        ``S_p`` of eq. 10 (not given in the paper; 0.1 was tuned on the indoor-ventilated
+        ``S_p`` of eq. 10 (not given in the paper; 0.1 is chosen for the indoor-ventilated
         scenario).
     time_scale : float, s
         Turns wind variance x elapsed time into m^2 (see :mod:`odorloc.models.pang_farrell`).

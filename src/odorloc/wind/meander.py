@@ -68,7 +68,7 @@ class SecondOrderNoise:
         self._cache: dict[float, tuple[np.ndarray, np.ndarray]] = {}
         self.state = np.zeros((channels, 2))
 
-    def _transition(self, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    def transition(self, dt: float) -> tuple[np.ndarray, np.ndarray]:
         """``(F, L)`` with ``F = expm(A dt)`` and ``L L^T = P - F P F^T``."""
         key = float(dt)
         hit = self._cache.get(key)
@@ -92,7 +92,7 @@ class SecondOrderNoise:
 
     def step(self, dt: float, rng: np.random.Generator) -> None:
         """Advance every channel exactly by ``dt`` seconds."""
-        F, L = self._transition(dt)
+        F, L = self.transition(dt)
         z = rng.standard_normal((self.channels, 2))
         self.state = self.state @ F.T + z @ L.T
 

@@ -330,7 +330,8 @@ class PotentialWind(WindModel):
         if not self.deterministic:
             self.noise.step(dt, rng)
 
-    def _base_velocity(self, points: np.ndarray) -> np.ndarray:
+    def base_velocity(self, points: np.ndarray) -> np.ndarray:
+        """The steady (unmodulated) potential flow at ``(Q, d)`` points, ``(Q, d)`` m/s."""
         lo = self.arena.lo[:2]
         g = (points[:, :2] - lo) / self.h
         g[:, 0] = np.clip(g[:, 0], 0.0, self.nx)
@@ -345,7 +346,7 @@ class PotentialWind(WindModel):
         return out
 
     def _velocity(self, points: np.ndarray, t: float) -> np.ndarray:
-        v = self._base_velocity(points)
+        v = self.base_velocity(points)
         p = self.params
         if p.modulation != "none":
             x = self.noise.value

@@ -1,0 +1,124 @@
+"""Behaviours, one implementation each: their decisions on hand-made situations."""
+
+from __future__ import annotations
+
+import itertools
+import math
+
+import numpy as np
+import pytest
+
+from odorloc.behaviours.escape import first_free, free_step
+from odorloc.behaviours.monitor import MaxTracker, PassiveMonitor
+from odorloc.behaviours.spiral import Spiral, SpiralParams, proximity_index
+from odorloc.behaviours.surge_cast import SurgeCast, SurgeCastParams
+from odorloc.behaviours.wind import WindAverage
+from odorloc.behaviours.zigzag import Zigzag
+from odorloc.core.types import Observation
+from odorloc.geometry.arena import Arena
+from odorloc.geometry.vectors import directions_26, fan, lattice_moves, ring, rotate2, upwind_unit
+
+OPEN = Arena.box((0.0, 0.0), (10.0, 10.0), 0.1)
+
+
+def test_first_free_takes_the_first_unblocked_candidate() -> None:
+    arena = OPEN.with_boxes([((5.2, 4.0), (6.0, 6.0))])
+    pos = np.array([5.0, 5.0])
+    cand = np.array([[1.0, 0.0], [0.0, 1.0], [-1.0, 0.0]])
+    assert first_free(arena, pos, cand) == 1  # +x runs into the box
+    assert first_free(arena, pos, np.zeros((0, 2))) is None
+    boxed = Arena.box((4.9, 4.9), (5.1, 5.1), 0.05)
+    assert first_free(boxed, pos, cand) is None
+    assert free_step(OPEN, pos, [0.0, 0.0], 3.0)  # no direction: nothing to block
+
+
+def test_vector_helpers() -> None:
+    np.testing.assert_allclose(rotate2([1.0, 0.0, 0.5], math.pi / 2), [0.0, 1.0, 0.5], atol=1e-15)
+    np.testing.assert_allclose(upwind_unit([2.0, 0.0], 0.0), [-1.0, 0.0])
+    np.testing.assert_allclose(upwind_unit([0.0, 0.0], math.pi / 2), [0.0, 1.0], atol=1e-15)
+    assert ring(16, 3).shape == (16, 3)
+    np.testing.assert_allclose(np.linalg.norm(ring(7, 2), axis=1), 1.0)
+    np.testing.assert_allclose(fan([1.0, 0.0], [0, 90])[1], [0.0, 1.0], atol=1e-15)
+    np.testing.assert_array_equal(lattice_moves(2), [[-1, 0], [1, 0], [0, -1], [0, 1]])
+    assert lattice_moves(3, stay=True).shape == (7, 3)
+    d = directions_26()
+    assert d.shape == (26, 3)
+    np.testing.assert_allclose(np.linalg.norm(d, axis=1), 1.0)
+    assert len({tuple(np.sign(v).astype(int)) for v in d}) == 26  # every neighbour once
+
+
+def test_zigzag_mirrors_at_walls_and_turns_after_max_leg() -> None:
+    up = np.array([-1.0, 0.0])
+    z = Zigzag(math.radians(45.0))
+    d = z.direction(OPEN, np.array([5.0, 5.0]), up, 1.0, 0.5)
+    np.testing.assert_allclose(d, rotate2(up, math.radians(45.0)))
+    # Near the y = 0 wall the current leg (towards -x, -y) is blocked: the mirror leg is taken.
+    d = z.direction(OPEN, np.array([5.0, 0.5]), up, 1.0, 0.5)
+    assert d[1] > 0 and z.side == -1.0
+    # Against the upwind wall both upwind legs are blocked: progress reverses (downwind).
+    d = z.direction(OPEN, np.array([0.3, 5.0]), up, 1.0, 0.5)
+    assert d[0] > 0 and z.along == -1.0
+    legs = Zigzag(math.radians(45.0), max_leg=1.0)
+    sides = [legs.side]
+    for _ in range(6):
+        legs.direction(OPEN, np.array([5.0, 5.0]), up, 0.5, 0.5)
+        sides.append(legs.side)
+    assert sides.count(1.0) > 1 and sides.count(-1.0) > 1  # turns every 1 m without walls
+
+
+def test_surge_then_widening_casts() -> None:
+    p = SurgeCastParams(surge_steps=2, cast_angle_deg=90.0, cast_amplitude=0.4, cast_growth=2.0)
+    sc = SurgeCast(p)
+    up = np.array([-1.0, 0.0])
+    sc.start_surge()
+    assert sc.surging
+    np.testing.assert_allclose(sc.direction(OPEN, np.array([5.0, 5.0]), up, 0.2), up)
+    np.testing.assert_allclose(sc.direction(OPEN, np.array([5.0, 5.0]), up, 0.2), up)
+    assert not sc.surging
+    dirs = [sc.direction(OPEN, np.array([5.0, 5.0]), up, 0.2) for _ in range(8)]
+    ys = [round(float(d[1])) for d in dirs]
+    # 90 deg casts: 2 steps of 0.2 m one way (0.4 m), then 4 steps the other way (0.8 m)
+    assert ys[:2] == [-1, -1] and ys[2:6] == [1, 1, 1, 1] and ys[6:] == [-1, -1]
+
+
+def test_monitors() -> None:
+    m, t = PassiveMonitor(), MaxTracker()
+    obs = [
+        Observation(0, k * 0.5, np.array([k, 0.0]), 0.0, g, g > 1.0, np.zeros(2))
+        for k, g in enumerate([0.5, 2.0, 0.1, 3.0])
+    ]
+    assert [m.update(o) for o in obs] == [False, True, False, False]
+    assert m.arrival == 0.5
+    for o in obs:
+        t.update(o)
+    assert t.best == 3.0 and t.pos.tolist() == [3.0, 0.0]
+
+
+def test_wind_average() -> None:
+    w = WindAverage(2)
+    w.add([1.0, 0.0])
+    np.testing.assert_allclose(w.add([3.0, 2.0]), [2.0, 1.0])
+    np.testing.assert_allclose(w.add([1.0, 0.0]), [2.0, 1.0])  # the oldest dropped
+    np.testing.assert_allclose(w.upwind(0.0), -np.array([2.0, 1.0]) / math.sqrt(5.0))
+
+
+def test_spiral_legs_grow_every_second_leg() -> None:
+    s = Spiral(SpiralParams(initial_step=1.0, step_increment=0.5))
+    legs = [s.next_offset() for _ in range(6)]
+    np.testing.assert_allclose(legs[0], [1.0, 1.0])  # diagonal first leg, facing 45 deg
+    lengths = [float(np.linalg.norm(v)) for v in legs[1:]]
+    assert lengths == pytest.approx([1.0, 1.5, 1.5, 2.0, 2.0])
+    # each later leg turns 90 deg left of the previous one
+    for a, b in itertools.pairwise(legs[1:]):
+        assert a[0] * b[1] - a[1] * b[0] > 0 and abs(float(a @ b)) < 1e-9
+
+
+def test_proximity_index_and_restarts() -> None:
+    c = np.array([0.0, 2.0, 1.0, 3.0])  # local maxima 2 and 3
+    assert proximity_index(c, 0.5, kmu=0.5, kp=1.0) == pytest.approx(0.5 * 1.5 + 0.5 * 5.0)
+    s = Spiral(SpiralParams(patience=1, decay=0.5))
+    assert s.judge(4.0, 0.0) and s.best == 4.0 and s.leg == 0
+    s.next_offset()
+    assert not s.judge(1.0, 0.0) and s.best == 4.0
+    assert not s.judge(1.0, 0.0) and s.best == 2.0  # patience exhausted: the best is halved
+    assert s.judge(2.5, 1.0) and s.heading == 1.0
