@@ -322,3 +322,29 @@ def test_run_episode_i_is_batch_episode_i(tmp_path) -> None:
     assert short.metrics["path_length"] == pytest.approx(row.path_length, rel=0, abs=0)
     n = len(short.recording.t)
     np.testing.assert_array_equal(rec.positions[:n], short.recording.positions)
+
+
+def test_source_draw_gives_every_searcher_of_an_episode_the_same_sources() -> None:
+    d = filament_scenario_dict("passive")
+    d["world"]["source_draw"] = {
+        "type": "uniform",
+        "region": [[0.5, 0.5], [4.0, 4.5]],
+        "min_start_distance": 4.0,
+    }
+    d["limits"]["time"] = 5.0
+    sc = Scenario.from_dict(d)
+    a = run_episode(sc, 1, 2)
+    b = run_episode(sc.with_overrides({"searcher": {"type": "zigzag"}}), 1, 9)
+    c = run_episode(sc, 3, 2)
+    np.testing.assert_array_equal(a.sources, b.sources)
+    assert not np.array_equal(a.sources, c.sources)
+    assert np.all(a.sources[0] >= [0.5, 0.5]) and np.all(a.sources[0] <= [4.0, 4.5])
+    assert np.linalg.norm(a.sources[0] - [8.0, 2.0]) >= 4.0
+    np.testing.assert_array_equal(a.recording.sources, a.sources)
+    d["world"]["source_draw"] = {"type": "uniform", "min_start_distance": 100.0, "max_tries": 50}
+    with pytest.raises(ConfigError, match="source_draw"):
+        run_episode(Scenario.from_dict(d), 1, 2)
+    d["world"]["source_draw"] = {"type": "uniform", "min_separation": -1.0}
+    with pytest.raises(ConfigError) as ei:
+        Scenario.from_dict(d)
+    assert ei.value.field == "world.source_draw.min_separation"

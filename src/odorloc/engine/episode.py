@@ -75,7 +75,8 @@ def prepare_world(
     Returns
     -------
     world : World
-        Reset and warmed up for ``scenario.world.warmup`` seconds (in world steps of
+        Its sources drawn for this episode when the scenario says so (``world.source_draw``),
+        reset, and warmed up for ``scenario.world.warmup`` seconds (in world steps of
         :func:`control_substeps`).
     rng_world, rng_sense : numpy.random.Generator
         The world's stream (positioned after the warm-up) and the sensors' stream.
@@ -83,6 +84,12 @@ def prepare_world(
     w = world if world is not None else build_world(scenario)
     rng_world, rng_sense, _ = episode_generators(world_seed, 0)
     _, _, wdt = control_substeps(scenario)
+    draw = scenario.world.source_draw
+    if draw is not None:
+        # the world's own stream: every searcher of this episode faces the same sources
+        drawer = draw.build("source_draw", field="world.source_draw")
+        starts = np.asarray(scenario.agents.starts, float)
+        w.plume.set_sources(drawer.draw(list(scenario.world.sources), w.arena, starts, rng_world))
     w.reset(rng_world)
     for _ in range(round(scenario.world.warmup / wdt)):
         w.step(wdt, rng_world)

@@ -64,6 +64,20 @@ class PlumeModel(TimeStepped, ABC):
         """``(S, d)`` source positions, metres."""
         return np.array([s.pos for s in self.sources])
 
+    def set_sources(self, sources: Sequence[Source]) -> None:
+        """Replace the sources (e.g. drawn anew for an episode); call :meth:`reset` after it.
+
+        The new sources are validated like the configured ones (inside the arena, not in an
+        obstacle); models with per-source state refresh it in :meth:`_sources_changed`.
+        """
+        check_sources(sources, self.arena)
+        self.sources = tuple(sources)
+        self._sources_changed()
+
+    def _sources_changed(self) -> None:
+        """Refresh what depends on the source positions; default: :meth:`_sync`."""
+        self._sync()
+
     def source_rates(self) -> np.ndarray:
         """``(S,)`` release rates of the sources at the current time ``t``."""
         return np.array([s.rate_at(self.t) for s in self.sources], float)

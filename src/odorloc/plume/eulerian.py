@@ -118,13 +118,17 @@ class EulerianPlume(PlumeModel):
                 blocked = blocked | ~interior
             self._open.append((~blocked).astype(float))
             self._interior.append(interior.astype(float))
+        self._sources_changed()
+        self.c = np.zeros(self.shape)
+
+    def _sources_changed(self) -> None:
         self._src_cell = tuple(self.grid.index(self.source_positions).T)
         for k, solid in enumerate(self.solid[self._src_cell]):
             if solid:
                 raise ConfigError(
-                    f"world.sources[{k}].position", f"lies in an obstacle cell of the {h:g} m grid"
+                    f"world.sources[{k}].position",
+                    f"lies in an obstacle cell of the {self.h:g} m grid",
                 )
-        self.c = np.zeros(self.shape)
 
     # ------------------------------------------------------------------ state
     def reset(self, rng: np.random.Generator) -> None:

@@ -352,6 +352,10 @@ class FilamentPlume(PlumeModel):
         self._src = self.source_positions
         self._clear()
 
+    def _sources_changed(self) -> None:
+        self._src = self.source_positions
+        self._clear()
+
     # ------------------------------------------------------------------ state
     def _clear(self) -> None:
         d = self.dim

@@ -1,19 +1,9 @@
-"""Steady Gaussian plume (the time-averaged plume of the indoor particle-filter paper).
+"""Steady Gaussian plume: the model of :mod:`odorloc.models.gaussian` as simulated truth.
 
-For a source of rate ``Q`` in a wind of speed ``u`` blowing along the unit vector ``e``, with
-downwind distance ``x = (p - s) . e > 0``, horizontal cross-wind offset ``y`` and height offset
-``z`` (3D), the concentration is (the Gaussian plume of eq. 3, indoor-pf-entropy paper)::
-
-    C = Q / (2 pi sigma_y sigma_z u) * exp(-y^2 / (2 sigma_y^2)) * Z(z)
-
-and ``0`` upwind (``x <= 0``). In 2D the plane through the source height is modelled, so
-``Z = 1`` (this is the paper's formula exactly). In 3D ``Z = exp(-z^2 / (2 sigma_z^2))`` plus,
-with ground reflection, the image term ``exp(-(z_s + z_r - 2 z_g)^2 / (2 sigma_z^2))`` for a
-ground at the arena floor ``z_g``. Several sources superpose.
-
-The widths grow downwind either by eddy diffusion (``spread="diffusion"``,
-``sigma^2 = sigma0^2 + 2 K x / u``) or by a power law (``spread="power"``,
-``sigma^2 = sigma0^2 + (a x^b)^2``); ``sigma0`` keeps the plume finite at the source.
+The plume follows the current wind at each source (read after every reset and step, so a
+slowly turning wind turns the plume) and the sources' current release rates; several sources
+superpose. Estimators use :class:`~odorloc.models.gaussian.GaussianPlumeModel`, whose parameters
+may differ from the plume's.
 """
 
 from __future__ import annotations
@@ -48,6 +38,10 @@ class GaussianPlume(PlumeModel):
     ) -> None:
         super().__init__(arena, wind, sources)
         self.params = params
+        self._src = self.source_positions
+        self._sync()
+
+    def _sources_changed(self) -> None:
         self._src = self.source_positions
         self._sync()
 

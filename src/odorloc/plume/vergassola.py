@@ -76,6 +76,10 @@ class VergassolaPlume(PlumeModel):
                 "plume.sensor_radius", f"must be below lambda = {self.length:.3g} m in 2D"
             )
 
+    def _sources_changed(self) -> None:
+        self._src = self.source_positions
+        self._sync()
+
     def _sync(self) -> None:
         p = self.params
         mean = self.wind.mean_velocity()

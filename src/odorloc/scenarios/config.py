@@ -31,9 +31,9 @@ import pydantic
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-from odorloc.core import registry
 from odorloc.core.errors import ConfigError, format_validation_error
-from odorloc.core.params import NonNegative, Params, Positive
+from odorloc.core.params import NonNegative, Positive
+from odorloc.core.registry import ComponentRef
 from odorloc.geometry.regions import check_region
 from odorloc.plume.sources import Source
 
@@ -42,20 +42,9 @@ class _Strict(BaseModel):
     model_config = ConfigDict(frozen=True, extra="forbid")
 
 
-class Component(BaseModel):
-    """A registry reference: ``type`` plus the component's own parameters (validated later)."""
-
-    model_config = ConfigDict(frozen=True, extra="allow")
-    type: str
-
-    @property
-    def values(self) -> dict[str, Any]:
-        """The parameters without ``type``."""
-        return dict(self.model_extra or {})
-
-    def params(self, family: str, field: str) -> Params:
-        """Validate the parameters against the registered model of ``family/type``."""
-        return registry.make_params(family, self.type, self.values, field=field)
+Component = ComponentRef
+"""A registry reference: ``type`` plus the component's own parameters (validated by
+:meth:`Scenario.validate_components`)."""
 
 
 class ObstaclesConfig(_Strict):
@@ -84,6 +73,10 @@ class WorldConfig(_Strict):
         World integration step, seconds (the plume and wind advance by ``dt``).
     warmup : float
         Seconds simulated before the episode clock starts, so the plume is developed.
+    source_draw : dict, optional
+        Draw the sources' positions anew for every episode from the world's random stream
+        (``{type: uniform, region: ..., min_start_distance: ...}``; see
+        :mod:`odorloc.plume.source_draw`). Default: the configured positions.
     """
 
     arena: ArenaConfig
@@ -92,6 +85,7 @@ class WorldConfig(_Strict):
     plume: Component = Component(type="filament")
     dt: Positive = 0.1
     warmup: NonNegative = 0.0
+    source_draw: Component | None = None
 
 
 class SensorsConfig(_Strict):
@@ -234,6 +228,8 @@ class Scenario(_Strict):
         """Check every registry reference and geometric consistency; raise :class:`ConfigError`."""
         self.world.wind.params("wind", "world.wind")
         self.world.plume.params("plume", "world.plume")
+        if self.world.source_draw is not None:
+            self.world.source_draw.params("source_draw", "world.source_draw")
         self.sensors.gas.params("gas_sensor", "sensors.gas")
         self.sensors.anemometer.params("anemometer", "sensors.anemometer")
         self.platform.params("platform", "platform")

@@ -1,0 +1,113 @@
+"""Source positions drawn anew for every episode (from the world's random stream).
+
+A scenario's ``world.source_draw`` replaces the positions of its configured sources (keeping their
+rates and modulations) at the start of each episode, before the plume is reset. The draw uses the
+world's generator, so episode ``i`` of every searcher faces the same sources (common random
+numbers) and the draw is part of the world seed.
+
+Members (registry family ``"source_draw"``):
+
+- ``uniform``: uniform over a box (default the arena), in free space, at least
+  ``min_start_distance`` from every agent start and ``min_separation`` from each other.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from collections.abc import Sequence
+
+import numpy as np
+from pydantic import Field
+
+from odorloc.core.errors import ConfigError
+from odorloc.core.params import NonNegative, Params
+from odorloc.core.registry import register
+from odorloc.core.types import Region
+from odorloc.geometry.arena import Arena
+from odorloc.geometry.regions import check_region
+from odorloc.plume.sources import Source
+
+__all__ = ["SourceDraw", "UniformSourceDraw", "UniformSourceDrawParams"]
+
+
+class SourceDraw(ABC):
+    """Draws the positions of a scenario's sources for one episode."""
+
+    params: Params
+
+    def draw(
+        self,
+        sources: Sequence[Source],
+        arena: Arena,
+        starts: np.ndarray,
+        rng: np.random.Generator,
+    ) -> list[Source]:
+        """The sources with new positions (rates and modulations kept)."""
+        pos = self.positions(len(sources), arena, np.atleast_2d(starts), rng)
+        return [
+            s.model_copy(update={"position": tuple(float(v) for v in p)})
+            for s, p in zip(sources, pos, strict=True)
+        ]
+
+    @abstractmethod
+    def positions(
+        self, n: int, arena: Arena, starts: np.ndarray, rng: np.random.Generator
+    ) -> np.ndarray:
+        """``(n, d)`` source positions, metres."""
+
+
+class UniformSourceDrawParams(Params):
+    """Uniform source positions.
+
+    Attributes
+    ----------
+    region : ((x0, y0[, z0]), (x1, y1[, z1])), optional
+        Box to draw from, metres (default: the arena; a 2-component box in 3D keeps the
+        arena's vertical extent).
+    min_start_distance : float, metres
+        Least distance from every agent start.
+    min_separation : float, metres
+        Least distance between two sources.
+    max_tries : int
+        Candidate batches tried before giving up with an error.
+    """
+
+    region: Region | None = None
+    min_start_distance: NonNegative = 0.0
+    min_separation: NonNegative = 0.0
+    max_tries: int = Field(1000, ge=1, le=1_000_000)
+
+
+@register("source_draw", "uniform", UniformSourceDrawParams, "uniform source positions")
+class UniformSourceDraw(SourceDraw):
+    """Sources uniform over a box in free space, away from the starts and from each other."""
+
+    Params = UniformSourceDrawParams
+
+    def __init__(self, params: UniformSourceDrawParams | None = None) -> None:
+        self.params = params or UniformSourceDrawParams()
+
+    def positions(
+        self, n: int, arena: Arena, starts: np.ndarray, rng: np.random.Generator
+    ) -> np.ndarray:
+        p = self.params
+        lo, hi = arena.lo.copy(), arena.hi.copy()
+        if p.region is not None:
+            rlo, rhi = check_region(p.region, "world.source_draw.region")
+            k = len(rlo)
+            lo[:k], hi[:k] = rlo, rhi
+        out: list[np.ndarray] = []
+        for _ in range(p.max_tries):
+            c = lo + rng.random(arena.dim) * (hi - lo)
+            if not arena.is_free(c)[0]:
+                continue
+            if len(starts) and np.min(np.linalg.norm(starts - c, axis=1)) < p.min_start_distance:
+                continue
+            if out and np.min(np.linalg.norm(np.array(out) - c, axis=1)) < p.min_separation:
+                continue
+            out.append(c)
+            if len(out) == n:
+                return np.array(out)
+        raise ConfigError(
+            "world.source_draw", f"found no place for {n} source(s) in {p.max_tries} tries"
+        )
