@@ -122,3 +122,45 @@ def test_proximity_index_and_restarts() -> None:
     assert not s.judge(1.0, 0.0) and s.best == 4.0
     assert not s.judge(1.0, 0.0) and s.best == 2.0  # patience exhausted: the best is halved
     assert s.judge(2.5, 1.0) and s.heading == 1.0
+
+
+# ---------------------------------------------------------------------- taxis rules
+HEX = np.array([[0.3 * math.cos(a), 0.3 * math.sin(a)] for a in np.arange(6) * math.pi / 3])
+
+
+def test_chemotaxis_points_at_the_strongest_robot() -> None:
+    from odorloc.behaviours.taxis import chemotaxis
+
+    r = np.array([0.1, 0.5, 0.2, 0.0, 0.0, 0.3])
+    np.testing.assert_allclose(chemotaxis(np.zeros(2), HEX, r), HEX[1] / 0.3)
+    assert chemotaxis(np.zeros(2), HEX, np.zeros(6)) is None
+    assert chemotaxis(np.zeros(2), HEX, np.full(6, 0.4)) is None
+
+
+def test_anemotaxis_goes_upwind_only_inside_the_plume() -> None:
+    from odorloc.behaviours.taxis import anemotaxis
+
+    winds = np.tile([2.0, 1.0], (6, 1)) + np.linspace(-0.1, 0.1, 6)[:, None]
+    u = anemotaxis(winds, np.full(6, 0.01), threshold=0.005)
+    np.testing.assert_allclose(u, -winds.mean(axis=0) / np.linalg.norm(winds.mean(axis=0)))
+    r = np.full(6, 0.01)
+    r[3] = 0.005  # one robot at the threshold: not all inside
+    assert anemotaxis(winds, r, 0.005) is None
+    assert anemotaxis(np.zeros((6, 2)), np.ones(6), 0.005) is None
+
+
+def test_fluxotaxis_follows_the_most_negative_flux() -> None:
+    from odorloc.behaviours.taxis import fluxotaxis, mass_flux
+
+    # Wind along +x through the hexagon: robot 3 at angle 180 deg sees v . n = -1 (inflow).
+    winds = np.tile([1.0, 0.0], (6, 1))
+    rho = np.full(6, 0.02)
+    flux, total = mass_flux(np.zeros(2), HEX, rho, winds)
+    np.testing.assert_allclose(flux, 0.02 * np.cos(np.arange(6) * math.pi / 3), atol=1e-15)
+    assert total == pytest.approx(0.0, abs=1e-15)  # uniform concentration: in = out
+    np.testing.assert_allclose(fluxotaxis(np.zeros(2), HEX, rho, winds, 0.005), [-1.0, 0.0])
+    # A source upwind: more odor on the inflow side makes the total negative (net inflow).
+    rho2 = rho * (1.0 - 0.5 * np.cos(np.arange(6) * math.pi / 3))
+    _, total2 = mass_flux(np.zeros(2), HEX, rho2, winds)
+    assert total2 < 0
+    assert fluxotaxis(np.zeros(2), HEX, np.full(6, 0.001), winds, 0.005) is None
