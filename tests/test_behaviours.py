@@ -158,7 +158,9 @@ def test_fluxotaxis_follows_the_most_negative_flux() -> None:
     flux, total = mass_flux(np.zeros(2), HEX, rho, winds)
     np.testing.assert_allclose(flux, 0.02 * np.cos(np.arange(6) * math.pi / 3), atol=1e-15)
     assert total == pytest.approx(0.0, abs=1e-15)  # uniform concentration: in = out
-    np.testing.assert_allclose(fluxotaxis(np.zeros(2), HEX, rho, winds, 0.005), [-1.0, 0.0])
+    np.testing.assert_allclose(
+        fluxotaxis(np.zeros(2), HEX, rho, winds, 0.005), [-1.0, 0.0], atol=1e-12
+    )
     # A source upwind: more odor on the inflow side makes the total negative (net inflow).
     rho2 = rho * (1.0 - 0.5 * np.cos(np.arange(6) * math.pi / 3))
     _, total2 = mass_flux(np.zeros(2), HEX, rho2, winds)
