@@ -281,31 +281,32 @@ class PolicyIO:
         """
         d = self.dim
         out = np.zeros((len(observations), self.size))
-        lo, hi = self.ctx.arena.lo, self.ctx.arena.hi
         for i, o in enumerate(observations):
+            row = out[i]
             c = 0
             for f, s in self._layout:
                 if f == "gas":
-                    out[i, c] = o.gas
+                    row[c] = o.gas
                 elif f == "detection":
-                    out[i, c] = 1.0 if o.detection else 0.0
+                    row[c] = 1.0 if o.detection else 0.0
                 elif f == "wind":
-                    out[i, c : c + d] = o.wind[:d]
+                    row[c : c + d] = o.wind[:d]
                 elif f == "position":
-                    out[i, c : c + d] = np.clip(o.position, lo, hi)
+                    row[c : c + d] = o.position
                 elif f == "heading":
-                    out[i, c] = o.heading
+                    row[c] = o.heading
                 elif f == "time":
-                    out[i, c] = min(o.t, self.time_limit)
+                    row[c] = o.t
                 elif f == "belief":
-                    b = self._beliefs[i].copy()
-                    b[1 : 1 + d] = np.clip(b[1 : 1 + d], lo, hi)
-                    out[i, c : c + s] = b
+                    row[c : c + s] = self._beliefs[i]
                 else:
-                    self._neighbours(o, out[i, c : c + s])
+                    self._neighbours(o, row[c : c + s])
                 c += s
-        # float32 rounding must not push a bounded value past its bound
-        return np.clip(out.astype(np.float32), self._low, self._high)
+        # Bounded values stay inside their bounds, float32 rounding included.
+        v = out.astype(np.float32)
+        np.minimum(v, self._high, out=v)
+        np.maximum(v, self._low, out=v)
+        return v
 
     def _neighbours(self, o: Observation, block: np.ndarray) -> None:
         d = self.dim
