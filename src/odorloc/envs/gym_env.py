@@ -101,6 +101,12 @@ class SearchEnv(gym.Env):
         return self.core.feature_names
 
     @property
+    def context(self) -> Any:
+        """The :class:`~odorloc.core.types.SearchContext` of the scenario (what a searcher
+        knows: arena, speed limits, sensor threshold), available before the first reset."""
+        return self.core.io.ctx
+
+    @property
     def agent_rng(self) -> np.random.Generator:
         """The episode's searcher stream (for stochastic policies; what a searcher gets)."""
         return self.core.episode.agent_rng

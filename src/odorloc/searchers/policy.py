@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import importlib
 from collections.abc import Callable, Sequence
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -36,7 +37,14 @@ from odorloc.core.registry import register
 from odorloc.searchers.base import Searcher
 from odorloc.searchers.policy_io import ActionParams, ObservationParams, PolicyIO
 
-__all__ = ["PolicyParams", "PolicySearcher", "resolve_callable", "upwind_surge"]
+__all__ = [
+    "LinearPolicy",
+    "PolicyParams",
+    "PolicySearcher",
+    "linear",
+    "resolve_callable",
+    "upwind_surge",
+]
 
 
 def resolve_callable(ref: str) -> Callable[..., Any]:
@@ -157,3 +165,60 @@ def upwind_surge(obs: np.ndarray) -> np.ndarray:
         side[0], side[1] = -up[1], up[0]
         v = side if int(t // 20.0) % 2 == 0 else -side
     return np.concatenate([v, [-1.0]])
+
+
+class LinearPolicy:
+    """A linear policy over a normalised observation: ``z = W [1, (obs - shift) / scale]``.
+
+    ``discrete``: the action is ``argmax z`` (ties to the lowest index); ``velocity``: the action
+    is ``tanh z``. A NumPy-only policy to train in the environments and run in sweeps
+    (``callable: "odorloc.searchers.policy:linear"``, ``args: {weights: FILE.npz}``).
+
+    Parameters
+    ----------
+    weights : (A, F + 1) ndarray
+    shift, scale : (F,) ndarray
+        Observation normalisation (``scale > 0``).
+    kind : {"discrete", "velocity"}
+    """
+
+    def __init__(
+        self, weights: np.ndarray, shift: np.ndarray, scale: np.ndarray, kind: str = "discrete"
+    ) -> None:
+        w = np.asarray(weights, float)
+        sh = np.asarray(shift, float).reshape(-1)
+        sc = np.asarray(scale, float).reshape(-1)
+        if w.ndim != 2 or w.shape[1] != sh.size + 1 or sc.shape != sh.shape:
+            raise ValueError(f"weights {w.shape} do not fit {sh.size} features (+1 bias)")
+        if not (np.all(np.isfinite(w)) and np.all(np.isfinite(sh)) and np.all(sc > 0)):
+            raise ValueError("weights and shift must be finite and scale > 0")
+        if kind not in ("discrete", "velocity"):
+            raise ValueError(f"kind must be 'discrete' or 'velocity', got {kind!r}")
+        self.weights, self.shift, self.scale, self.kind = w, sh, sc, kind
+
+    def __call__(self, obs: np.ndarray) -> Any:
+        x = (np.asarray(obs, float) - self.shift) / self.scale
+        z = self.weights[:, 0] + self.weights[:, 1:] @ x
+        if self.kind == "discrete":
+            return int(np.argmax(z))
+        return np.tanh(z)
+
+    def save(self, path: str | Path) -> Path:
+        """Write the policy to an ``.npz`` file."""
+        p = Path(path)
+        np.savez(p, weights=self.weights, shift=self.shift, scale=self.scale, kind=self.kind)
+        return p
+
+    @classmethod
+    def load(cls, path: str | Path) -> LinearPolicy:
+        """Read a policy written by :meth:`save`."""
+        try:
+            with np.load(path, allow_pickle=False) as z:
+                return cls(z["weights"], z["shift"], z["scale"], str(z["kind"]))
+        except (OSError, KeyError) as exc:
+            raise ValueError(f"cannot read a linear policy from {path} ({exc})") from None
+
+
+def linear(weights: str) -> LinearPolicy:
+    """The :class:`LinearPolicy` saved in ``weights`` (a factory for the ``args`` setting)."""
+    return LinearPolicy.load(weights)
