@@ -4,9 +4,9 @@ Side by side in one run, on the same seeds and the same action sequence: (a) the
 episode, ``Episode.step(Action([Command.velocity(v)]))``; (b) ``SearchEnv.step(action)`` (the
 policy encoding: decoding the action, encoding the observation, the reward, the step info).
 Reset and warm-up are outside the timed loops. The two run in lockstep, one step of (a) then
-one of (b) (alternating which goes first), so that load on a shared machine hits both alike; medians over rounds. In the team
-case the environment's agents also broadcast their readings (the radio and its accounting are
-part of what it costs). The overhead is ``(b - a) / a``.
+one of (b) (alternating which goes first), so that load on a shared machine hits both alike;
+medians over rounds. In the team case the environment's agents also broadcast their readings
+(the radio and its accounting are part of what it costs). The overhead is ``(b - a) / a``.
 
     .venv/bin/python benchmarks/env_speed.py [--rounds 5]
 """
@@ -95,7 +95,9 @@ def main() -> None:
         ("muc-osl-3d", 3, 3),  # PettingZoo, three UAVs exchanging messages
     ]
     print(f"{STEPS} control steps per run, {args.rounds} rounds, medians")
-    print(f"{'scenario':<22} {'adapter':<12} {'bare ms/step':>13} {'env ms/step':>12} {'overhead':>9}")
+    print(
+        f"{'scenario':<22} {'adapter':<12} {'bare ms/step':>13} {'env ms/step':>12} {'overhead':>9}"
+    )
     headline = None
     for name, dim, n in cases:
         acts = actions(STEPS, dim, 1)

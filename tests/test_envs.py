@@ -24,7 +24,7 @@ from odorloc.core.seeds import episode_seeds  # noqa: E402
 from odorloc.core.types import Action, Command, Declaration  # noqa: E402
 from odorloc.engine.episode import run_episode  # noqa: E402
 from odorloc.engine.recorder import Recording  # noqa: E402
-from odorloc.envs import SearcherPolicy, SearchEnv, parallel_env  # noqa: E402
+from odorloc.envs import SearchEnv, SearcherPolicy, parallel_env  # noqa: E402
 from odorloc.scenarios import builtin_names, get_scenario  # noqa: E402
 from odorloc.searchers.policy import upwind_surge  # noqa: E402
 
@@ -229,7 +229,7 @@ def test_bad_input_is_named() -> None:
         SearchEnv(small(), reward={"bonus": 1})
     assert ei.value.field == "reward.bonus"
     env = SearchEnv(small())
-    with pytest.raises(ConfigError, match="options.episode"):
+    with pytest.raises(ConfigError, match=r"options\.episode"):
         env.reset(seed=0, options={"episode": -1})
     env.reset(seed=0)
     with pytest.raises(ValueError, match="velocity action"):
@@ -245,7 +245,7 @@ def test_vector_envs_run_8_copies() -> None:
         obs, _ = venv.reset(seed=list(range(8)))
         assert obs.shape == (8, 8)
         for _ in range(5):
-            obs, rew, term, trunc, _ = venv.step(venv.action_space.sample())
+            obs, rew, _term, _trunc, _ = venv.step(venv.action_space.sample())
         assert obs.shape == (8, 8) and rew.shape == (8,) and np.all(rew == -1.0)
         # different seeds, different worlds; the same seeds give the same observations
         assert len({tuple(o) for o in obs}) > 1
@@ -258,7 +258,7 @@ def test_pettingzoo_api_and_seed_tests(name: str) -> None:
     parallel_api_test(parallel_env(scenario=name, action={"declare": "none"}), num_cycles=25)
     parallel_seed_test(lambda: parallel_env(scenario=name, action={"declare": "none"}), 10)
     env = parallel_env(scenario=name, action={"kind": "discrete"}, render_mode="rgb_array")
-    obs, _ = env.reset(seed=2)
+    _obs, _ = env.reset(seed=2)
     assert env.state().shape == env.state_space.shape
     assert env.state_space.contains(env.state())
     assert env.render().ndim == 3
@@ -354,6 +354,6 @@ def test_searcher_policy_drives_a_team() -> None:
     env.reset(seed=0)
     policy.reset(env)
     for _ in range(20):
-        obs, *_ = env.step(policy())
+        _obs, *_ = env.step(policy())
     p = [env.episode.observations[k].position for k in range(3)]
     assert not np.allclose(p[0], [10.0, 10.0, 5.0])

@@ -87,7 +87,10 @@ def test_bag_errors_name_the_field(tmp_path, episode) -> None:
         BagLog(tmp_path / "b", {**MAPPING, "gas": {"topic": "/odor"}})
     assert ei.value.field == "gas.topic" and "/gas" in ei.value.problem
     with pytest.raises(ConfigError) as ei:
-        BagLog(tmp_path / "b", {**MAPPING, "pose": {"topic": "/pose", "msgtype": "nav_msgs/msg/Odometry"}})
+        BagLog(
+            tmp_path / "b",
+            {**MAPPING, "pose": {"topic": "/pose", "msgtype": "nav_msgs/msg/Odometry"}},
+        )
     assert ei.value.field == "pose.msgtype" and "PoseStamped" in ei.value.problem
     with pytest.raises(ConfigError) as ei:
         BagLog(tmp_path / "b", {**MAPPING, "gas": {"topic": "/gas", "field": "raw"}})
@@ -129,7 +132,14 @@ def test_offline_replay_is_deterministic_per_seed(episode) -> None:
     rec = episode.recording
     obs = [
         Observation(0, float(t), p, 0.0, float(g), bool(d), w)
-        for t, p, g, d, w in zip(rec.t, rec.positions[:, 0], rec.gas[:, 0], rec.detection[:, 0], rec.wind[:, 0], strict=True)
+        for t, p, g, d, w in zip(
+            rec.t,
+            rec.positions[:, 0],
+            rec.gas[:, 0],
+            rec.detection[:, 0],
+            rec.wind[:, 0],
+            strict=True,
+        )
     ]
     from odorloc.scenarios.build import build, search_context
 
@@ -286,3 +296,27 @@ def test_gaden_frames_are_decoded_lazily(gaden_dir) -> None:
     assert len(seen) == sim.n_frames and seen == sorted(seen)  # the plume grows
     # only the last decoded frame is kept
     assert sim.frame(sim.n_frames - 1) is sim.frame(sim.n_frames - 1)
+
+
+def test_cli_replay_log(tmp_path, episode) -> None:
+    pytest.importorskip("rosbags")
+    import yaml
+    from typer.testing import CliRunner
+
+    from odorloc.cli import app
+    from odorloc.replay.bag import write_bag
+
+    write_bag(tmp_path / "b", episode.recording, MAPPING)
+    topics = tmp_path / "topics.yaml"
+    topics.write_text(yaml.safe_dump(MAPPING))
+    out = tmp_path / "out"
+    r = CliRunner().invoke(
+        app, ["replay-log", str(tmp_path / "b"), "--topics", str(topics), "--out", str(out)]
+    )
+    assert r.exit_code == 0, r.output
+    assert (out / "belief.png").stat().st_size > 0 and (out / "recording.npz").stat().st_size > 0
+    bad = {**MAPPING, "anemometer": {"topic": "/anemo"}}
+    topics.write_text(yaml.safe_dump(bad))
+    r = CliRunner().invoke(app, ["replay-log", str(tmp_path / "b"), "--topics", str(topics)])
+    assert r.exit_code == 2
+    assert "anemometer.topic" in r.output and "Traceback" not in r.output

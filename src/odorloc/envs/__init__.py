@@ -22,7 +22,14 @@ from odorloc.envs.gym_env import SearchEnv
 from odorloc.envs.parallel import ParallelSearchEnv, parallel_env
 from odorloc.envs.policies import SearcherPolicy
 
-__all__ = ["ENV_ID", "ParallelSearchEnv", "RewardParams", "SearchEnv", "SearcherPolicy", "parallel_env"]
+__all__ = [
+    "ENV_ID",
+    "ParallelSearchEnv",
+    "RewardParams",
+    "SearchEnv",
+    "SearcherPolicy",
+    "parallel_env",
+]
 
 ENV_ID = "odorloc/Search-v0"
 

@@ -50,7 +50,8 @@ class RewardParams(Params):
 
 
 def validated(model: type[Params], value: Any, field: str) -> Any:
-    """``value`` (a dict, a model or ``None``) as ``model``; :class:`ConfigError` naming ``field``."""
+    """``value`` (a dict, a model or ``None``) as ``model``; :class:`ConfigError` names ``field``
+    when it is invalid."""
     import pydantic
 
     from odorloc.core.errors import format_validation_error
@@ -268,4 +269,3 @@ class EnvCore:
             declared=declared,
             width=width,
         )
-

@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import functools
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 from gymnasium import spaces
@@ -54,7 +54,11 @@ class ParallelSearchEnv(ParallelEnv):
     world_key : str, optional
     """
 
-    metadata = {"name": "odorloc_search_v0", "render_modes": ["rgb_array"], "render_fps": 10}
+    metadata: ClassVar[dict[str, Any]] = {
+        "name": "odorloc_search_v0",
+        "render_modes": ["rgb_array"],
+        "render_fps": 10,
+    }
 
     def __init__(
         self,
@@ -102,11 +106,11 @@ class ParallelSearchEnv(ParallelEnv):
         self._last = np.zeros((n, io.size), np.float32)
         self._rng = np.random.default_rng()
 
-    @functools.lru_cache(maxsize=None)  # noqa: B019 - the same space object every call
+    @functools.cache  # noqa: B019 - the same space object every call
     def observation_space(self, agent: str) -> spaces.Space:
         return self._obs_spaces[agent]
 
-    @functools.lru_cache(maxsize=None)  # noqa: B019
+    @functools.cache  # noqa: B019
     def action_space(self, agent: str) -> spaces.Space:
         return self._act_spaces[agent]
 
@@ -131,9 +135,7 @@ class ParallelSearchEnv(ParallelEnv):
         if seed is not None:
             self._rng = np.random.default_rng(seed)
         opts = {k: v for k, v in (options or {}).items() if k == "episode"}
-        obs = self.core.reset(
-            seed, opts, lambda: self._rng.integers(0, 2**63 - 1, dtype=np.int64)
-        )
+        obs = self.core.reset(seed, opts, lambda: self._rng.integers(0, 2**63 - 1, dtype=np.int64))
         self.agents = list(self.possible_agents)
         self._last = obs
         info = self.core.info()

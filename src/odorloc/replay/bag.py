@@ -99,7 +99,7 @@ class BagMapping(Params):
     anemometer: WindTopic
     pose: PoseTopic
     arena: ArenaBox | None = None
-    sources: list[tuple[float, ...]] = []
+    sources: list[tuple[float, ...]] = Field(default_factory=list)
     max_speed: Positive = 1.0
 
 
@@ -234,7 +234,9 @@ class BagLog:
         except AttributeError as exc:
             spec = getattr(m, key)
             fld = "field" if key != "anemometer" or spec.speed is None else "speed"
-            raise ConfigError(f"{key}.{fld}", f"message type {msgtype} has no such field ({exc})")
+            raise ConfigError(
+                f"{key}.{fld}", f"message type {msgtype} has no such field ({exc})"
+            ) from None
 
     # ------------------------------------------------------------------ streaming
     def observations(self) -> Iterator[Observation]:
@@ -408,21 +410,27 @@ def write_bag(
     Header, Time = T["std_msgs/msg/Header"], T["builtin_interfaces/msg/Time"]
     Float32, Vector3 = T["std_msgs/msg/Float32"], T["geometry_msgs/msg/Vector3"]
     V3S, PS = T["geometry_msgs/msg/Vector3Stamped"], T["geometry_msgs/msg/PoseStamped"]
-    Pose, Point, Quat = T["geometry_msgs/msg/Pose"], T["geometry_msgs/msg/Point"], T[
-        "geometry_msgs/msg/Quaternion"
-    ]
+    Pose, Point, Quat = (
+        T["geometry_msgs/msg/Pose"],
+        T["geometry_msgs/msg/Point"],
+        T["geometry_msgs/msg/Quaternion"],
+    )
 
     def header(ns: int) -> Any:
         stamp = Time(sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000)
-        return Header(seq=0, stamp=stamp, frame_id="map") if version == 1 else Header(
-            stamp=stamp, frame_id="map"
+        return (
+            Header(seq=0, stamp=stamp, frame_id="map")
+            if version == 1
+            else Header(stamp=stamp, frame_id="map")
         )
 
     base = 1_000_000_000_000  # 1000 s after the epoch: bag times must be positive
     dt = float(np.median(np.diff(recording.t))) if len(recording.t) > 1 else m.period
     with writer:
         cg = writer.add_connection(m.gas.topic, "std_msgs/msg/Float32", typestore=ts)
-        cw = writer.add_connection(m.anemometer.topic, "geometry_msgs/msg/Vector3Stamped", typestore=ts)
+        cw = writer.add_connection(
+            m.anemometer.topic, "geometry_msgs/msg/Vector3Stamped", typestore=ts
+        )
         cp = writer.add_connection(m.pose.topic, "geometry_msgs/msg/PoseStamped", typestore=ts)
         for k, t in enumerate(recording.t):
             ns = base + round(float(t) * 1e9)
@@ -436,7 +444,10 @@ def write_bag(
                 if np.hypot(*step) > 1e-12:
                     yaw = math.atan2(step[1], step[0])
             q = Quat(x=0.0, y=0.0, z=math.sin(yaw / 2), w=math.cos(yaw / 2))
-            pose = PS(header=header(ns), pose=Pose(position=Point(x=pos[0], y=pos[1], z=pos[2]), orientation=q))
+            pose = PS(
+                header=header(ns),
+                pose=Pose(position=Point(x=pos[0], y=pos[1], z=pos[2]), orientation=q),
+            )
             writer.write(cp, ns, ser(pose, "geometry_msgs/msg/PoseStamped"))
             wmsg = V3S(header=header(ns), vector=Vector3(x=w[0], y=w[1], z=w[2]))
             writer.write(cw, ns, ser(wmsg, "geometry_msgs/msg/Vector3Stamped"))

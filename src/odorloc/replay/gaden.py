@@ -65,7 +65,9 @@ __all__ = [
 ]
 
 #: One filament record of a log: id, centre (m), sigma (cm); packed, 36 bytes.
-FILAMENT_DTYPE = np.dtype([("id", "<i4"), ("x", "<f8"), ("y", "<f8"), ("z", "<f8"), ("sigma", "<f8")])
+FILAMENT_DTYPE = np.dtype(
+    [("id", "<i4"), ("x", "<f8"), ("y", "<f8"), ("z", "<f8"), ("sigma", "<f8")]
+)
 #: Version-2 header: version, cells, lower, upper, cell size, source, gas, moles, moles of all
 #: gases per cm^3 (then the ``int32`` wind index).
 _V2_PRE = struct.Struct("<ii3i3f3ff3fidd")
@@ -211,7 +213,9 @@ def read_occupancy(path: str | Path) -> tuple[np.ndarray, np.ndarray, float]:
     return grid, lo, cell
 
 
-def write_occupancy(path: str | Path, states: np.ndarray, lower: Sequence[float], cell: float) -> Path:
+def write_occupancy(
+    path: str | Path, states: np.ndarray, lower: Sequence[float], cell: float
+) -> Path:
     """Write ``states (nx, ny, nz)`` (0 free, 1 obstacle, 2 outlet) as ``OccupancyGrid3D.csv``."""
     p = Path(path)
     g = np.asarray(states, np.uint8)
@@ -277,7 +281,7 @@ class GadenSimulation:
         self.cell = float(h.cell_size)
         self.occupancy: np.ndarray | None = None
         if occupancy is not None:
-            states, lo, cell = read_occupancy(occupancy)
+            states, lo, _cell = read_occupancy(occupancy)
             if states.shape != self.shape or not np.allclose(lo, self.lower, atol=1e-4):
                 raise _fail(
                     Path(occupancy),
@@ -331,9 +335,9 @@ class GadenSimulation:
             raw = np.fromfile(p, "<f8")
             if raw.size != 3 * n:
                 raise _fail(p, f"wind file holds {raw.size} values, expected 3 x {n} cells")
-            # x index fastest in the file: reshape in Fortran order to (nx, ny, nz)
-            uvw = raw.reshape(3, n)
-            field = np.stack([c.reshape(self.shape, order="F") for c in uvw], axis=-1)
+            # x index fastest in the file: (3, nz, ny, nx) viewed as (nx, ny, nz, 3), no copy
+            nx, ny, nz = self.shape
+            field = raw.reshape(3, nz, ny, nx).transpose(3, 2, 1, 0)
             if not np.all(np.isfinite(field)):
                 raise _fail(p, "corrupted wind file: non-finite values")
             self._wind_cache = (index, field)
@@ -430,7 +434,7 @@ class GadenParams(Params):
     """
 
     path: str
-    extra_paths: list[str] = []
+    extra_paths: list[str] = Field(default_factory=list)
     occupancy: str | None = None
     frame_dt: Positive = 0.5
     first_iteration: int = Field(0, ge=0)
@@ -453,7 +457,7 @@ def _open(params: GadenParams) -> list[GadenSimulation]:
 
 
 def _frame_index(t: float, frame_dt: float, n: int, loop: bool) -> int:
-    k = int(math.floor(t / frame_dt + 1e-9))
+    k = math.floor(t / frame_dt + 1e-9)
     if loop:
         return k % n
     return min(max(k, 0), n - 1)
@@ -477,7 +481,9 @@ class GadenWind(WindModel):
     Params = GadenParams
     deterministic = True
 
-    def __init__(self, params: GadenParams, arena: Arena, sims: list[GadenSimulation] | None = None):
+    def __init__(
+        self, params: GadenParams, arena: Arena, sims: list[GadenSimulation] | None = None
+    ):
         super().__init__(arena)
         self.params = params
         self.sims = sims if sims is not None else _open(params)
@@ -507,7 +513,9 @@ class GadenPlume(PlumeModel):
         shared = isinstance(wind, GadenWind) and wind.params == params
         self.sims = wind.sims if shared else _open(params)
         _check_arena(arena, self.sims[0], "world.plume.path")
-        src = sources if sources else [Source(position=s.header.source, rate=1.0) for s in self.sims]
+        src = (
+            sources if sources else [Source(position=s.header.source, rate=1.0) for s in self.sims]
+        )
         super().__init__(arena, wind, src)
         self.params = params
 
@@ -639,7 +647,7 @@ def record_gaden(
         raise ConfigError("frame_dt", f"must be a multiple of the world step {wdt:g} s")
     plume = world.plume
     w = GadenWriter(folder, world.arena, plume.source_positions[0], plume.params.amount)
-    for k in range(int(math.floor(duration / frame_dt + 1e-9)) + 1):
+    for k in range(math.floor(duration / frame_dt + 1e-9) + 1):
         if k:
             for _ in range(n_sub):
                 world.step(wdt, rng)

@@ -210,7 +210,10 @@ def _belief_mean(snap: dict[str, np.ndarray]) -> np.ndarray | None:
     if "prob" in snap and "lower" in snap:
         p = np.asarray(snap["prob"], float)
         lo, hi = np.asarray(snap["lower"]), np.asarray(snap["upper"])
-        axes = [lo[a] + (np.arange(p.shape[a]) + 0.5) * (hi[a] - lo[a]) / p.shape[a] for a in range(p.ndim)]
+        axes = [
+            lo[a] + (np.arange(p.shape[a]) + 0.5) * (hi[a] - lo[a]) / p.shape[a]
+            for a in range(p.ndim)
+        ]
         grids = np.meshgrid(*axes, indexing="ij")
         total = p.sum()
         if total <= 0 or not math.isfinite(total):

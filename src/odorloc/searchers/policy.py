@@ -32,8 +32,8 @@ from pydantic import field_validator
 
 from odorloc.core.errors import ConfigError
 from odorloc.core.params import Params
-from odorloc.core.types import Action, Command, Declaration, Observation, SearchContext
 from odorloc.core.registry import register
+from odorloc.core.types import Action, Command, Declaration, Observation, SearchContext
 from odorloc.searchers.base import Searcher
 from odorloc.searchers.policy_io import ActionParams, ObservationParams, PolicyIO
 

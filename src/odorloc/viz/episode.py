@@ -301,7 +301,7 @@ def plot_belief_map(
         w, h = b[1, 0] - b[0, 0], b[1, 1] - b[0, 1]
         fig, ax = plt.subplots(figsize=(7.5, max(3.5, min(9.0, 7.0 * h / max(w, 1e-9)))))
     fig = ax.figure
-    t, snap = (rec.beliefs[index] if rec.beliefs else (float("nan"), {}))
+    t, snap = rec.beliefs[index] if rec.beliefs else (float("nan"), {})
     if "positions" in snap and "weights" in snap:
         wts = np.asarray(snap["weights"], float)
         order = np.argsort(wts)

@@ -10,6 +10,8 @@ import matplotlib
 
 matplotlib.use("Agg")
 
+import itertools
+
 import numpy as np
 from matplotlib import colormaps
 
@@ -109,7 +111,7 @@ def render_rgb(
         if len(tr) == 0:
             continue
         col = _AGENT_RGB[k % len(_AGENT_RGB)]
-        for a, b in zip(tr[:-1], tr[1:], strict=True):
+        for a, b in itertools.pairwise(tr):
             (ax, ay), (bx, by) = to_px(a), to_px(b)
             n = max(2, int(np.hypot(bx - ax, by - ay)) + 1)
             xs = np.linspace(ax, bx, n).astype(int)
