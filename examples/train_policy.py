@@ -6,7 +6,9 @@ baselines in an ordinary odorloc sweep (same worlds for every searcher: common r
    cross-entropy method improves it: each iteration draws candidate weight matrices, scores each
    by its mean return on the same training episodes (root seed ``--train-seed``), and refits the
    sampling distribution to the best quarter; the trained policy is the distribution's mean.
-2. The best policy is saved (``linear.npz``) and named in a sweep as the ``policy`` searcher
+2. A registered searcher drives the same environment through ``SearcherPolicy`` (here
+   ``zigzag``), for its return on the training episodes beside the trained policy's.
+3. The trained policy is saved (``linear.npz``) and named in a sweep as the ``policy`` searcher
    (``callable: odorloc.searchers.policy:linear``), beside ``zigzag`` and the hand-written
    ``upwind_surge`` policy, on episodes of another root seed (``--seed``).
 
@@ -26,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from odorloc.envs import SearchEnv
+from odorloc.envs import SearcherPolicy, SearchEnv
 from odorloc.experiments.stats import summarize
 from odorloc.experiments.sweep import run_sweep
 from odorloc.searchers.policy import LinearPolicy
@@ -58,6 +60,19 @@ def episode_return(env: SearchEnv, policy: LinearPolicy, seed: int, episode: int
     total, done = 0.0, False
     while not done:
         obs, r, term, trunc, _ = env.step(policy(obs))
+        total += r
+        done = term or trunc
+    return total
+
+
+def searcher_return(env: SearchEnv, name: str, seed: int, episode: int) -> float:
+    """Return of a registered searcher driving the environment (native actions)."""
+    policy = SearcherPolicy(name)
+    obs, info = env.reset(seed=seed, options={"episode": episode})
+    policy.reset(env)
+    total, done = 0.0, False
+    while not done:
+        obs, r, term, trunc, info = env.step(policy(obs, info))
         total += r
         done = term or trunc
     return total
@@ -118,6 +133,11 @@ def main() -> None:
     )
     weights = policy.save(args.out / "linear.npz")
     print(f"trained in {time.perf_counter() - t0:.0f} s; policy saved to {weights}")
+    env = SearchEnv(args.scenario, action=ACTION)
+    eps = range(args.train_episodes)
+    mine = np.mean([episode_return(env, policy, args.train_seed, e) for e in eps])
+    zig = np.mean([searcher_return(env, "zigzag", args.train_seed, e) for e in eps])
+    print(f"mean return on the training episodes: trained policy {mine:.1f}, zigzag {zig:.1f}")
 
     spec = {
         "name": "trained-policy-vs-baselines",

@@ -357,3 +357,25 @@ def test_searcher_policy_drives_a_team() -> None:
         _obs, *_ = env.step(policy())
     p = [env.episode.observations[k].position for k in range(3)]
     assert not np.allclose(p[0], [10.0, 10.0, 5.0])
+
+
+def test_linear_policy_round_trip_and_bad_weights(tmp_path) -> None:
+    from odorloc.searchers.policy import LinearPolicy
+
+    w = np.array([[0.0, 1.0, 0.0], [0.5, 0.0, -1.0]])
+    pol = LinearPolicy(w, np.zeros(2), np.ones(2), "discrete")
+    assert pol(np.array([2.0, 0.0])) == 0 and pol(np.array([0.0, -1.0])) == 1
+    back = LinearPolicy.load(pol.save(tmp_path / "p.npz"))
+    np.testing.assert_array_equal(back.weights, w)
+    with pytest.raises(ValueError, match="do not fit"):
+        LinearPolicy(w, np.zeros(3), np.ones(3))
+    spec = {
+        "type": "policy",
+        "callable": "odorloc.searchers.policy:linear",
+        "args": {"weights": str(tmp_path / "missing.npz")},
+    }
+    with pytest.raises(ConfigError) as ei:
+        from odorloc.scenarios.build import build
+
+        build(checks.small_scenario(spec))
+    assert ei.value.field == "searcher.args" and "missing.npz" in ei.value.problem
