@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from odorloc.envs import SearcherPolicy, SearchEnv
+from odorloc.envs import SearchEnv, SearcherPolicy
 from odorloc.experiments.stats import summarize
 from odorloc.experiments.sweep import run_sweep
 from odorloc.searchers.policy import LinearPolicy
