@@ -42,11 +42,13 @@ class OdorPathMap:
     Parameters
     ----------
     params : OdorPathParams, optional
-        Cell size, ``t_thr``, noise scale ... (``dt`` is set to the log's period).
+        Cell size, ``t_thr``, noise scale ... (``dt`` is set to the log's period). Default: the
+        estimator's defaults with 0.25 m cells and cell-integrated kernels, so that a map summed
+        over a whole log is smooth at the scale of a robot's step.
     """
 
     def __init__(self, params: OdorPathParams | None = None) -> None:
-        self.params = params or OdorPathParams()
+        self.params = params or OdorPathParams(cell_size=0.25, kernel="cell")
 
     def reset(self, ctx: SearchContext, rng: np.random.Generator) -> None:
         """Start over for a log with context ``ctx``."""
@@ -87,7 +89,8 @@ def _build(estimator: str | Searcher | OdorPathMap, params: Mapping[str, Any] | 
         return estimator
     if estimator == "odor-path":
         try:
-            return OdorPathMap(OdorPathParams(**dict(params or {})))
+            values = {"cell_size": 0.25, "kernel": "cell", **dict(params or {})}
+            return OdorPathMap(OdorPathParams(**values))
         except Exception as exc:
             raise ConfigError("estimator", f"odor-path parameters: {exc}") from None
     ref = registry.ComponentRef(type=estimator, **dict(params or {}))

@@ -317,7 +317,7 @@ def plot_belief_map(
         lo, hi = np.asarray(snap["lower"]), np.asarray(snap["upper"])
         im = ax.imshow(
             np.where(p2 > 0, p2, np.nan).T, origin="lower", extent=(lo[0], hi[0], lo[1], hi[1]),
-            cmap="magma_r", zorder=1, alpha=0.9,
+            cmap="magma_r", zorder=1, alpha=0.9, interpolation="nearest",
         )  # fmt: skip
         fig.colorbar(im, ax=ax, shrink=0.8, label="belief (probability per cell)")
     _draw_static(ax, rec)
