@@ -61,6 +61,9 @@ def test_check_env_on_every_single_agent_scenario(name: str, kind: str) -> None:
 def test_check_env_3d_and_belief_feature() -> None:
     sc = checks.small_scenario({"type": "zigzag"}, 3, 1, 10.0)
     _quiet_check(SearchEnv(sc, render_mode="rgb_array"))
+    # one UAV of the multi-UAV scenario: encounter sensor, Vergassola plume, energy model
+    uav = get_scenario("muc-osl-3d").with_overrides({"agents.starts": [[10.0, 10.0, 5.0]]})
+    _quiet_check(SearchEnv(uav, action={"kind": "discrete", "moves": "all"}))
     env = SearchEnv(
         small(),
         observation={"belief": {"type": "pf-entropy", "n_particles": 200}},
@@ -357,6 +360,13 @@ def test_searcher_policy_drives_a_team() -> None:
         _obs, *_ = env.step(policy())
     p = [env.episode.observations[k].position for k in range(3)]
     assert not np.allclose(p[0], [10.0, 10.0, 5.0])
+    # a single-agent searcher runs as a per-agent team, as in a scenario
+    env = parallel_env(scenario="muc-osl-3d")
+    env.reset(seed=0)
+    single = SearcherPolicy("pf-entropy")
+    single.reset(env)
+    assert type(single.searcher).__name__ == "PerAgentTeam"
+    env.step(single())
 
 
 def test_linear_policy_round_trip_and_bad_weights(tmp_path) -> None:

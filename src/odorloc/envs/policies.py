@@ -42,15 +42,23 @@ class SearcherPolicy:
 
     def __init__(self, name: str, params: Mapping[str, Any] | None = None) -> None:
         self.name = name
-        ref = registry.ComponentRef(type=name, **dict(params or {}))
-        self.searcher: Searcher = ref.build("searcher", field="searcher")
+        self._ref = registry.ComponentRef(type=name, **dict(params or {}))
+        self.searcher: Searcher = self._ref.build("searcher", field="searcher")
         self._env: Any = None
 
     def reset(self, env: Any) -> None:
         """Bind to ``env`` (after its ``reset``): the searcher gets the episode's context and
-        searcher stream, as in :func:`~odorloc.engine.episode.run_episode`."""
+        searcher stream, as in :func:`~odorloc.engine.episode.run_episode`.
+
+        A searcher that drives fewer agents than the environment has runs inside a
+        ``per-agent`` team (one instance per agent), as the builder asks of scenarios.
+        """
         self._env = env.unwrapped
         ep = self._env.episode
+        limit = type(self.searcher).max_agents
+        if limit is not None and ep.n_agents > limit:
+            team = registry.ComponentRef(type="per-agent", member=self._ref.model_dump())
+            self.searcher = team.build("searcher", field="searcher")
         self.searcher.reset(ep.context, ep.agent_rng)
 
     def __call__(self, observation: Any = None, info: Any = None) -> Action:
