@@ -66,11 +66,11 @@ def censored_poisson(mean: ArrayLike, n_classes: int) -> np.ndarray:
     # classes first: every recurrence step then works on contiguous memory
     out = np.empty((n_classes, *lam.shape))
     # p(0) = exp(-lambda), p(k) = p(k-1) lambda / k: one exponential instead of one per class
-    np.exp(-lam, out=out[0])
+    np.exp(-lam, out=out[0, ...])
     for k in range(1, n_classes - 1):
-        np.multiply(out[k - 1], lam, out=out[k])
-        out[k] *= 1.0 / k
-    out[-1] = _upper_tail(lam, n_classes - 1, out[:-1])
+        np.multiply(out[k - 1, ...], lam, out=out[k, ...])
+        out[k, ...] *= 1.0 / k
+    out[-1, ...] = _upper_tail(lam, n_classes - 1, out[:-1])
     return np.moveaxis(out, 0, -1)
 
 
@@ -82,7 +82,9 @@ def _upper_tail(lam: np.ndarray, k: int, head: np.ndarray) -> np.ndarray:
     (no cancellation), and the incomplete gamma function only for the rest, where it is needed:
     it costs ~50 exponentials.
     """
-    tail = 1.0 - head.sum(axis=0)
+    tail = np.atleast_1d(1.0 - head.sum(axis=0))
+    lam = np.atleast_1d(lam)
+    head = head.reshape(head.shape[0], *tail.shape)
     small = lam < 0.25 * k
     if np.any(small):
         x = lam[small]
