@@ -38,3 +38,24 @@ def test_class_count_is_the_smallest_with_a_negligible_tail() -> None:
             assert censored_poisson(mean, n)[-1] < m.params.tail_mass
         if n > 2:
             assert censored_poisson(mean, n - 1)[-1] >= m.params.tail_mass
+
+
+def test_likelihood_rows_equal_one_call_per_reading() -> None:
+    from odorloc.models.gaussian import GaussianPlumeModel
+
+    rng = np.random.default_rng(2)
+    hyp = rng.uniform(0, 30, (40, 3))
+    where = rng.uniform(0, 30, (3, 3))
+    m = VergassolaModel()
+    rows = m.log_likelihood_rows([0, 2, 1], where, hyp, dt=1.0)
+    assert rows.shape == (3, 40)
+    for q, z in enumerate((0, 2, 1)):
+        np.testing.assert_allclose(rows[q], m.log_likelihood(z, where[q], hyp, dt=1.0))
+    # the base class's default: one call per reading
+    g = GaussianPlumeModel()
+    hyp2, where2 = hyp[:, :2], where[:, :2]
+    base = g.log_likelihood_rows([True, False, True], where2, hyp2, wind=np.array([1.0, 0.0]))
+    for q, z in enumerate((True, False, True)):
+        np.testing.assert_allclose(
+            base[q], g.log_likelihood(z, where2[q], hyp2, wind=np.array([1.0, 0.0]))
+        )

@@ -220,6 +220,18 @@ class VergassolaModel(MeasurementModel):
         mu = self.rate(sp, hypotheses, conditions.get("release"), conditions.get("direction"))
         return poisson_log_pmf(k, mu * dt).sum(axis=0)
 
+    def log_likelihood_rows(
+        self, z: Any, sensor_positions: np.ndarray, hypotheses: np.ndarray, **conditions: Any
+    ) -> np.ndarray:
+        """``log Poisson(z_q | R(s_q) dt)`` of each count at its own position, ``(Q, N)``."""
+        dt = _exposure(conditions)
+        sp = np.atleast_2d(np.asarray(sensor_positions, float))
+        k = np.asarray(z, float).reshape(-1, 1)
+        if k.shape[0] != sp.shape[0]:
+            raise ConfigError("counts", f"{k.shape[0]} counts for {sp.shape[0]} sensor positions")
+        mu = self.rate(sp, hypotheses, conditions.get("release"), conditions.get("direction"))
+        return poisson_log_pmf(k, mu * dt)
+
     def n_classes(self, mean: np.ndarray) -> int:
         """Count classes needed so that the tail beyond holds < ``tail_mass`` (capped)."""
         p = self.params

@@ -347,13 +347,11 @@ class ColPFEstimator(TeamEstimator):
         else:
             betas = np.ones(len(fits))
         self.betas = {f.sender: float(b) for f, b in zip(fits, betas, strict=True)}
-        x = pf.positions
-        own = self._own_log_likelihood(m, x)
-        cond = m.conditions()
-        nb = np.zeros((len(fits), pf.n))
-        for r, f in enumerate(fits):
-            nb[r] = self.model.log_likelihood(f.count, f.position, x, **cond)
-        pf.update(collaborative_log_likelihood(own, nb, betas))
+        # the own reading and every neighbour's, each against every particle: (1 + H, N)
+        counts = [m.count, *(f.count for f in fits)]
+        where = np.array([m.position, *(f.position for f in fits)])
+        rows = self.model.log_likelihood_rows(counts, where, pf.positions, **m.conditions())
+        pf.update(collaborative_log_likelihood(rows[0], rows[1:], betas))
         evaluated = pf.n * (1 + len(fits))
         pf.resample_if_needed(rng, n=self.target_n)
         self.n_moved = self._pugl(m, fits, betas, rng)

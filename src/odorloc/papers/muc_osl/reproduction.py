@@ -3,7 +3,8 @@
 Three UAVs in 100 x 60 x 30 m (source [10, 30, 25], wind towards -y), the four algorithms of the
 paper (MUC-OSL, Col-Inf, Col-PF, Adap-PP: compositions of a per-UAV estimator and planner,
 :mod:`odorloc.searchers.uav_team`), ``episodes`` runs each with common random numbers (episode
-``i`` of every algorithm faces the same world and gives every UAV the same random stream).
+``i`` of every algorithm faces the same world and gives every UAV the same random stream), and
+MUC-OSL without the upwind particle moves of eq. 16 (``muc-osl-no-env-pu``) as an ablation.
 
 Tables: success rate and search time with intervals (the search time of an episode is the
 flying + hovering + turning time of the first UAV within the reach radius, Sect. VI.1), the
@@ -29,7 +30,17 @@ from odorloc.papers.muc_osl.reference import ALGORITHMS, TABLE2, TABLE3
 __all__ = ["MucOslReproduction", "add_uav_search_time", "record_episode"]
 
 SCENARIO = "muc-osl-3d"
-LABELS = {"muc-osl": "MUC-OSL", "col-inf": "Col-Inf", "col-pf": "Col-PF", "adap-pp": "Adap-PP"}
+#: MUC-OSL without the upwind particle moves of eq. 16 (an ablation shown beside the four).
+NO_ENV_PU = "muc-osl-no-env-pu"
+NO_ENV_PU_PARAMS = {"estimator": {"type": "col-pf", "env_pu": "off"}}
+LABELS = {
+    "muc-osl": "MUC-OSL",
+    "col-inf": "Col-Inf",
+    "col-pf": "Col-PF",
+    "adap-pp": "Adap-PP",
+    NO_ENV_PU: "MUC-OSL -env",
+}
+ROWS = (*ALGORITHMS, NO_ENV_PU)
 
 
 def add_uav_search_time(df: Any, limit: float = 1200.0) -> Any:
@@ -74,7 +85,10 @@ class MucOslReproduction(Reproduction):
             "episodes": episodes,
             "keep_episodes": [0],
             "scenarios": [{"name": SCENARIO}],
-            "searchers": [{"name": a} for a in ALGORITHMS],
+            "searchers": [
+                *({"name": a} for a in ALGORITHMS),
+                {"name": "muc-osl", "label": NO_ENV_PU, "params": NO_ENV_PU_PARAMS},
+            ],
         }
 
     def reference(self) -> dict[str, dict[str, Any]]:
@@ -87,7 +101,7 @@ class MucOslReproduction(Reproduction):
 
         ok = add_uav_search_time(df[df["status"] != "error"])
         rows, move, res = [], [], []
-        for i, a in enumerate(ALGORITHMS):
+        for i, a in enumerate(ROWS):
             g = ok[ok["searcher"] == a]
             if not len(g):
                 continue
@@ -106,9 +120,10 @@ class MucOslReproduction(Reproduction):
                     LABELS[a],
                     str(n),
                     f"{fmt(100 * k / n, 0)} [{fmt(100 * lo, 0)}, {fmt(100 * hi, 0)}]",
-                    f"{fmt(t_s.mean() if t_s.size else math.nan)} [{fmt(t_lo)}, {fmt(t_hi)}]",
-                    f"{fmt(t_all.mean())} [{fmt(a_lo)}, {fmt(a_hi)}]",
-                    fmt(float(succ["search_time"].mean()) if len(succ) else math.nan),
+                    f"{fmt(t_s.mean() if t_s.size else math.nan, 0)} "
+                    f"[{fmt(t_lo, 0)}, {fmt(t_hi, 0)}]",
+                    f"{fmt(t_all.mean(), 0)} [{fmt(a_lo, 0)}, {fmt(a_hi, 0)}]",
+                    fmt(float(succ["search_time"].mean()) if len(succ) else math.nan, 0),
                     f"{fmt(100 * decl.mean(), 0)}",
                     fmt(float(g.loc[decl, "loc_error"].mean()) if decl.any() else math.nan, 1),
                 ]
@@ -125,8 +140,8 @@ class MucOslReproduction(Reproduction):
                     f"{fmt(e_m.mean(), 0)} [{fmt(e_lo, 0)}, {fmt(e_hi, 0)}]",
                     "-"
                     if ref is None
-                    else f"{ref['hover_time']:.0f} / {ref['turn_time']:.0f}"
-                    f" / {ref['distance']:.0f} / {ref['energy_kj']:.0f}",
+                    else f"{ref['hover_time']:.0f}/{ref['turn_time']:.0f}"
+                    f"/{ref['distance']:.0f}/{ref['energy_kj']:.0f}",
                 ]
             )
             per_exchange = _numbers_per_message(g)
@@ -146,39 +161,25 @@ class MucOslReproduction(Reproduction):
             Table(
                 "comparison",
                 "3 UAVs in 100 x 60 x 30 m: success and search time (95 % intervals)",
-                [
-                    "algorithm",
-                    "n",
-                    "success % [CI]",
-                    "search time s, successes [CI]",
-                    "all (failures 1200 s) [CI]",
-                    "episode time s",
-                    "declared %",
-                    "decl. error m",
-                ],
+                ["algorithm", "n", "success %", "time s", "all s", "clock s", "decl %", "err m"],
                 rows,
-                note="search time: flying + hovering + turning time of the first UAV within "
-                "2 m of the source; episode time also counts idle time between moves.",
+                note="time: flying + hovering + turning time of the first UAV within 2 m of the "
+                "source, successes only; all: failures count 1200 s; clock: episode time of the "
+                "successes (idle time between moves included); decl: episodes with a "
+                "declaration, err: its distance from the source. Brackets: 95 % intervals "
+                "(Wilson; bootstrap). MUC-OSL -env: MUC-OSL without env-pu (eq. 16).",
             ),
             Table(
                 "movement",
-                "Team movement per episode (Table 2: hover s / turn s / distance m / E_M kJ)",
-                ["algorithm", "hover s", "turn s", "distance m", "E_M kJ [CI]", "paper"],
+                "Team movement per episode (Table 2)",
+                ["algorithm", "hover s", "turn s", "distance m", "E_M kJ", "paper h/t/d/E"],
                 move,
                 note=note,
             ),
             Table(
                 "resources",
                 "Computation and communication (Table 3)",
-                [
-                    "algorithm",
-                    "numbers per exchange",
-                    "paper",
-                    "kB per episode",
-                    "E_T mJ",
-                    "E_C J",
-                    "mean particles",
-                ],
+                ["algorithm", "numbers/msg", "paper", "kB/episode", "E_T mJ", "E_C J", "particles"],
                 res,
             ),
         ]
@@ -249,7 +250,7 @@ def _comparison_figure(ok: Any, seed: int, path: Path) -> None:
 
     fig, axes = plt.subplots(1, 2, figsize=(9.5, 3.6))
     names, sr, srlo, srhi, mt, mtlo, mthi = [], [], [], [], [], [], []
-    for i, a in enumerate(ALGORITHMS):
+    for i, a in enumerate(ROWS):
         g = ok[ok["searcher"] == a]
         if not len(g):
             continue
@@ -271,7 +272,7 @@ def _comparison_figure(ok: Any, seed: int, path: Path) -> None:
     ):
         v_, lo_, hi_ = (np.asarray(u, float) for u in (v, lo, hi))
         err = [np.nan_to_num(np.maximum(v_ - lo_, 0)), np.nan_to_num(np.maximum(hi_ - v_, 0))]
-        ax.bar(x, v_, color=["tab:red", "tab:blue", "tab:green", "tab:orange"][: len(x)])
+        ax.bar(x, v_, color=["tab:red", "tab:blue", "tab:green", "tab:orange", "0.6"][: len(x)])
         ax.errorbar(x, v_, yerr=err, fmt="none", ecolor="k", capsize=4)
         ax.set_xticks(x, names)
         ax.set_ylabel(lab)
