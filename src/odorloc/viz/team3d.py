@@ -35,9 +35,9 @@ def beliefs_at(rec: Recording, t: float) -> dict[int, dict[str, np.ndarray]]:
     return out
 
 
-def key_moments(rec: Recording) -> list[float]:
-    """Four times like the paper's Fig. 3: the start, the first cue, every UAV cue-captured (or
-    half-way to the end when some never are), and the end, seconds."""
+def key_moments(rec: Recording) -> list[tuple[float, str]]:
+    """Four moments like the paper's Fig. 3, ``(time s, label)``: the start, the first cue,
+    every UAV cue-captured (or half-way to the end when that never happens), and the end."""
     t = rec.t
     end = float(t[-1]) if len(t) else 0.0
     det = rec.detection
@@ -45,9 +45,15 @@ def key_moments(rec: Recording) -> list[float]:
     t_first = min(first) if first else 0.5 * end
     all_cued = bool(first) and len(first) == det.shape[1]
     t_all = max(first) if all_cued else 0.5 * (t_first + end)
-    if not t_first < t_all < end:
-        t_all = 0.5 * (t_first + end)
-    return [0.0, t_first, t_all, end]
+    label = "every UAV has a cue"
+    if not (all_cued and t_first < t_all < end):
+        t_all, label = 0.5 * (t_first + end), "half-way"
+    return [
+        (0.0, "start"),
+        (t_first, "first cue" if first else "half-way"),
+        (t_all, label),
+        (end, "end"),
+    ]
 
 
 def _draw(ax: Any, rec: Recording, t: float, legend: bool = False) -> None:
@@ -79,7 +85,8 @@ def _draw(ax: Any, rec: Recording, t: float, legend: bool = False) -> None:
                 marker="o",
                 facecolor="white",
                 edgecolor=col,
-                s=22,
+                s=30,
+                linewidth=1.2,
                 depthshade=False,
                 label="cue" if legend and a == 0 else None,
             )
@@ -88,7 +95,7 @@ def _draw(ax: Any, rec: Recording, t: float, legend: bool = False) -> None:
     ax.set_xlim(b[0, 0], b[1, 0])
     ax.set_ylim(b[0, 1], b[1, 1])
     ax.set_zlim(b[0, 2], b[1, 2])
-    ax.set_box_aspect(tuple(b[1] - b[0]))
+    ax.set_box_aspect(tuple(b[1] - b[0]), zoom=1.15)
     ax.set_xlabel("x (m)", fontsize=7, labelpad=-4)
     ax.set_ylabel("y (m)", fontsize=7, labelpad=-4)
     ax.set_zlabel("z (m)", fontsize=7, labelpad=-6)
@@ -117,17 +124,28 @@ def plot_team_3d(
     """
     if rec.positions.shape[2] != 3:
         raise ValueError("plot_team_3d needs a 3-D recording")
-    times = list(key_moments(rec) if times is None else times)
-    fig = plt.figure(figsize=(11, 8.2))
+    if times is None:
+        moments = key_moments(rec)
+        times = [m[0] for m in moments]
+        names = [m[1] for m in moments]
+    else:
+        times = list(times)
+        names = [""] * len(times)
+    fig = plt.figure(figsize=(11, 7.4))
     for i, t in enumerate(times):
         ax = fig.add_subplot(2, (len(times) + 1) // 2, i + 1, projection="3d")
-        _draw(ax, rec, t, legend=i == len(times) - 1)
-        title = titles[i] if titles is not None else f"t = {t:.0f} s"
-        ax.set_title(f"({chr(97 + i)}) {title}", fontsize=9)
-        if i == len(times) - 1:
-            ax.legend(fontsize=7, loc="upper left")
+        last = i == len(times) - 1
+        _draw(ax, rec, t, legend=last)
+        if titles is not None:
+            title = titles[i]
+        else:
+            title = f"{names[i]}, t = {t:.0f} s" if names[i] else f"t = {t:.0f} s"
+        ax.set_title(f"({chr(97 + i)}) {title}", fontsize=9, y=0.94)
+        if last:
+            handles, labels = ax.get_legend_handles_labels()
+    fig.legend(handles, labels, loc="lower center", ncol=len(labels), fontsize=8, frameon=False)
     fig.suptitle(str(rec.meta.get("title", rec.meta.get("scenario", ""))), fontsize=10)
-    fig.tight_layout()
+    fig.subplots_adjust(left=0.0, right=1.0, bottom=0.05, top=0.93, wspace=0.0, hspace=0.08)
     if path is not None:
         fig.savefig(path, dpi=110)
         plt.close(fig)
@@ -135,7 +153,7 @@ def plot_team_3d(
 
 
 def animate_team_3d(
-    rec: Recording, path: str | Path, *, fps: int = 8, max_frames: int = 80, dpi: int = 70
+    rec: Recording, path: str | Path, *, fps: int = 8, max_frames: int = 80, dpi: int = 90
 ) -> Path:
     """Animation of :func:`plot_team_3d`'s view over the episode (GIF, or MP4 for ``.mp4``)."""
     path = Path(path)

@@ -40,6 +40,8 @@ LABELS = {
     "adap-pp": "Adap-PP",
     NO_ENV_PU: "MUC-OSL -env",
 }
+#: Labels of the comparison figure's bars.
+BAR_LABELS = {**LABELS, NO_ENV_PU: "MUC-OSL\nno env-pu"}
 ROWS = (*ALGORITHMS, NO_ENV_PU)
 
 
@@ -130,6 +132,7 @@ class MucOslReproduction(Reproduction):
             )
             e_m = g["movement_kj"].to_numpy(float)
             e_lo, e_hi = stats.bootstrap_ci(e_m, rng)
+            per_m = float(e_m.sum() / g["path_length"].sum()) if g["path_length"].sum() else 0.0
             ref = TABLE2.get(a)
             move.append(
                 [
@@ -138,6 +141,7 @@ class MucOslReproduction(Reproduction):
                     fmt(float(g["team_turn_time"].mean()), 0),
                     fmt(float(g["path_length"].mean()), 0),
                     f"{fmt(e_m.mean(), 0)} [{fmt(e_lo, 0)}, {fmt(e_hi, 0)}]",
+                    fmt(per_m, 2),
                     "-"
                     if ref is None
                     else f"{ref['hover_time']:.0f}/{ref['turn_time']:.0f}"
@@ -163,16 +167,16 @@ class MucOslReproduction(Reproduction):
                 "3 UAVs in 100 x 60 x 30 m: success and search time (95 % intervals)",
                 ["algorithm", "n", "success %", "time s", "all s", "clock s", "decl %", "err m"],
                 rows,
-                note="time: flying + hovering + turning time of the first UAV within 2 m of the "
-                "source, successes only; all: failures count 1200 s; clock: episode time of the "
-                "successes (idle time between moves included); decl: episodes with a "
-                "declaration, err: its distance from the source. Brackets: 95 % intervals "
-                "(Wilson; bootstrap). MUC-OSL -env: MUC-OSL without env-pu (eq. 16).",
+                note="time: flying + hovering + turning time of the first UAV within 2 m of the\n"
+                "source (successes); all: failures count 1200 s; clock: episode time of the\n"
+                "successes (idle time between moves included); decl: episodes with a declaration,\n"
+                "err: its distance from the source; brackets: 95 % intervals (Wilson, bootstrap);\n"
+                "MUC-OSL -env: MUC-OSL without the upwind particle moves of eq. 16.",
             ),
             Table(
                 "movement",
                 "Team movement per episode (Table 2)",
-                ["algorithm", "hover s", "turn s", "distance m", "E_M kJ", "paper h/t/d/E"],
+                ["algorithm", "hover s", "turn s", "distance m", "E_M kJ", "kJ/m", "paper h/t/d/E"],
                 move,
                 note=note,
             ),
@@ -193,8 +197,9 @@ class MucOslReproduction(Reproduction):
             return ""
         ma, mb = float(a[common].mean()), float(b[common].mean())
         return (
-            f"movement energy MUC-OSL vs Col-Inf over {len(common)} paired episodes: "
-            f"{ma:.0f} vs {mb:.0f} kJ ({100 * (ma - mb) / mb:+.1f} %; paper -8.44 %)"
+            f"team totals per episode; movement energy MUC-OSL vs Col-Inf over {len(common)}\n"
+            f"paired episodes: {ma:.0f} vs {mb:.0f} kJ ({100 * (ma - mb) / mb:+.1f} %; paper "
+            "-8.44 %);\nkJ/m: movement energy per metre flown (hovers and turns included)."
         )
 
     def figures(self, df: Any, store: Any, out: Path, seed: int) -> list[Figure]:
@@ -248,7 +253,7 @@ def _comparison_figure(ok: Any, seed: int, path: Path) -> None:
 
     from odorloc.experiments import stats
 
-    fig, axes = plt.subplots(1, 2, figsize=(9.5, 3.6))
+    fig, axes = plt.subplots(1, 2, figsize=(11, 3.9))
     names, sr, srlo, srhi, mt, mtlo, mthi = [], [], [], [], [], [], []
     for i, a in enumerate(ROWS):
         g = ok[ok["searcher"] == a]
@@ -258,7 +263,7 @@ def _comparison_figure(ok: Any, seed: int, path: Path) -> None:
         lo, hi = stats.wilson_interval(k, n)
         t = g.loc[g["success"].astype(bool), "uav_search_time"].to_numpy(float)
         tlo, thi = stats.bootstrap_ci(t, np.random.default_rng([seed, i]))
-        names.append(LABELS[a])
+        names.append(BAR_LABELS[a])
         sr.append(100 * k / n)
         srlo.append(100 * lo)
         srhi.append(100 * hi)
