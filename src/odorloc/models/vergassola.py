@@ -253,7 +253,8 @@ class VergassolaModel(MeasurementModel):
             sensor_positions, hypotheses, conditions.get("release"), conditions.get("direction")
         )
         z = int(conditions.get("n_classes") or self.n_classes(mu))
-        return np.moveaxis(censored_poisson(mu, z), -1, 1)
+        # C order (M, Z, N): planners reduce over the last axis and reshape freely
+        return np.ascontiguousarray(np.moveaxis(censored_poisson(mu, z), -1, 1))
 
     def outcome_values(self, **conditions: Any) -> np.ndarray:
         """Count of each class (the last class stands for its lower bound)."""
