@@ -59,10 +59,10 @@ def test_kl_gaussian_matches_closed_form_and_monte_carlo() -> None:
         np.trace(inv1 @ s0) + dm @ inv1 @ dm - 3 + math.log(np.linalg.det(s1) / np.linalg.det(s0))
     )
     assert kl_gaussian(m0, s0, m1, s1) == pytest.approx(ref, rel=1e-9)
-    # E_p[log p - log q] by sampling (400 000 draws: standard error ~ 2e-3)
-    x = rng.multivariate_normal(m0, s0, size=400_000)
+    # E_p[log p - log q] by sampling (100 000 draws: standard error 3e-3)
+    x = rng.multivariate_normal(m0, s0, size=100_000)
     mc = np.mean(multivariate_normal(m0, s0).logpdf(x) - multivariate_normal(m1, s1).logpdf(x))
-    assert kl_gaussian(m0, s0, m1, s1) == pytest.approx(mc, abs=0.01)
+    assert kl_gaussian(m0, s0, m1, s1) == pytest.approx(mc, abs=0.02)
     # 1-D: KL = log(s1/s0) + (s0^2 + dm^2) / (2 s1^2) - 1/2
     k1 = kl_gaussian([0.0], [[4.0]], [1.0], [[9.0]])
     assert k1 == pytest.approx(math.log(3 / 2) + (4 + 1) / 18 - 0.5, rel=1e-9)
