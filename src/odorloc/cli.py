@@ -123,6 +123,11 @@ def run(
         plot_traces(rec, out / "traces.png") and out / "traces.png",
         rec.save(out / "recording.npz"),
     ]
+    if rec.positions.shape[2] == 3:
+        from odorloc.viz.team3d import plot_team_3d
+
+        plot_team_3d(rec, out / "view_3d.png")
+        written.append(out / "view_3d.png")
     sc.to_yaml(out / "scenario.yaml")
     written.append(out / "scenario.yaml")
     if animation:

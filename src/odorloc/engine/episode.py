@@ -243,6 +243,8 @@ class Episode:
         self._declared_groups: set[int] = set()
         self._found_time = np.full(len(self.sources), math.nan)
         self._reach_time = math.nan
+        self._reach_agent = -1
+        self._reach_stats: dict[str, float] = {}
         self._events: list[Event] = []
         self._termination = "running"
         self._world_time = 0.0
@@ -374,6 +376,9 @@ class Episode:
             if len(hit):
                 agent, src = (int(v) for v in hit[0])
                 self._reach_time = t
+                self._reach_agent = agent
+                # the reaching agent's own totals at this moment (e.g. a UAV's busy time)
+                self._reach_stats = dict(self.built.platforms[agent].stats)
                 ev = Event(t, "source_reached", agent=agent, source=src, position=pos[agent])
                 events.append(ev)
                 self._events.append(ev)
@@ -474,6 +479,9 @@ class Episode:
             metrics["success"] = not math.isnan(self._reach_time)
         if self.scenario.task.reach_radius is not None:
             metrics["reach_time"] = float(self._reach_time)
+            metrics["reach_agent"] = int(self._reach_agent)
+            for key in b.platforms[0].stats:
+                metrics[f"reach_{key}"] = float(self._reach_stats.get(key, math.nan))
         metrics["declarations"] = len(self._declarations)
         for s, ft in enumerate(self._found_time):
             metrics[f"found_time_{s}"] = float(ft)
@@ -483,6 +491,12 @@ class Episode:
                 breakdown[key] = breakdown.get(key, 0.0) + float(v)
         for key, v in breakdown.items():
             metrics[f"energy_{key}"] = v
+        totals: dict[str, float] = {}
+        for pl in b.platforms:
+            for key, v in pl.stats.items():
+                totals[key] = totals.get(key, 0.0) + float(v)
+        for key, v in totals.items():
+            metrics[f"team_{key}"] = v
         if extra:
             metrics.update(extra)
         recording = None

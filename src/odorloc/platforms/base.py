@@ -335,6 +335,13 @@ class Platform(ABC):
         """``True`` once the energy budget is used up (platforms without a budget: never)."""
         return False
 
+    @property
+    def stats(self) -> dict[str, float]:
+        """Time and count totals since :meth:`reset` (e.g. flying, hovering and turning time
+        of a UAV); default none. The episode reports them per team and for the agent that
+        reaches a source first."""
+        return {}
+
     def charge_comm(self, nbytes: float) -> float:
         """Charge transmitting ``nbytes`` bytes (summed over recipients); return the J charged.
 
