@@ -340,18 +340,16 @@ class Episode:
     # ------------------------------------------------------------------ internals
     def _observe(self, events: list[Event]) -> list[Observation]:
         b, t = self.built, self._t
+        plume, wind_model, T, rng = self.world.plume, self.world.wind, self._T, self._rng_sense
         obs = []
         for k, pl in enumerate(b.platforms):
-            reading = b.gas_sensors[k].measure(
-                self.world.plume, pl.position, self._T, self._rng_sense
-            )
-            wind = b.anemometers[k].measure(
-                self.world.wind, pl.position, pl.velocity, self._T, self._rng_sense
-            )
+            pos = pl.position  # a copy: the sensors read it, the observation gets its own
+            reading = b.gas_sensors[k].measure(plume, pos, T, rng)
+            wind = b.anemometers[k].measure(wind_model, pos, pl.velocity, T, rng)
             o = Observation(
                 agent=k,
                 t=t,
-                position=pl.position.copy(),
+                position=pos.copy(),
                 heading=float(pl.heading),
                 gas=float(reading.value),
                 detection=bool(reading.detection),
@@ -371,8 +369,10 @@ class Episode:
         reach = self.scenario.task.reach_radius
         if reach is not None and math.isnan(self._reach_time):
             pos = np.array([o.position for o in obs])
-            d = np.linalg.norm(pos[:, None, :] - self.sources[None, :, :], axis=2)
-            hit = np.argwhere(d <= reach)
+            diff = pos[:, None, :] - self.sources[None, :, :]
+            # numpy.linalg.norm(diff, axis=2) without its overhead (every step)
+            within = np.sqrt(np.add.reduce(diff * diff, axis=2)) <= reach
+            hit = np.argwhere(within) if within.any() else ()
             if len(hit):
                 agent, src = (int(v) for v in hit[0])
                 self._reach_time = t

@@ -52,6 +52,9 @@ class Arena:
     resolution: float = 0.1
     occ: BoolArray | None = field(default=None, repr=False)
     grid: CellGrid = field(init=False, repr=False, compare=False)
+    # the corners as read-only arrays (lo, hi), made once: point queries run every step
+    _lo: FloatArray = field(init=False, repr=False, compare=False)
+    _hi: FloatArray = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         lo = np.asarray(self.lower, float)
@@ -68,6 +71,10 @@ class Arena:
         object.__setattr__(self, "upper", tuple(float(x) for x in hi))
         shape = tuple(int(n) for n in np.maximum(1, np.ceil((hi - lo) / self.resolution - 1e-9)))
         object.__setattr__(self, "grid", CellGrid(self.lower, float(self.resolution), shape))
+        for name, corner in (("_lo", self.lower), ("_hi", self.upper)):
+            a = np.array(corner, float)
+            a.setflags(write=False)
+            object.__setattr__(self, name, a)
         if self.occ is not None:
             occ = np.asarray(self.occ, dtype=bool)
             if occ.shape != self.grid_shape:
@@ -86,13 +93,13 @@ class Arena:
 
     @property
     def lo(self) -> FloatArray:
-        """Lower corner as an array, metres."""
-        return np.asarray(self.lower)
+        """Lower corner as a read-only array, metres."""
+        return self._lo
 
     @property
     def hi(self) -> FloatArray:
-        """Upper corner as an array, metres."""
-        return np.asarray(self.upper)
+        """Upper corner as a read-only array, metres."""
+        return self._hi
 
     @property
     def size(self) -> FloatArray:
@@ -116,7 +123,7 @@ class Arena:
     def contains(self, points: ArrayLike) -> BoolArray:
         """``True`` where a point lies inside the bounds (closed box): ``(Q,)``."""
         p = as_points(points, self.dim)
-        return np.all((p >= self.lo) & (p <= self.hi), axis=1)
+        return ((p >= self.lo) & (p <= self.hi)).all(axis=1)
 
     def in_obstacle(self, points: ArrayLike) -> BoolArray:
         """``True`` where a point lies inside the bounds and in an occupied cell: ``(Q,)``."""

@@ -7,6 +7,7 @@ sum of the shifted weights, so that huge log-likelihoods (``-1e17``) keep full p
 from __future__ import annotations
 
 import math
+from functools import lru_cache
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -17,6 +18,7 @@ __all__ = [
     "effective_sample_size",
     "gaussian_fit",
     "kl_gaussian",
+    "kl_gaussians",
     "normalise_log_weights",
     "weight_entropy",
     "weighted_mean",
@@ -39,10 +41,14 @@ def normalise_log_weights(log_w: ArrayLike) -> tuple[FloatArray, FloatArray]:
         ``exp(log_w)``, summing to one.
     """
     lw = np.asarray(log_w, float)
-    lw = np.where(np.isnan(lw), -np.inf, lw)
     if lw.size == 0:
         raise ConfigError("log_weights", "cannot normalise an empty set")
     m = lw.max()
+    if m != m:
+        # a NaN (the maximum propagates it; filters call this several times per update, so
+        # the replacing pass runs only when needed)
+        lw = np.where(np.isnan(lw), -np.inf, lw)
+        m = lw.max()
     if not np.isfinite(m):
         lw = np.full(lw.shape, -math.log(lw.size))
         return lw, np.exp(lw)
@@ -87,15 +93,58 @@ def kl_gaussian(
     ``0.5 [tr(S1^-1 S0) + (m1 - m0)^T S1^-1 (m1 - m0) - d + ln(det S1 / det S0)]``; ``jitter``
     (m^2) is added to both diagonals so that degenerate fits stay finite.
     """
-    m0, m1 = np.asarray(mean0, float), np.asarray(mean1, float)
-    d = len(m0)
-    both = np.stack([np.asarray(cov0, float), np.asarray(cov1, float)])
-    both += jitter * np.eye(d)
-    sign, logdet = np.linalg.slogdet(both)
-    if not (sign[0] > 0 and sign[1] > 0):
+    m1 = np.asarray(mean1, float)
+    return kl_gaussians(mean0, cov0, m1[None, :], np.asarray(cov1, float)[None], jitter)[0]
+
+
+def kl_gaussians(
+    mean0: ArrayLike,
+    cov0: ArrayLike,
+    means1: ArrayLike,
+    covs1: ArrayLike,
+    jitter: float = 1e-9,
+) -> list[float]:
+    """``KL(N0 || N1_h)`` from one Gaussian to each of ``H`` others, nats (closed form).
+
+    Parameters
+    ----------
+    mean0 : (d,) array_like
+    cov0 : (d, d) array_like
+    means1 : (H, d) array_like
+    covs1 : (H, d, d) array_like
+    jitter : float, m^2
+        Added to every diagonal (see :func:`kl_gaussian`).
+
+    Returns
+    -------
+    list of float
+        One divergence per ``h``; each equals :func:`kl_gaussian` of the pair to the bit (the
+        determinants and solves run per matrix in one batched call).
+    """
+    m0 = np.asarray(mean0, float)
+    m1 = np.asarray(means1, float).reshape(-1, len(m0))
+    d, h = len(m0), len(m1)
+    covs = np.concatenate(
+        [np.asarray(cov0, float)[None], np.asarray(covs1, float).reshape(h, d, d)]
+    )
+    covs += jitter * _eye(d)
+    sign, logdet = np.linalg.slogdet(covs)
+    if not (sign > 0).all():
         raise ConfigError("cov", "covariances must be positive definite")
     dm = m1 - m0
     # one solve for S1^-1 S0 and S1^-1 dm together (small matrices: the call dominates)
-    sol = np.linalg.solve(both[1], np.column_stack([both[0], dm]))
-    quad = float(dm @ sol[:, d])
-    return float(0.5 * (np.trace(sol[:, :d]) + quad - d + logdet[1] - logdet[0]))
+    rhs = np.concatenate([np.broadcast_to(covs[0], (h, d, d)), dm[:, :, None]], axis=2)
+    sol = np.linalg.solve(covs[1:], rhs)
+    out = []
+    for j in range(h):
+        quad = float(dm[j] @ sol[j, :, d])
+        tr = np.trace(sol[j, :, :d])
+        out.append(float(0.5 * (tr + quad - d + logdet[j + 1] - logdet[0])))
+    return out
+
+
+@lru_cache(maxsize=4)
+def _eye(d: int) -> np.ndarray:
+    e = np.eye(d)
+    e.setflags(write=False)
+    return e

@@ -13,7 +13,7 @@ from scipy.special import gammainc, gammaln, xlogy
 
 from odorloc.core.errors import ConfigError
 
-__all__ = ["censored_poisson", "poisson_log_pmf"]
+__all__ = ["censored_poisson", "check_counts", "poisson_log_pmf"]
 
 
 def poisson_log_pmf(counts: ArrayLike, mean: ArrayLike) -> np.ndarray:
@@ -32,11 +32,16 @@ def poisson_log_pmf(counts: ArrayLike, mean: ArrayLike) -> np.ndarray:
     """
     d = np.asarray(counts, float)
     lam = np.asarray(mean, float)
-    if np.any(d < 0) or np.any(d != np.floor(d)):
-        raise ConfigError("counts", "must be non-negative integers")
+    check_counts(d)
     if np.any(lam < 0) or not np.all(np.isfinite(lam)):
         raise ConfigError("expected_counts", "must be finite and >= 0")
     return xlogy(d, lam) - lam - gammaln(d + 1.0)
+
+
+def check_counts(counts: np.ndarray) -> None:
+    """:class:`ConfigError` unless every count is a non-negative integer."""
+    if np.any(counts < 0) or np.any(counts != np.floor(counts)):
+        raise ConfigError("counts", "must be non-negative integers")
 
 
 def censored_poisson(mean: ArrayLike, n_classes: int) -> np.ndarray:

@@ -30,13 +30,15 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 from pydantic import Field
-from scipy.special import gammainc, k0e
+from scipy.special import gammainc, gammaln, k0e
 
 from odorloc.core.errors import ConfigError
 from odorloc.core.params import Params, Positive, Vector
 from odorloc.core.registry import register
+from odorloc.models import kernels
 from odorloc.models.base import MeasurementModel
-from odorloc.models.poisson import censored_poisson, poisson_log_pmf
+from odorloc.models.kernels import Backend
+from odorloc.models.poisson import censored_poisson, check_counts, poisson_log_pmf
 
 __all__ = [
     "VergassolaModel",
@@ -81,6 +83,25 @@ def vergassola_rate(
     -------
     (Q, N) ndarray, 1/s
     """
+    x, s, e, q = _rate_inputs(sensor, sources, release, direction)
+    dim = x.shape[1]
+    lam = correlation_length(V, D, tau)
+    if dim == 3:
+        expo, r = rate_exponent(x, s, e, V=V, D=D, lam=lam, a=a)
+        return (a * q) * np.exp(expo) / r
+    if lam <= a:
+        raise ConfigError("sensor_radius", f"must be below lambda = {lam:.3g} m in 2D")
+    r = floored_distances(x, s, a)
+    along = (x @ e)[:, None] - (s @ e)[None, :]
+    z = r / lam
+    # K0(z) = k0e(z) exp(-z): the scaled form keeps far-field values finite.
+    return q / np.log(lam / a) * k0e(z) * np.exp(V * along / (2.0 * D) - z)
+
+
+def _rate_inputs(
+    sensor: ArrayLike, sources: ArrayLike, release: ArrayLike, direction: ArrayLike | None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Checked ``(Q, d)`` points, ``(N, d)`` sources, unit wind direction, release rates."""
     x = np.asarray(sensor, float)
     s = np.asarray(sources, float)
     if x.ndim == 1:
@@ -92,16 +113,28 @@ def vergassola_rate(
         raise ConfigError(
             "sources", f"sensor {x.shape} and sources {s.shape} need equal d in {{2, 3}}"
         )
+    e = unit_direction(direction, dim)
+    q = np.asarray(release, float)
+    if q.ndim and q.shape != (len(s),):
+        q = np.broadcast_to(q, (len(s),))
+    return x, s, e, q
+
+
+def unit_direction(direction: ArrayLike | None, dim: int) -> np.ndarray:
+    """The unit vector the wind blows towards, ``(dim,)``; ``None`` is ``-y`` (eq. 1)."""
     if direction is None:
         e = np.zeros(dim)
         e[1] = -1.0
-    else:
-        e = np.asarray(direction, float)
-        n = math.sqrt(float(e @ e)) if e.shape == (dim,) else 0.0
-        if not n > 0:
-            raise ConfigError("wind_direction", f"needs a non-zero {dim}-vector")
-        e = e / n
-    lam = correlation_length(V, D, tau)
+        return e
+    e = np.asarray(direction, float)
+    n = math.sqrt(float(e @ e)) if e.shape == (dim,) else 0.0
+    if not n > 0:
+        raise ConfigError("wind_direction", f"needs a non-zero {dim}-vector")
+    return e / n
+
+
+def floored_distances(x: np.ndarray, s: np.ndarray, a: float) -> np.ndarray:
+    """``max(|x_q - s_n|, a)`` for ``(Q, d)`` points and ``(N, d)`` sources, ``(Q, N)`` metres."""
     if len(x) * len(s) <= 64:
         rel = x[:, None, :] - s[None, :, :]
         r2 = (rel * rel).sum(axis=2)
@@ -113,21 +146,24 @@ def vergassola_rate(
         r2 += (x * x).sum(axis=1)[:, None]
         r2 += (s * s).sum(axis=1)[None, :]
     np.maximum(r2, a * a, out=r2)
-    r = np.sqrt(r2, out=r2)
+    return np.sqrt(r2, out=r2)
+
+
+def rate_exponent(
+    x: np.ndarray, s: np.ndarray, e: np.ndarray, *, V: float, D: float, lam: float, a: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """The exponent ``V (r . e) / (2 D) - |r| / lambda`` of the 3-D rate (eq. 1) and the floored
+    distance ``|r|``, both ``(Q, N)``, for ``(Q, 3)`` points ``x``, ``(N, 3)`` sources ``s`` and
+    the unit wind direction ``e`` (no input checks: :func:`vergassola_rate` makes them).
+
+    The rate is ``a Q exp(exponent) / |r|``; one exponent keeps the two factors from
+    overflowing at long range.
+    """
+    r = floored_distances(x, s, a)
     along = (x @ e)[:, None] - (s @ e)[None, :]
-    q = np.asarray(release, float)
-    if q.ndim and q.shape != (len(s),):
-        q = np.broadcast_to(q, (len(s),))
-    if dim == 3:
-        # Combined exponent avoids overflow of the two factors at long range.
-        expo = along * (V / (2.0 * D))
-        expo -= r * (1.0 / lam)
-        return (a * q) * np.exp(expo) / r
-    if lam <= a:
-        raise ConfigError("sensor_radius", f"must be below lambda = {lam:.3g} m in 2D")
-    z = r / lam
-    # K0(z) = k0e(z) exp(-z): the scaled form keeps far-field values finite.
-    return q / np.log(lam / a) * k0e(z) * np.exp(V * along / (2.0 * D) - z)
+    expo = along * (V / (2.0 * D))
+    expo -= r * (1.0 / lam)
+    return expo, r
 
 
 class VergassolaModelParams(Params):
@@ -153,6 +189,10 @@ class VergassolaModelParams(Params):
     tail_mass : float
         Count classes are added until the tail beyond them holds less than this probability
         for every candidate and hypothesis (or ``max_classes`` is reached).
+    backend : {"auto", "numpy", "numba"}
+        How the 3-D likelihoods and outcome classes are computed: NumPy arrays, or the compiled
+        loops of :mod:`odorloc.models.kernels` (the ``fast`` extra; the same numbers bit for
+        bit, several times faster). ``auto`` compiles when numba is installed.
     """
 
     Q: Positive = 5.0
@@ -163,6 +203,7 @@ class VergassolaModelParams(Params):
     wind_direction: Vector | None = None
     max_classes: int = Field(16, ge=2, le=256)
     tail_mass: float = Field(1e-6, gt=0.0, lt=1.0)
+    backend: Backend = "auto"
 
 
 @register("model", "vergassola", VergassolaModelParams, "Poisson encounters at the Vergassola rate")
@@ -177,6 +218,16 @@ class VergassolaModel(MeasurementModel):
 
     def __init__(self, params: VergassolaModelParams | None = None) -> None:
         self.params = params or VergassolaModelParams()
+        self._compiled = kernels.compiled(self.params.backend)
+        p = self.params
+        # constants of the compiled path: V / (2 D), 1 / lambda, a^2 (as vergassola_rate has them)
+        self._consts = (
+            p.V / (2.0 * p.D),
+            1.0 / correlation_length(p.V, p.D, p.tau),
+            p.sensor_radius * p.sensor_radius,
+        )
+        # the class counts n_classes tries (one array for every call)
+        self._class_counts = np.arange(1, self.params.max_classes)
 
     @property
     def length(self) -> float:
@@ -217,6 +268,9 @@ class VergassolaModel(MeasurementModel):
         k = np.asarray(z, float).reshape(-1, 1)
         if k.shape[0] != sp.shape[0]:
             raise ConfigError("counts", f"{k.shape[0]} counts for {sp.shape[0]} sensor positions")
+        parts = self._kernel_parts(sp, hypotheses, conditions)
+        if parts is not None:
+            return _log_rows(parts, dt, k[:, 0]).sum(axis=0)
         mu = self.rate(sp, hypotheses, conditions.get("release"), conditions.get("direction"))
         return poisson_log_pmf(k, mu * dt).sum(axis=0)
 
@@ -229,15 +283,20 @@ class VergassolaModel(MeasurementModel):
         k = np.asarray(z, float).reshape(-1, 1)
         if k.shape[0] != sp.shape[0]:
             raise ConfigError("counts", f"{k.shape[0]} counts for {sp.shape[0]} sensor positions")
+        parts = self._kernel_parts(sp, hypotheses, conditions)
+        if parts is not None:
+            return _log_rows(parts, dt, k[:, 0])
         mu = self.rate(sp, hypotheses, conditions.get("release"), conditions.get("direction"))
         return poisson_log_pmf(k, mu * dt)
 
     def n_classes(self, mean: np.ndarray) -> int:
         """Count classes needed so that the tail beyond holds < ``tail_mass`` (capped)."""
+        return self._classes_for(float(np.max(mean)) if np.size(mean) else 0.0)
+
+    def _classes_for(self, m: float) -> int:
         p = self.params
-        m = float(np.max(mean)) if np.size(mean) else 0.0
         # tail of class n - 1 is P(d >= n - 1) = gammainc(n - 1, m), decreasing in n
-        tails = gammainc(np.arange(1, p.max_classes), m)
+        tails = gammainc(self._class_counts, m)
         ok = np.flatnonzero(tails < p.tail_mass)
         return int(ok[0] + 2) if ok.size else p.max_classes
 
@@ -249,16 +308,68 @@ class VergassolaModel(MeasurementModel):
         ``Z`` is chosen by :meth:`n_classes` unless the condition ``n_classes`` fixes it.
         """
         dt = _exposure(conditions)
-        mu = dt * self.rate(
-            sensor_positions, hypotheses, conditions.get("release"), conditions.get("direction")
-        )
-        z = int(conditions.get("n_classes") or self.n_classes(mu))
+        parts = self._kernel_parts(sensor_positions, hypotheses, conditions)
+        if parts is not None:
+            mu, neg, top = kernels.rate_means(*parts, dt)
+            z = int(conditions.get("n_classes") or self._classes_for(top if mu.size else 0.0))
+            if z >= 2 and not top > 600.0:
+                out, rest, any_rest = kernels.censored_classes(mu, np.exp(neg), z)
+                if any_rest:
+                    out[:, -1, :][rest] = np.maximum(gammainc(z - 1, mu[rest]), 0.0)
+                return out
+        else:
+            mu = dt * self.rate(
+                sensor_positions, hypotheses, conditions.get("release"), conditions.get("direction")
+            )
+            z = int(conditions.get("n_classes") or self.n_classes(mu))
         # C order (M, Z, N): planners reduce over the last axis and reshape freely
         return np.ascontiguousarray(np.moveaxis(censored_poisson(mu, z), -1, 1))
 
     def outcome_values(self, **conditions: Any) -> np.ndarray:
         """Count of each class (the last class stands for its lower bound)."""
         return np.arange(int(conditions.get("n_classes") or self.params.max_classes))
+
+    def _kernel_parts(
+        self, sensor_positions: ArrayLike, hypotheses: ArrayLike, conditions: dict[str, Any]
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        """``exp(exponent)``, floored distances ``(Q, N)`` and ``a Q`` ``(N,)`` for the compiled
+        path (``None`` in 2-D or without it): what :func:`vergassola_rate` computes, with the
+        same BLAS and ``exp`` calls, and the element-wise rest in one compiled loop."""
+        if not self._compiled:
+            return None
+        p = self.params
+        release = conditions.get("release")
+        direction = conditions.get("direction")
+        x, s, e, q = _rate_inputs(
+            sensor_positions,
+            hypotheses,
+            p.Q if release is None else release,
+            direction if direction is not None else p.wind_direction,
+        )
+        if x.shape[1] != 3:
+            return None
+        adv, inv_lam, a2 = self._consts
+        xe, se = x @ e, s @ e
+        xc, sc = np.ascontiguousarray(x), np.ascontiguousarray(s)
+        if len(x) * len(s) <= 64:
+            expo, r = kernels.rate_exponent_direct(xc, sc, xe, se, adv, inv_lam, a2)
+        else:
+            expo, r = kernels.rate_exponent_gram(x @ s.T, xc, sc, xe, se, adv, inv_lam, a2)
+        aq = p.sensor_radius * q
+        if aq.shape != (len(s),):
+            aq = np.full(len(s), float(aq))
+        return np.exp(expo), r, np.ascontiguousarray(aq, dtype=float)
+
+
+def _log_rows(
+    parts: tuple[np.ndarray, np.ndarray, np.ndarray], dt: float, counts: np.ndarray
+) -> np.ndarray:
+    """The compiled :func:`poisson_log_pmf` of ``counts`` ``(Q,)`` at the kernel parts."""
+    check_counts(counts)
+    ll, valid = kernels.poisson_log_rows(*parts, dt, counts, gammaln(counts + 1.0))
+    if not valid:
+        raise ConfigError("expected_counts", "must be finite and >= 0")
+    return ll
 
 
 def _exposure(conditions: dict[str, Any]) -> float:

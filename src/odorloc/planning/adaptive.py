@@ -54,6 +54,7 @@ from odorloc.core.params import NonNegative
 from odorloc.core.registry import register
 from odorloc.inference.belief import ParticleBelief
 from odorloc.models.base import BoundModel
+from odorloc.planning import kernels
 from odorloc.planning.selection import select
 from odorloc.planning.steps import LatticeParams, StepPlan, StepPlanner
 
@@ -110,6 +111,33 @@ def direction_rewards(
     ent = np.log(safe) - xlogy(joint, joint).sum(axis=2) / safe
     expected = np.where(live, pz * (dist + h1 * ent), 0.0).sum(axis=1)
     return w_now - expected
+
+
+def _direction_rewards_compiled(
+    weights: np.ndarray,
+    hypotheses: np.ndarray,
+    outcome_probs: np.ndarray,
+    targets: np.ndarray,
+    position: np.ndarray,
+    h1: float,
+    tail_mass: float,
+) -> tuple[np.ndarray, int]:
+    """:func:`merge_tail_classes` then :func:`direction_rewards` with the compiled kernels:
+    the same rewards to the bit, and the number of classes kept."""
+    w = np.asarray(weights, float)
+    x = np.asarray(hypotheses, float)
+    q = np.ascontiguousarray(outcome_probs, dtype=float)
+    keep = kernels.tail_cut(q @ w, tail_mass)
+    joint, pz, xl, safe = kernels.direction_terms(q, w, keep)
+    m, z, n = joint.shape
+    est = w @ x
+    h_now = -float(xlogy(w, w).sum())
+    w_now = float(np.linalg.norm(np.asarray(position, float) - est)) + h1 * h_now
+    t = np.ascontiguousarray(targets, dtype=float)
+    rewards = kernels.direction_finish(
+        joint.reshape(m * z, n) @ x, pz, xl, safe, np.log(safe), t, h1, w_now
+    )
+    return rewards, z
 
 
 def merge_tail_classes(
@@ -296,8 +324,16 @@ class AdaptivePathPlanner(StepPlanner):
         est = w @ x
         var = max(float(np.trace(belief.cov)), 0.0)
         h1 = p.h1_scale * (var if p.h1 == "variance" else math.sqrt(var))
-        q = merge_tail_classes(w, model.outcome_probabilities(targets[ok], x), p.tail_mass)
-        scores[ok] = direction_rewards(w, x, q, targets[ok], pos, h1)
+        q = model.outcome_probabilities(targets[ok], x)
+        if self.compiled:
+            scores[ok], n_classes = _direction_rewards_compiled(
+                w, x, q, targets[ok], pos, h1, p.tail_mass
+            )
+            q_size = q.shape[0] * n_classes * q.shape[2]
+        else:
+            q = merge_tail_classes(w, q, p.tail_mass)
+            scores[ok] = direction_rewards(w, x, q, targets[ok], pos, h1)
+            q_size = q.size
         k = select(scores, mode="max", feasible=ok, ties="first")
         assert k is not None
         l_max = self._l_max(model)
@@ -308,8 +344,13 @@ class AdaptivePathPlanner(StepPlanner):
         # a move is feasible only up to its first blocked length
         fine = np.cumprod(fine).astype(bool)
         h2 = p.h2_scale * float(np.linalg.norm(pos - est))
-        r = step_rewards(pos, step, l_max, est, history, h2)
+        if self.compiled:
+            hist = np.ascontiguousarray(np.asarray(history, float).reshape(-1, pos.size))
+            step_norm = float(np.linalg.norm(step))
+            r = kernels.step_rewards(pos, step, step_norm, l_max, est, hist, h2)
+        else:
+            r = step_rewards(pos, step, l_max, est, history, h2)
         j = select(r, mode="min", feasible=fine, ties="first")
         length = 1 if j is None else int(lengths[j])
-        self.processed = float(q.size * (x.shape[1] + 1) + l_max * (len(history) + 1))
+        self.processed = float(q_size * (x.shape[1] + 1) + l_max * (len(history) + 1))
         return StepPlan(pos + length * step, k, length, self.steps, scores, ok)

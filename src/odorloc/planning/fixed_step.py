@@ -20,7 +20,9 @@ from pydantic import Field
 from odorloc.core.params import Positive
 from odorloc.core.registry import register
 from odorloc.inference.belief import ParticleBelief
+from odorloc.inference.weights import normalise_log_weights
 from odorloc.models.base import BoundModel
+from odorloc.planning import kernels
 from odorloc.planning.adaptive import merge_tail_classes
 from odorloc.planning.rewards import expected_entropy
 from odorloc.planning.selection import select
@@ -86,12 +88,24 @@ class FixedStepInfotaxis(StepPlanner):
         scores = np.full(len(targets), np.inf)
         if ok.any():
             x = belief.positions
-            q = merge_tail_classes(
-                belief.weights, model.outcome_probabilities(targets[ok], x), self.params.tail_mass
-            )
-            q = with_found_outcome(q, targets[ok], x, self.params.found_radius)
-            scores[ok] = expected_entropy(belief.log_weights, q)
-            self.processed = float(q.size * (x.shape[1] + 1))
+            p = self.params
+            q = model.outcome_probabilities(targets[ok], x)
+            if self.compiled:
+                # merge_tail_classes, with_found_outcome and expected_entropy in one kernel
+                q = np.ascontiguousarray(q, dtype=float)
+                keep = kernels.tail_cut(q @ belief.weights, p.tail_mass)
+                w = normalise_log_weights(belief.log_weights)[1]
+                t = np.ascontiguousarray(targets[ok], dtype=float)
+                xc = np.ascontiguousarray(x, dtype=float)
+                r = float(p.found_radius)
+                scores[ok], n_classes = kernels.found_entropy(q, w, keep, t, xc, r * r)
+                size = q.shape[0] * n_classes * q.shape[2]
+            else:
+                q = merge_tail_classes(belief.weights, q, p.tail_mass)
+                q = with_found_outcome(q, targets[ok], x, p.found_radius)
+                scores[ok] = expected_entropy(belief.log_weights, q)
+                size = q.size
+            self.processed = float(size * (x.shape[1] + 1))
         k = select(scores, mode="min", feasible=ok, ties=self.params.ties, rtol=1e-9, rng=rng)
         if k is None:
             return StepPlan(None, None, 0, self.steps, scores, ok)

@@ -33,6 +33,7 @@ from odorloc.core.params import Params, Positive
 from odorloc.core.types import SearchContext
 from odorloc.inference.belief import ParticleBelief
 from odorloc.models.base import BoundModel
+from odorloc.models.kernels import Backend, compiled
 from odorloc.planning.candidates import reachable
 
 __all__ = ["LatticeParams", "StepPlan", "StepPlanner", "lattice_offsets"]
@@ -64,10 +65,15 @@ class LatticeParams(Params):
         Lattice spacing: the length of one step along an axis.
     moves : {"lattice", "unit"}
         Displacement of a step along a diagonal direction (see the module docstring).
+    backend : {"auto", "numpy", "numba"}
+        The rewards as NumPy arrays or as the compiled loops of :mod:`odorloc.planning.kernels`
+        (the ``fast`` extra; the same numbers bit for bit). ``auto`` compiles when numba is
+        installed.
     """
 
     cell: Positive = 2.0
     moves: Literal["lattice", "unit"] = "lattice"
+    backend: Backend = "auto"
 
 
 @dataclass(frozen=True)
@@ -101,7 +107,8 @@ class StepPlanner(ABC):
     """Base class of the step planners.
 
     After :meth:`reset`, :attr:`steps` are the one-cell displacements ``(M, d)``; :attr:`processed`
-    counts the numbers the last :meth:`plan` processed (the computation measure of eq. 7).
+    counts the numbers the last :meth:`plan` processed (the computation measure of eq. 7);
+    :attr:`compiled` says whether the rewards run as compiled kernels (``backend``).
     """
 
     params: LatticeParams
@@ -109,6 +116,7 @@ class StepPlanner(ABC):
 
     def __init__(self, params: LatticeParams | None = None) -> None:
         self.params = params if params is not None else type(self).Params()  # type: ignore[assignment]
+        self.compiled = compiled(self.params.backend)
 
     def reset(self, ctx: SearchContext) -> None:
         """Prepare for an episode in ``ctx``."""

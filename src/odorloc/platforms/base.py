@@ -67,15 +67,24 @@ def _outline_offsets(dim: int, radius: float, resolution: float) -> np.ndarray:
     return out
 
 
-def _box_fraction(start: np.ndarray, end: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> float:
-    """Largest ``s`` in [0, 1] keeping ``start + s (end - start)`` in the box ``[lo, hi]``."""
-    d = end - start
+def _box_fraction(
+    start: list[float], end: list[float], lo: list[float], hi: list[float]
+) -> float | None:
+    """Largest ``s`` in [0, 1] keeping ``start + s (end - start)`` in the box ``[lo, hi]``, or
+    ``None`` when ``start`` is outside the box.
+
+    In Python floats (the same IEEE arithmetic as NumPy's, without its overhead on three
+    numbers): platforms call this every moving step.
+    """
     s = 1.0
-    for a in range(len(d)):
-        if d[a] > 0.0 and end[a] > hi[a]:
-            s = min(s, (hi[a] - start[a]) / d[a])
-        elif d[a] < 0.0 and end[a] < lo[a]:
-            s = min(s, (lo[a] - start[a]) / d[a])
+    for a0, b, lo_, hi_ in zip(start, end, lo, hi, strict=True):
+        if not lo_ <= a0 <= hi_:
+            return None
+        d = b - a0
+        if d > 0.0 and b > hi_:
+            s = min(s, (hi_ - a0) / d)
+        elif d < 0.0 and b < lo_:
+            s = min(s, (lo_ - a0) / d)
     return max(s, 0.0)
 
 
@@ -98,10 +107,11 @@ def free_fraction(arena: Arena, start: np.ndarray, end: np.ndarray, radius: floa
     """
     if arena.occ is None:
         # An empty box is convex: the free fraction is where the segment meets the (shrunk) walls.
-        lo = arena.lo + radius
-        hi = arena.hi - radius
-        if np.all((start >= lo) & (start <= hi)):
-            return _box_fraction(start, end, lo, hi)
+        lo = (arena.lo + radius).tolist()
+        hi = (arena.hi - radius).tolist()
+        frac = _box_fraction(start.tolist(), end.tolist(), lo, hi)
+        if frac is not None:
+            return frac
     frac = float(arena.first_hit(start, end)[0])
     if radius > 0.0 and frac > 0.0:
         off = _outline_offsets(arena.dim, float(radius), float(arena.resolution))
@@ -256,7 +266,7 @@ class Platform(ABC):
     def _translate(self, end: np.ndarray, arena: Arena) -> bool:
         """Move straight towards ``end`` as far as free space allows; ``True`` if blocked."""
         pos = self._require_reset()
-        if np.array_equal(end, pos):
+        if end.tolist() == pos.tolist():
             return False
         frac = free_fraction(arena, pos, end, self.radius)
         blocked = frac < 1.0
@@ -268,7 +278,9 @@ class Platform(ABC):
                 # Keep rounding from leaving the box, which would pin the body at the wall.
                 r = self.radius
                 new = np.clip(new, np.minimum(arena.lo + r, pos), np.maximum(arena.hi - r, pos))
-        self._path += float(np.linalg.norm(new - pos))
+        step = new - pos
+        # numpy.linalg.norm of a vector is sqrt(v . v); called directly (every moving step)
+        self._path += math.sqrt(float(step.dot(step)))
         self._pos = new
         if blocked:
             self._collided += 1

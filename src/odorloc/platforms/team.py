@@ -92,7 +92,8 @@ class CommGraph:
     def reset(self) -> None:
         """Forget the graph and zero the accounting."""
         self._n = None
-        self.adjacency = np.zeros((0, 0), dtype=bool)
+        self._adjacency: np.ndarray | None = np.zeros((0, 0), dtype=bool)
+        self._graph_positions: np.ndarray | None = None
         self.bytes_total = 0
         self.messages_delivered = 0
         self.bytes_sent = np.zeros(0, dtype=np.int64)
@@ -109,11 +110,19 @@ class CommGraph:
         elif n != self._n:
             raise ConfigError("positions", f"team size changed from {self._n} to {n}; reset()")
 
+    @property
+    def adjacency(self) -> np.ndarray:
+        """``(N, N)`` bool neighbour matrix of the last :meth:`update` or :meth:`deliver`."""
+        if self._adjacency is None:
+            # a delivery without messages only noted the positions
+            self._adjacency = neighbour_matrix(self._graph_positions, self.radius)
+        return self._adjacency
+
     def update(self, positions: ArrayLike) -> np.ndarray:
         """Recompute the neighbour graph from ``(N, d)`` positions; return the ``(N, N)`` matrix."""
-        self.adjacency = neighbour_matrix(positions, self.radius)
-        self._size(len(self.adjacency))
-        return self.adjacency
+        self._adjacency = neighbour_matrix(positions, self.radius)
+        self._size(len(self._adjacency))
+        return self._adjacency
 
     def neighbours(self, agent: int) -> np.ndarray:
         """Indices of ``agent``'s neighbours in the current graph, ascending."""
@@ -159,6 +168,17 @@ class CommGraph:
         nbytes : int
             Bytes delivered by this call (payload size times number of recipients, summed).
         """
+        if not messages:
+            # nothing to deliver (most control steps): the graph is computed only if asked for
+            p = np.array(positions, dtype=float)
+            if p.ndim != 2:
+                raise ConfigError("positions", f"expected shape (N, d), got {p.shape}")
+            n = len(p)
+            self._size(n)
+            self._adjacency, self._graph_positions = None, p
+            self.last_sent = np.zeros(n, dtype=np.int64)
+            self._last_key = (p, messages)
+            return [() for _ in range(n)], 0
         adj = self.update(positions)
         n = len(adj)
         payloads = self._payloads(messages, n)

@@ -41,6 +41,11 @@ from odorloc.platforms.base import Platform
 _EPS = 1e-12
 
 
+def _norm(v: np.ndarray) -> float:
+    """``numpy.linalg.norm`` of a vector (``sqrt(v . v)``, the same float) without its overhead."""
+    return math.sqrt(float(v.dot(v)))
+
+
 def _positive_or_inf(v: float) -> float:
     if math.isnan(v) or v <= 0:
         raise ValueError("must be a number > 0 (inf for no limit)")
@@ -199,7 +204,7 @@ class UAV(Platform):
         """
         start = self._require_reset().copy()
         self._translate(end, arena)
-        moved = float(np.linalg.norm(self._require_reset() - start))
+        moved = _norm(self._require_reset() - start)
         self._charge("fly", self.params.fly_power, moved / speed)
         return moved
 
@@ -275,6 +280,11 @@ class UAV(Platform):
         return dict(self._e)
 
     @property
+    def energy(self) -> float:
+        """Energy used since :meth:`reset`, J (the sum of :meth:`energy_breakdown`)."""
+        return float(sum(self._e.values()))
+
+    @property
     def movement_energy(self) -> float:
         """``E_M = E_f + E_h + E_b``, J (eqs. 4-6)."""
         return self._e["fly"] + self._e["hover"] + self._e["turn"]
@@ -337,7 +347,7 @@ class UAV(Platform):
             self._turn_left = 0.0
             return
         if command.kind == "velocity":
-            s = float(np.linalg.norm(command.value))
+            s = _norm(command.value)
             if s > _EPS:
                 self._speed = min(s, self.speed_limit)
                 self._vdir = command.value / s
@@ -347,7 +357,7 @@ class UAV(Platform):
             return
         assert self._target is not None
         d = self._target - self._require_reset()
-        dist = float(np.linalg.norm(d))
+        dist = _norm(d)
         if dist > _EPS:
             self._set_direction(d / dist)
             self._flying = not self._exhausted
@@ -380,7 +390,7 @@ class UAV(Platform):
             pos = self._require_reset()
             assert self._target is not None
             d = self._target - pos
-            dist = float(np.linalg.norm(d))
+            dist = _norm(d)
             need = dist / p.speed
             want = min(budget, need)
             t = self._affordable(p.fly_power, want)

@@ -93,7 +93,7 @@ class Anemometer:
             vp = np.zeros(d)
         else:
             vp = np.asarray(platform_velocity, float).reshape(-1)
-            if vp.shape != (d,) or not np.all(np.isfinite(vp)):
+            if vp.shape != (d,) or not all(map(math.isfinite, vp.tolist())):
                 raise ConfigError(
                     "platform_velocity", f"expected {d} finite components, got {vp.shape}"
                 )

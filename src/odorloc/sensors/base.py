@@ -8,6 +8,7 @@ period and states its detection threshold with the unit its readings are in
 
 from __future__ import annotations
 
+import math
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
@@ -47,7 +48,8 @@ class GasReading:
 def position_point(position: ArrayLike, dim: int) -> np.ndarray:
     """A sensor position as a ``(1, dim)`` array; :class:`ConfigError` if malformed."""
     p = np.asarray(position, float).reshape(-1)
-    if p.shape != (dim,) or not np.all(np.isfinite(p)):
+    # in Python floats: every agent's sensors call this each step, on d numbers
+    if p.shape != (dim,) or not all(map(math.isfinite, p.tolist())):
         raise ConfigError("position", f"expected {dim} finite components, got {np.shape(position)}")
     return p[None, :]
 

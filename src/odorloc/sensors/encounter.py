@@ -6,6 +6,7 @@ The Vergassola rate model (muc-osl paper, eqs. 1-3) gives an expected encounter 
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -58,7 +59,7 @@ class EncounterSensor(GasSensor):
         """Expected hits in ``dt`` seconds at ``position``."""
         dt = check_dt(dt)
         rate = float(plume.encounter_rate(position_point(position, plume.dim))[0])
-        if not (np.isfinite(rate) and rate >= 0):
+        if not (math.isfinite(rate) and rate >= 0):
             raise ConfigError("encounter_rate", f"plume returned an invalid rate {rate}")
         return self.params.gain * rate * dt
 

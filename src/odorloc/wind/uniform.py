@@ -38,7 +38,9 @@ class UniformWind(WindModel):
         self._u = np.asarray(v, float)
 
     def _velocity(self, points: np.ndarray, t: float) -> np.ndarray:
-        return np.broadcast_to(self._u, points.shape).copy()
+        out = np.empty(points.shape)
+        out[...] = self._u
+        return out
 
     def mean_velocity(self) -> np.ndarray:
         """The velocity itself (no grid needed: it is the same everywhere), ``(d,)`` m/s."""

@@ -33,8 +33,6 @@ import math
 from collections.abc import Sequence
 from typing import Literal
 
-import numpy as np
-
 from odorloc.core.errors import ConfigError
 
 __all__ = ["CueDistanceCount", "cue_frequency", "distance_gap", "spacing_minimum"]
@@ -111,7 +109,7 @@ class CueDistanceCount:
     def start(self, distance: float) -> int:
         """The count at the start, with the UAV ``distance`` metres from the prior estimate."""
         self._g0 = max(distance_gap(distance), 1e-6)
-        return int(np.clip(self.n0, self.n_min, self.n_max))
+        return min(max(self.n0, self.n_min), self.n_max)
 
     def factor(self, cue_iterations: Sequence[int], k: int, distance: float) -> float:
         """``g_k = f_dist (1 - f_cue)`` at iteration ``k``."""
@@ -123,4 +121,4 @@ class CueDistanceCount:
             raise RuntimeError("call start() first")
         g = self.factor(cue_iterations, k, distance)
         target = n * g if self.reading == "literal" else self.n0 * g / self._g0
-        return int(np.clip(math.floor(target + 0.5), self.n_min, self.n_max))
+        return min(max(math.floor(target + 0.5), self.n_min), self.n_max)

@@ -26,12 +26,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from odorloc.core.errors import ConfigError
-from odorloc.inference.weights import kl_gaussian
+from odorloc.inference.weights import kl_gaussian, kl_gaussians
 
 __all__ = [
     "NeighbourFit",
     "collaborative_log_likelihood",
     "confidence_factor",
+    "confidence_factors",
     "fit_payload",
     "read_fit_payload",
 ]
@@ -57,6 +58,29 @@ def confidence_factor(
     kl = kl_gaussian(mean_i, cov_i, mean_j, cov_j)
     # KL >= 0 in exact arithmetic; round-off may leave -1e-12
     return math.exp(-max(kl, 0.0))
+
+
+def confidence_factors(
+    mean_i: np.ndarray, cov_i: np.ndarray, means: np.ndarray, covs: np.ndarray
+) -> np.ndarray:
+    """:func:`confidence_factor` of UAV ``i``'s fit against each of ``H`` neighbours' fits.
+
+    Parameters
+    ----------
+    mean_i : (d,) ndarray, metres
+    cov_i : (d, d) ndarray, m^2
+    means : (H, d) ndarray, metres
+    covs : (H, d, d) ndarray, m^2
+
+    Returns
+    -------
+    (H,) ndarray
+        ``beta_ij`` (eq. 10), the same numbers as one :func:`confidence_factor` per neighbour.
+    """
+    if len(means) == 0:
+        return np.zeros(0)
+    kl = kl_gaussians(mean_i, cov_i, means, covs)
+    return np.array([math.exp(-max(v, 0.0)) for v in kl])
 
 
 def collaborative_log_likelihood(

@@ -157,7 +157,9 @@ class ParticleFilter:
         ll = np.asarray(log_likelihood, float)
         if ll.shape != (self.n,):
             raise ConfigError("log_likelihood", f"expected shape ({self.n},), got {ll.shape}")
-        if np.any(np.isnan(ll)) or np.any(ll == np.inf):
+        top = ll.max() if ll.size else 0.0
+        # the maximum is NaN if any entry is, +inf if any is and none is NaN
+        if top != top or top == np.inf:
             raise ConfigError("log_likelihood", "must not contain NaN or +inf")
         self._log_weights, self._weights = normalise_log_weights(self._log_weights + ll)
         if record:

@@ -43,7 +43,7 @@ from odorloc.inference.particles.adaptive_count import CueDistanceCount, spacing
 from odorloc.inference.particles.collaborative import (
     NeighbourFit,
     collaborative_log_likelihood,
-    confidence_factor,
+    confidence_factors,
     fit_payload,
     read_fit_payload,
 )
@@ -343,7 +343,13 @@ class ColPFEstimator(TeamEstimator):
         fits = [read_fit_payload(s, inbox[s]) for s in sorted(inbox)]
         mean_i, cov_i = self.fit
         if p.weighting == "confidence":
-            betas = np.array([confidence_factor(mean_i, cov_i, f.mean, f.cov) for f in fits])
+            d = len(mean_i)
+            betas = confidence_factors(
+                mean_i,
+                cov_i,
+                np.array([f.mean for f in fits]).reshape(len(fits), d),
+                np.array([f.cov for f in fits]).reshape(len(fits), d, d),
+            )
         else:
             betas = np.ones(len(fits))
         self.betas = {f.sender: float(b) for f, b in zip(fits, betas, strict=True)}

@@ -1,0 +1,378 @@
+"""Compiled kernels of the lattice step planners (the ``fast`` extra).
+
+Each decision of a UAV's planner scores 26 directions against every particle and every count
+class: the expected value ``E[W']`` of Adap-PP (eqs. 21-25 of the multi-UAV paper) or the
+expected posterior entropy of fixed-step infotaxis, both after cutting the classes where the
+predicted count has ended (``d_max``, eq. 24). These loops run that in one pass over the
+``(M, Z, N)`` outcome array, compiled with numba when it is installed
+(:data:`~odorloc.models.kernels.HAVE_NUMBA`).
+
+Like :mod:`odorloc.models.kernels`, they reproduce the NumPy functions they replace
+(:func:`~odorloc.planning.adaptive.merge_tail_classes`,
+:func:`~odorloc.planning.adaptive.direction_rewards`,
+:func:`~odorloc.planning.fixed_step.with_found_outcome` with
+:func:`~odorloc.planning.rewards.expected_entropy`, and
+:func:`~odorloc.planning.adaptive.step_rewards`) bit for bit: sums over a contiguous axis use
+NumPy's pairwise summation (:func:`pairwise_sum`), other sums run in index order, and the
+matrix products (BLAS) and NumPy's own ``log`` are left to NumPy between two kernels.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from odorloc.models.kernels import jit
+
+__all__ = [
+    "direction_finish",
+    "direction_terms",
+    "found_entropy",
+    "pairwise_sum",
+    "step_rewards",
+    "tail_cut",
+]
+
+
+@jit
+def _block_sum(a: np.ndarray, lo: int, n: int) -> float:
+    """NumPy's pairwise sum of ``a[lo:lo + n]`` for ``n <= 128``."""
+    if n < 8:
+        res = 0.0
+        for i in range(n):
+            res += a[lo + i]
+        return res
+    r0 = a[lo]
+    r1 = a[lo + 1]
+    r2 = a[lo + 2]
+    r3 = a[lo + 3]
+    r4 = a[lo + 4]
+    r5 = a[lo + 5]
+    r6 = a[lo + 6]
+    r7 = a[lo + 7]
+    i = 8
+    end = n - n % 8
+    while i < end:
+        r0 += a[lo + i]
+        r1 += a[lo + i + 1]
+        r2 += a[lo + i + 2]
+        r3 += a[lo + i + 3]
+        r4 += a[lo + i + 4]
+        r5 += a[lo + i + 5]
+        r6 += a[lo + i + 6]
+        r7 += a[lo + i + 7]
+        i += 8
+    res = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
+    while i < n:
+        res += a[lo + i]
+        i += 1
+    return res
+
+
+@jit
+def _half(n: int) -> int:
+    h = n // 2
+    return h - h % 8
+
+
+@jit
+def _stack() -> tuple[np.ndarray, np.ndarray]:
+    """Workspace of :func:`_pairwise`: segment bounds and states, and left-half sums."""
+    return np.zeros((64, 3), np.int64), np.empty(64)
+
+
+@jit
+def _pairwise(a: np.ndarray, lo: int, n: int, seg: np.ndarray, left: np.ndarray) -> float:
+    """:func:`pairwise_sum` with a workspace from :func:`_stack` (allocated once per kernel)."""
+    if n <= 128:
+        return _block_sum(a, lo, n)
+    # seg[depth] = (start, length, stage); stage 1: left half running, 2: right half running
+    depth = 0
+    seg[0, 0] = lo
+    seg[0, 1] = n
+    while True:
+        m = seg[depth, 1]
+        if m > 128:
+            seg[depth, 2] = 1
+            depth += 1
+            seg[depth, 0] = seg[depth - 1, 0]
+            seg[depth, 1] = _half(m)
+            continue
+        val = _block_sum(a, seg[depth, 0], m)
+        depth -= 1
+        while depth >= 0 and seg[depth, 2] == 2:
+            val = left[depth] + val
+            depth -= 1
+        if depth < 0:
+            return val
+        # the left half of segment `depth` is done: run its right half
+        left[depth] = val
+        seg[depth, 2] = 2
+        h = _half(seg[depth, 1])
+        depth += 1
+        seg[depth, 0] = seg[depth - 1, 0] + h
+        seg[depth, 1] = seg[depth - 1, 1] - h
+
+
+@jit
+def pairwise_sum(a: np.ndarray, lo: int, n: int) -> float:
+    """``a[lo:lo + n].sum()`` as NumPy sums a contiguous float64 array.
+
+    NumPy's pairwise summation: below 8 numbers in order, up to 128 in eight interleaved
+    partial sums, beyond that the two halves (split at a multiple of 8) summed apart and then
+    added. The recursion runs on a small explicit stack (cached numba code must not recurse).
+    """
+    seg, left = _stack()
+    return _pairwise(a, lo, n, seg, left)
+
+
+@jit
+def _xlogx(v: float) -> float:
+    """``scipy.special.xlogy(v, v)``: 0 at 0, else ``v log v`` (the C library's ``log``)."""
+    if v == 0.0:
+        return 0.0
+    return v * math.log(v)
+
+
+@jit
+def tail_cut(pz: np.ndarray, tail_mass: float) -> int:
+    """Where :func:`~odorloc.planning.adaptive.merge_tail_classes` cuts the classes.
+
+    Parameters
+    ----------
+    pz : (M, Z) ndarray
+        Predicted count distribution at each candidate (``q @ w``, computed by NumPy).
+    tail_mass : float
+
+    Returns
+    -------
+    int
+        ``keep``: classes ``0 .. keep-1`` stay, ``keep .. Z-1`` are merged into one; ``Z`` when
+        nothing is merged.
+    """
+    m, z = pz.shape
+    if z <= 2:
+        return z
+    worst = np.full(z, -np.inf)
+    for i in range(m):
+        acc = 0.0
+        # P(d >= c) summed from the last class down, as numpy.cumsum of the reversed row
+        for c in range(z - 1, 0, -1):
+            acc = pz[i, c] if c == z - 1 else acc + pz[i, c]
+            if acc > worst[c]:
+                worst[c] = acc
+    for c in range(1, z):
+        if worst[c] < tail_mass:
+            keep = c
+            if keep + 1 >= z:
+                return z
+            return keep
+    return z
+
+
+@jit
+def _merged_row(q: np.ndarray, i: int, c: int, keep: int, out: np.ndarray) -> None:
+    """Row ``(i, c)`` of the merged outcome array into ``out`` ``(N,)``: class ``c``, or from
+    ``c = keep`` on the classes summed in order (``q[:, keep:].sum(axis=1)``)."""
+    n = q.shape[2]
+    if c < keep:
+        for j in range(n):
+            out[j] = q[i, c, j]
+        return
+    for j in range(n):
+        out[j] = q[i, keep, j]
+    for cc in range(keep + 1, q.shape[1]):
+        for j in range(n):
+            out[j] += q[i, cc, j]
+
+
+@jit
+def direction_terms(
+    q: np.ndarray, w: np.ndarray, keep: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The joint ``p(d, o_n)`` and its sums per class (eq. 24), classes merged at ``keep``.
+
+    Parameters
+    ----------
+    q : (M, Z, N) ndarray
+        ``p(d | o_n)`` at each candidate.
+    w : (N,) ndarray
+        Particle weights.
+    keep : int
+        From :func:`tail_cut`.
+
+    Returns
+    -------
+    joint : (M, Z', N) ndarray
+        ``w_n p(d | o_n)``, ``Z' = min(keep + 1, Z)``.
+    pz : (M, Z') ndarray
+        ``p(d) = sum_n w_n p(d | o_n)``.
+    xl : (M, Z') ndarray
+        ``sum_n joint log joint``.
+    safe : (M, Z') ndarray
+        ``p(d)`` where above ``1e-300``, else 1.
+    """
+    m, z, n = q.shape
+    zz = keep + 1 if keep < z else z
+    joint = np.empty((m, zz, n))
+    pz = np.empty((m, zz))
+    xl = np.empty((m, zz))
+    safe = np.empty((m, zz))
+    buf = np.empty(n)
+    seg, left = _stack()
+    for i in range(m):
+        for c in range(zz):
+            row = joint[i, c]
+            _merged_row(q, i, c, keep, row)
+            for j in range(n):
+                row[j] *= w[j]
+            s = _pairwise(row, 0, n, seg, left)
+            for j in range(n):
+                buf[j] = _xlogx(row[j])
+            pz[i, c] = s
+            xl[i, c] = _pairwise(buf, 0, n, seg, left)
+            safe[i, c] = s if s > 1e-300 else 1.0
+    return joint, pz, xl, safe
+
+
+@jit
+def direction_finish(
+    mean_sum: np.ndarray,
+    pz: np.ndarray,
+    xl: np.ndarray,
+    safe: np.ndarray,
+    log_safe: np.ndarray,
+    targets: np.ndarray,
+    h1: float,
+    w_now: float,
+) -> np.ndarray:
+    """``W_k - E[W_{k+1}]`` of each candidate (eqs. 21-25), ``(M,)`` metres.
+
+    Parameters
+    ----------
+    mean_sum : (M * Z', d) ndarray
+        ``joint @ x`` (computed by NumPy): the posterior means times ``p(d)``.
+    pz, xl, safe : (M, Z') ndarray
+        From :func:`direction_terms`.
+    log_safe : (M, Z') ndarray
+        ``log(safe)`` (computed by NumPy).
+    targets : (M, d) ndarray, metres
+    h1 : float
+    w_now : float
+        ``W_k`` at the UAV's position.
+    """
+    m, zz = pz.shape
+    d = targets.shape[1]
+    out = np.empty(m)
+    vals = np.empty(zz)
+    seg, left = _stack()
+    for i in range(m):
+        for c in range(zz):
+            s = safe[i, c]
+            acc = 0.0
+            for k in range(d):
+                diff = targets[i, k] - mean_sum[i * zz + c, k] / s
+                acc += diff * diff
+            dist = math.sqrt(acc)
+            ent = log_safe[i, c] - xl[i, c] / s
+            p = pz[i, c]
+            vals[c] = p * (dist + h1 * ent) if p > 1e-300 else 0.0
+        out[i] = w_now - _pairwise(vals, 0, zz, seg, left)
+    return out
+
+
+@jit
+def found_entropy(
+    q: np.ndarray,
+    w: np.ndarray,
+    keep: int,
+    targets: np.ndarray,
+    x: np.ndarray,
+    radius2: float,
+) -> tuple[np.ndarray, int]:
+    """Expected posterior entropy with a *found* outcome at each candidate, ``(M,)`` nats.
+
+    The classes merged at ``keep`` (:func:`tail_cut`), then a last class *found* for the
+    particles within ``sqrt(radius2)`` of the target (the count classes conditioned on *not
+    found*), then ``sum_z P(z) log P(z) - sum_{z,n} p(z, o_n) log p(z, o_n)``; also returns the
+    number of classes ``Z' + 1``.
+    """
+    m, z, n = q.shape
+    d = x.shape[1]
+    zz = keep + 1 if keep < z else z
+    buf = np.empty((zz + 1) * n)
+    row = np.empty(n)
+    found = np.empty(n)
+    pl = np.empty(zz + 1)
+    out = np.empty(m)
+    seg, left = _stack()
+    for i in range(m):
+        for j in range(n):
+            acc = 0.0
+            for k in range(d):
+                diff = targets[i, k] - x[j, k]
+                acc += diff * diff
+            found[j] = 1.0 if acc <= radius2 else 0.0
+        for c in range(zz):
+            _merged_row(q, i, c, keep, row)
+            for j in range(n):
+                v = (row[j] * (1.0 - found[j])) * w[j]
+                buf[c * n + j] = v
+                row[j] = v
+            pl[c] = _xlogx(_pairwise(row, 0, n, seg, left))
+        for j in range(n):
+            v = found[j] * w[j]
+            buf[zz * n + j] = v
+            row[j] = v
+        pl[zz] = _xlogx(_pairwise(row, 0, n, seg, left))
+        for t in range(buf.size):
+            buf[t] = _xlogx(buf[t])
+        out[i] = _pairwise(pl, 0, zz + 1, seg, left) - _pairwise(buf, 0, buf.size, seg, left)
+    return out, zz + 1
+
+
+@jit
+def step_rewards(
+    position: np.ndarray,
+    step: np.ndarray,
+    step_norm: float,
+    l_max: int,
+    estimate: np.ndarray,
+    history: np.ndarray,
+    h2: float,
+) -> np.ndarray:
+    """``R(l) = D(l) + h2 Z(l)`` for ``l = 1..l_max`` (eq. 27), ``(l_max,)``; as
+    :func:`~odorloc.planning.adaptive.step_rewards` with ``step_norm = |step|`` (NumPy)."""
+    d = position.shape[0]
+    k = history.shape[0]
+    out = np.empty(l_max)
+    keep = np.empty(k, np.bool_)
+    for p in range(k):
+        acc = 0.0
+        for a in range(d):
+            diff = history[p, a] - position[a]
+            acc += diff * diff
+        keep[p] = math.sqrt(acc) > 1e-9
+    prev = 0
+    for li in range(l_max):
+        ell = float(li + 1)
+        acc = 0.0
+        for a in range(d):
+            diff = (position[a] + ell * step[a]) - estimate[a]
+            acc += diff * diff
+        dist = math.sqrt(acc)
+        half = 0.5 * ell
+        radius = half * step_norm + 1e-9
+        inside = 0
+        for p in range(k):
+            if keep[p]:
+                acc = 0.0
+                for a in range(d):
+                    diff = history[p, a] - (position[a] + half * step[a])
+                    acc += diff * diff
+                if math.sqrt(acc) <= radius:
+                    inside += 1
+        out[li] = dist + h2 * (inside - prev)
+        prev = inside
+    return out
