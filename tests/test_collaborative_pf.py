@@ -20,6 +20,7 @@ from odorloc.inference.particles.adaptive_count import (
 from odorloc.inference.particles.collaborative import (
     collaborative_log_likelihood,
     confidence_factor,
+    confidence_factors,
     fit_payload,
     read_fit_payload,
 )
@@ -37,7 +38,7 @@ from odorloc.inference.particles.team_estimators import (
     StandardPFEstimator,
     StandardPFParams,
 )
-from odorloc.inference.weights import kl_gaussian
+from odorloc.inference.weights import kl_gaussian, kl_gaussians
 from odorloc.models.base import MeasurementModel
 from odorloc.models.vergassola import VergassolaModel
 
@@ -96,6 +97,22 @@ class TableModel(MeasurementModel):
 
     def outcome_probabilities(self, sensor_positions, hypotheses, **conditions):
         raise NotImplementedError
+
+
+def test_batched_kl_and_confidence_equal_the_pairwise_ones() -> None:
+    rng = np.random.default_rng(8)
+    for h in (1, 2, 3, 5):
+        a = rng.standard_normal((h + 1, 3, 3)) * rng.uniform(0.1, 20.0, (h + 1, 1, 1))
+        covs = a @ np.swapaxes(a, 1, 2) + 0.01 * np.eye(3)
+        means = rng.uniform(0, 100, (h + 1, 3))
+        kl = kl_gaussians(means[0], covs[0], means[1:], covs[1:])
+        assert kl == [kl_gaussian(means[0], covs[0], means[j], covs[j]) for j in range(1, h + 1)]
+        betas = confidence_factors(means[0], covs[0], means[1:], covs[1:])
+        ref = [confidence_factor(means[0], covs[0], means[j], covs[j]) for j in range(1, h + 1)]
+        assert betas.tolist() == ref
+    assert confidence_factors(means[0], covs[0], np.zeros((0, 3)), np.zeros((0, 3, 3))).size == 0
+    with pytest.raises(ConfigError, match="positive definite"):
+        kl_gaussians(means[0], covs[0], means[1:2], -covs[1:2])
 
 
 def test_collaborative_weight_update_hand_worked_with_two_neighbours() -> None:

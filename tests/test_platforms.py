@@ -523,6 +523,23 @@ def test_chain_graph_and_byte_accounting():
     assert g.bytes_total == 928
 
 
+def test_delivery_without_messages_keeps_the_graph_and_the_accounting():
+    pos = np.column_stack([np.arange(5) * 1.0, np.zeros(5)])
+    g = CommGraph(1.0)
+    g.deliver(pos, {0: _gauss_payload()})
+    inbox, nbytes = g.deliver(pos * 2.0, {})
+    assert nbytes == 0 and inbox == [()] * 5 and g.bytes_total == 96
+    # the graph of the last delivery, computed when asked for
+    np.testing.assert_array_equal(g.adjacency, neighbour_matrix(pos * 2.0, 1.0))
+    np.testing.assert_array_equal(g.degree(), [0, 0, 0, 0, 0])
+    assert g.bytes_sent_by(0) == 0
+    np.testing.assert_array_equal(g.bytes_sent, [96, 0, 0, 0, 0])
+    with pytest.raises(ConfigError, match="positions"):
+        g.deliver(np.zeros(3), {})
+    with pytest.raises(ConfigError, match="team size"):
+        g.deliver(np.zeros((4, 2)), {})
+
+
 def test_comm_radius_zero_and_inf():
     pos = np.zeros((3, 2))  # co-located
     g0 = CommGraph(0.0)

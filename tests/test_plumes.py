@@ -13,7 +13,7 @@ from odorloc.core import registry
 from odorloc.core.errors import ConfigError
 from odorloc.geometry.arena import Arena
 from odorloc.models.gaussian import GaussianParams
-from odorloc.models.vergassola import VergassolaModel, VergassolaModelParams
+from odorloc.models.vergassola import VergassolaModel, VergassolaModelParams, vergassola_rate
 from odorloc.plume import (
     EulerianParams,
     EulerianPlume,
@@ -487,6 +487,38 @@ def test_vergassola_3d_matches_eq1_by_hand() -> None:
         assert plume.concentration(pt)[0] == pytest.approx(by_hand / (4 * math.pi), rel=1e-12)
     # Downwind (-y) of the source sees more than the mirror point upwind.
     assert plume.encounter_rate((10, 25, 25))[0] > plume.encounter_rate((10, 35, 25))[0]
+
+
+def test_vergassola_one_point_rate_is_the_array_rate_to_the_bit() -> None:
+    """A sensor asks for one point per step; that path (Python floats) must give exactly what
+    vergassola_rate gives for the point, for any wind direction and several sources."""
+    arena = Arena.box((0, 0, 0), (100, 60, 30), resolution=2.0)
+    rng = np.random.default_rng(4)
+    sources = [
+        Source(position=(10.0, 30.0, 25.0), rate=5.0),
+        Source(position=(50.3, 20.1, 5.5), rate=2.0),
+        Source(position=(80.0, 50.0, 1.0), rate=9.0),
+    ]
+    for velocity in [(0.0, -1.0, 0.0), (0.3, -0.8, 0.1), (1.0, 0.2, 0.0)]:
+        for srcs in (sources[:1], sources):
+            wind = UniformWind(UniformWindParams(velocity=velocity), arena)
+            plume = VergassolaPlume(VergassolaParams(), arena, wind, srcs)
+            pts = rng.uniform((0, 0, 0), (100, 60, 30), (300, 3))
+            pts[:30] = srcs[0].pos + rng.normal(0.0, 0.5, (30, 3))  # within the floor a
+            src = np.array([s.pos for s in srcs])
+            q = np.array([s.rate for s in srcs])
+            for p in pts:
+                ref = vergassola_rate(
+                    p, src, q, V=plume.V, D=1.0, tau=100.0, a=1.0, direction=plume.direction
+                ).sum(axis=1)
+                assert plume.encounter_rate(p)[0] == ref[0]
+            # several points at once: the same rates to round-off (another summation order)
+            np.testing.assert_allclose(
+                plume.encounter_rate(pts),
+                [plume.encounter_rate(p)[0] for p in pts],
+                rtol=1e-12,
+                atol=0.0,
+            )
 
 
 def test_vergassola_2d_matches_k0_form_and_likelihood() -> None:

@@ -130,6 +130,10 @@ class StepPlanner(ABC):
     def feasible(self, position: np.ndarray, targets: np.ndarray) -> np.ndarray:
         """``(M,)`` bool: targets inside the free arena reachable in a straight line."""
         arena = self.ctx.arena
+        if arena.occ is None:
+            # a box is convex: free and reachable is both ends inside (what the general test
+            # finds, with one bounds test instead of three)
+            return arena.contains(targets) & bool(arena.contains(position)[0])
         return arena.is_free(targets) & reachable(arena, position, targets)
 
     @abstractmethod

@@ -145,7 +145,9 @@ class UAVPlannerMember(Searcher):
         self.planner.reset(ctx)
         self.k = 0
         self._inbox: dict[int, Mapping[str, np.ndarray]] = {}
-        self._points: list[np.ndarray] = []
+        # measurement points, (K, d) in a buffer that doubles when full (the planner reads all)
+        self._points = np.empty((64, ctx.dim))
+        self._n_points = 0
         self._cues: list[np.ndarray] = []
         self._wind_sum = np.zeros(ctx.dim)
         self._wind_n = 0
@@ -180,7 +182,10 @@ class UAVPlannerMember(Searcher):
         est = self.estimator
         est.update(m, self._inbox, rng)
         self._inbox = {}
-        self._points.append(pos)
+        if self._n_points == len(self._points):
+            self._points = np.concatenate([self._points, np.empty_like(self._points)])
+        self._points[self._n_points] = pos
+        self._n_points += 1
         if count > 0:
             self._cues.append(pos)
         self._counts.append(est.pf.n)
@@ -204,7 +209,7 @@ class UAVPlannerMember(Searcher):
             if direction is not None:
                 cond["direction"] = direction
             plan = self.planner.plan(
-                est.belief(), pos, self.model.bind(**cond), np.array(self._points), rng
+                est.belief(), pos, self.model.bind(**cond), self._points[: self._n_points], rng
             )
             if plan.target is None:
                 command = Command.move(np.zeros(self.ctx.dim))

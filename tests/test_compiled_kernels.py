@@ -1,0 +1,232 @@
+"""The compiled kernels (``fast`` extra) give the NumPy numbers bit for bit.
+
+The Vergassola likelihood and outcome classes (:mod:`odorloc.models.kernels`) and the lattice
+planners' rewards (:mod:`odorloc.planning.kernels`) replace NumPy code; the claim is exact
+equality, not closeness, so that installing numba changes no episode. Every comparison here is
+``array_equal``; the episodes at the end compare whole metric rows.
+"""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pytest
+
+pytest.importorskip("numba")
+
+from odorloc.core.errors import ConfigError
+from odorloc.core.seeds import episode_seeds
+from odorloc.core.types import SearchContext
+from odorloc.engine.episode import run_episode
+from odorloc.geometry.arena import Arena
+from odorloc.inference.belief import ParticleBelief
+from odorloc.models import kernels as model_kernels
+from odorloc.models.poisson import censored_poisson
+from odorloc.models.vergassola import VergassolaModel, VergassolaModelParams
+from odorloc.planning import kernels
+from odorloc.planning.adaptive import (
+    AdaptivePathPlanner,
+    AdaptivePlannerParams,
+    step_rewards,
+)
+from odorloc.planning.fixed_step import FixedStepInfotaxis, FixedStepParams
+from odorloc.scenarios import get_scenario
+
+ARENA = ((0.0, 0.0, 0.0), (100.0, 60.0, 30.0))
+SOURCE = np.array([10.0, 30.0, 25.0])
+
+
+def _models() -> dict[str, VergassolaModel]:
+    return {b: VergassolaModel(VergassolaModelParams(backend=b)) for b in ("numpy", "numba")}
+
+
+def _ctx() -> SearchContext:
+    return SearchContext(
+        arena=Arena.box(*ARENA, 2.0),
+        dt=1.0,
+        agent_ids=(0,),
+        start=[[10.0, 10.0, 5.0]],
+        speed_limits=[1.0],
+    )
+
+
+def _cloud(rng: np.random.Generator, n: int, spread: float) -> np.ndarray:
+    """Particles around the source (some near it, where the means and class counts are large)."""
+    x = SOURCE + rng.normal(0.0, spread, (n, 3))
+    return np.clip(x, ARENA[0], ARENA[1])
+
+
+def test_pairwise_sum_is_numpys_sum() -> None:
+    rng = np.random.default_rng(0)
+    for n in [*range(0, 300), 511, 1000, 2720, 9000, 70_000]:
+        a = rng.standard_normal(n) * 10.0 ** rng.uniform(-8, 8, n)
+        assert kernels.pairwise_sum(a, 0, n) == a.sum()
+        if n > 5:
+            assert kernels.pairwise_sum(a, 3, n - 5) == a[3 : n - 2].sum()
+
+
+def test_censored_classes_equal_censored_poisson() -> None:
+    """Means from 0 to 600, from far below to far above the class count (every tail path:
+    the series, 1 - head, the incomplete gamma function)."""
+    rng = np.random.default_rng(1)
+    for z in (2, 3, 5, 9, 16, 40):
+        lam = np.concatenate(
+            [
+                np.zeros(3),
+                10.0 ** rng.uniform(-30, 0, 200),
+                rng.uniform(0, 2 * z, 200),
+                rng.uniform(0, 600, 50),
+            ]
+        ).reshape(3, -1)
+        out, rest, any_rest = model_kernels.censored_classes(lam, np.exp(-lam), z)
+        if any_rest:
+            from scipy.special import gammainc
+
+            out[:, -1, :][rest] = np.maximum(gammainc(z - 1, lam[rest]), 0.0)
+        ref = np.moveaxis(censored_poisson(lam, z), -1, 1)
+        assert np.array_equal(out, ref), z
+
+
+@pytest.mark.parametrize("trial", range(40))
+def test_vergassola_model_compiled_equals_numpy(trial: int) -> None:
+    rng = np.random.default_rng(100 + trial)
+    fast, ref = _models()["numba"], _models()["numpy"]
+    n = int(rng.integers(1, 170))
+    m = int(rng.integers(1, 27))
+    x = _cloud(rng, n, float(rng.uniform(0.5, 30.0)))
+    t = _cloud(rng, m, float(rng.uniform(1.0, 30.0)))
+    direction = rng.standard_normal(3)
+    cond: dict = {"dt": float(rng.uniform(0.5, 3.0))}
+    if trial % 3:
+        cond["direction"] = direction / np.linalg.norm(direction)
+    if trial % 5 == 0:
+        cond["release"] = rng.uniform(1.0, 50.0, n)
+    if trial % 7 == 0:
+        cond["n_classes"] = int(rng.integers(2, 30))
+    assert np.array_equal(
+        fast.outcome_probabilities(t, x, **cond), ref.outcome_probabilities(t, x, **cond)
+    )
+    k = rng.integers(0, 5, m).astype(float)
+    assert np.array_equal(
+        fast.log_likelihood_rows(k, t, x, **cond), ref.log_likelihood_rows(k, t, x, **cond)
+    )
+    assert np.array_equal(
+        fast.log_likelihood(k[0], t[0], x, **cond), ref.log_likelihood(k[0], t[0], x, **cond)
+    )
+
+
+def test_compiled_model_keeps_the_checks_and_the_large_mean_path() -> None:
+    fast, ref = _models()["numba"], _models()["numpy"]
+    x = np.array([[10.0, 30.0, 25.0], [50.0, 20.0, 5.0]])
+    for model in (fast, ref):
+        with pytest.raises(ConfigError, match="counts"):
+            model.log_likelihood(1.5, x[0], x, dt=1.0)
+        with pytest.raises(ConfigError, match="counts"):
+            model.log_likelihood_rows([1.0, -1.0], x, x, dt=1.0)
+        with pytest.raises(ConfigError, match="dt"):
+            model.log_likelihood(1.0, x[0], x, dt=0.0)
+        with pytest.raises(ConfigError, match="sources"):
+            model.outcome_probabilities(x, x[:, :2], dt=1.0)
+    # a huge release rate puts the means beyond 600: the log-space path of censored_poisson
+    big = {"dt": 1.0, "release": 1e6}
+    assert np.array_equal(
+        fast.outcome_probabilities(x[:1] + 0.5, x, **big),
+        ref.outcome_probabilities(x[:1] + 0.5, x, **big),
+    )
+    # 2-D stays on the NumPy path, with the same results
+    x2 = x[:, :2]
+    assert np.array_equal(
+        fast.log_likelihood(1.0, x2[0] + 1.0, x2, dt=1.0),
+        ref.log_likelihood(1.0, x2[0] + 1.0, x2, dt=1.0),
+    )
+
+
+def test_backend_numba_is_refused_without_numba(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(model_kernels, "HAVE_NUMBA", False)
+    with pytest.raises(Exception, match="numba is not installed"):
+        VergassolaModelParams(backend="numba")
+    with pytest.raises(Exception, match="numba is not installed"):
+        AdaptivePlannerParams(backend="numba")
+    assert not model_kernels.compiled("auto")
+    assert VergassolaModelParams(backend="auto").backend == "auto"
+
+
+def _belief(rng: np.random.Generator, n: int) -> ParticleBelief:
+    x = _cloud(rng, n, float(rng.uniform(0.5, 20.0)))
+    lw = rng.normal(0.0, rng.uniform(0.01, 3.0), n)
+    top = lw.max()
+    lw -= top + np.log(np.exp(lw - top).sum())
+    return ParticleBelief(x, lw)
+
+
+@pytest.mark.parametrize("trial", range(60))
+def test_planners_compiled_equal_numpy(trial: int) -> None:
+    """Both step planners (and the model under them) give the same scores, choices and
+    computation counts; near walls some directions are blocked."""
+    rng = np.random.default_rng(500 + trial)
+    models = _models()
+    belief = _belief(rng, int(rng.integers(20, 161)))
+    pos = np.clip(SOURCE + rng.normal(0.0, 8.0, 3), 0.5, [99.5, 59.5, 29.5])
+    if trial % 6 == 0:
+        pos = np.array([0.0, 10.0, 30.0])
+    hist = np.vstack([pos + rng.normal(0.0, 5.0, (int(rng.integers(0, 300)), 3)), pos])
+    direction = rng.standard_normal(3) * [1.0, 1.0, 0.1]
+    cond = {"dt": 1.0, "direction": direction / np.linalg.norm(direction)}
+    tail = [1e-6, 1e-3, 1e-300][trial % 3]
+    for kind in ("adap-pp", "fixed"):
+        plans = {}
+        for backend in ("numpy", "numba"):
+            if kind == "adap-pp":
+                lmax = [None, 1, 4, 7][trial % 4]
+                planner = AdaptivePathPlanner(
+                    AdaptivePlannerParams(backend=backend, tail_mass=tail, l_max=lmax)
+                )
+            else:
+                planner = FixedStepInfotaxis(FixedStepParams(backend=backend, tail_mass=tail))
+            planner.reset(_ctx())
+            plan = planner.plan(
+                belief, pos, models[backend].bind(**cond), hist, np.random.default_rng(7)
+            )
+            plans[backend] = (plan, planner.processed)
+        (a, pa), (b, pb) = plans["numpy"], plans["numba"]
+        assert np.array_equal(a.scores, b.scores), kind
+        assert (a.direction, a.length, pa) == (b.direction, b.length, pb), kind
+        assert (a.target is None and b.target is None) or np.array_equal(a.target, b.target)
+
+
+def test_step_rewards_kernel_equals_numpy() -> None:
+    rng = np.random.default_rng(3)
+    steps = 2.0 * np.array([p for p in itertools.product((-1, 0, 1), repeat=3) if any(p)])
+    for _ in range(200):
+        pos = rng.uniform(0, 30, 3)
+        step = steps[rng.integers(len(steps))]
+        est = rng.uniform(0, 30, 3)
+        hist = np.vstack([pos, pos + rng.integers(-4, 5, (int(rng.integers(0, 80)), 3)) * 1.0])
+        lmax = int(rng.integers(1, 8))
+        h2 = float(rng.uniform(0, 2))
+        got = kernels.step_rewards(pos, step, float(np.linalg.norm(step)), lmax, est, hist, h2)
+        assert np.array_equal(got, step_rewards(pos, step, lmax, est, hist, h2))
+
+
+@pytest.mark.parametrize("algorithm", ["muc-osl", "col-inf", "col-pf", "adap-pp"])
+def test_episodes_are_the_same_with_and_without_the_kernels(algorithm: str) -> None:
+    """Whole team episodes (3 UAVs, 5 minutes) give the same metric rows bit for bit."""
+    sc = get_scenario("muc-osl-3d").with_overrides({"limits": {"control_dt": 1.0, "time": 300.0}})
+    rows = {}
+    for backend in ("numpy", "numba"):
+        planner = "adap-pp" if algorithm in ("muc-osl", "adap-pp") else "fixed-step-infotaxis"
+        searcher = {
+            "type": algorithm,
+            "model": {"type": "vergassola", "backend": backend},
+            "planner": {"type": planner, "backend": backend},
+        }
+        res = run_episode(
+            sc.with_overrides({"searcher": searcher}), *episode_seeds(5, "muc-osl-3d", 1)
+        )
+        skip = ("wall_time", "wall_per_step_ms", "world_fraction", "searcher_fraction")
+        rows[backend] = {k: v for k, v in res.metrics.items() if k not in skip}
+    assert rows["numpy"].keys() == rows["numba"].keys()
+    for key, value in rows["numpy"].items():
+        other = rows["numba"][key]
+        assert value == other or (value != value and other != other), key
