@@ -144,7 +144,7 @@ def run_replay_group(
     extras: Extras | None = None,
     prepare: Callable[[Scenario, Any], Scenario] | None = None,
 ) -> list[dict[str, Any]]:
-    """Run a group of tasks that share one world (world key and episode) on one recorded flow.
+    """Run a group of tasks that share one world (flow key and episode) on one recorded flow.
 
     The flow is recorded once (:func:`~odorloc.engine.replay.record_flow`) with the group's
     world seed and replayed to every task in order, so every searcher faces exactly the same
@@ -153,7 +153,7 @@ def run_replay_group(
     Parameters
     ----------
     tasks : sequence of EpisodeTask
-        Same ``world_key`` and ``episode``.
+        Same ``flow_key`` and ``episode``.
     record : bool
         Record every episode (for ``extras``); arrays are stored only for tasks that keep them.
     extras : callable, optional
@@ -164,9 +164,9 @@ def run_replay_group(
     """
     if not tasks:
         return []
-    keys = {(t.world_key, t.episode, t.world_seed) for t in tasks}
+    keys = {(t.flow_key, t.episode, t.world_seed) for t in tasks}
     if len(keys) != 1:
-        raise ValueError("a replay group must share one world key, episode and world seed")
+        raise ValueError("a replay group must share one flow key, episode and world seed")
     t0 = time.perf_counter()
     rows: list[dict[str, Any]] = []
     by_cell: dict[str, dict[str, Any]] = {}
