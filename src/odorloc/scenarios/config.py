@@ -274,7 +274,10 @@ class Scenario(_Strict):
             for path in paths:
                 if path.split(".")[0] == "knobs":
                     raise ConfigError(field, f"{path!r}: a knob cannot set knobs")
-                node, last = _walk(data, path)
+                try:
+                    node, last = _walk(data, path)
+                except ConfigError as exc:
+                    raise ConfigError(field, f"{path!r}: {exc.problem}") from None
                 if isinstance(node, list):
                     if not (last.isdigit() and int(last) < len(node)):
                         raise ConfigError(field, f"{path!r}: no such setting {last!r}")
