@@ -238,8 +238,9 @@ class Episode:
         self._radii: np.ndarray | None = None
         if self.n_agents > 1 and np.any(radii > 0):
             self._radii = radii
-            idx = np.arange(self.n_agents)
-            self._others = [idx[idx != k] for k in range(self.n_agents)]
+            # farthest a pair of bodies can close in one period: both radii and both reaches
+            reach = np.array([float(pl.speed_limit) for pl in b.platforms]) * self._T
+            self._contact = (radii + reach)[:, None] + (radii + reach)[None, :]
         for s in (*b.gas_sensors, *b.anemometers):
             s.reset(self._rng_sense)
         self.context: SearchContext = search_context(sc, b)
@@ -328,14 +329,15 @@ class Episode:
         arena = self.world.arena
         # Bodies with a footprint stop each other: each agent moves against the others' current
         # positions (those already moved this period included), so none enters another.
-        solid = self._radii is not None
+        near = self._near(positions) if self._radii is not None else None
         for k, pl in enumerate(b.platforms):
             pl.charge_comm(self._comm.bytes_sent_by(k))
             bits = action.compute_bits.get(k, 0.0)
             if bits:
                 pl.charge_compute(bits)
-            if solid:
-                others = self._others[k]
+            if near is not None and near[k].any():
+                assert self._radii is not None
+                others = near[k]
                 pl.apply(
                     action.commands[k],
                     self._T,
@@ -345,6 +347,8 @@ class Episode:
                 positions[k] = pl.position
             else:
                 pl.apply(action.commands[k], self._T, arena)
+                if near is not None:
+                    positions[k] = pl.position
         tw = time.perf_counter()
         for _ in range(self._n_sub):
             self.world.step(self._wdt, self._rng_world)
@@ -360,6 +364,14 @@ class Episode:
         return StepResult(self._obs, events, False, False, "running", self._t)
 
     # ------------------------------------------------------------------ internals
+    def _near(self, positions: np.ndarray) -> np.ndarray:
+        """``(N, N)`` pairs of bodies that could touch during this period (none on the
+        diagonal); the others cannot, whatever they are commanded."""
+        diff = positions[:, None, :] - positions[None, :, :]
+        near = np.einsum("ijd,ijd->ij", diff, diff) < self._contact**2
+        np.fill_diagonal(near, False)
+        return near
+
     def _observe(self, events: list[Event]) -> list[Observation]:
         b, t = self.built, self._t
         obs = []
