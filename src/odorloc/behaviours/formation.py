@@ -22,6 +22,12 @@ are (a line search along eq. 2's direction). Far from the ring that is the paper
 step; near it the step shrinks and the polygon settles. ``step_rule="fixed"`` is the literal
 reading.
 
+While the virtual robot moves, a ring stiff enough to hold the radius drags each robot towards
+the nearest point of the moved ring, which lies behind it: robots stepping by eq. 8 alone bunch
+up on the trailing side of their leader. :func:`structure_step` can therefore carry the robots
+with the virtual robot's own step first (``carry``) and correct the shape with what is left of
+``s2`` -- the structure moves with its leader, as in virtual-structure control.
+
 The ring radius ``r`` is where the ring term vanishes; the charges push every robot slightly
 outside it. For a regular ``K``-gon of radius ``R`` the outward charge force is
 ``k_r / (4 R^2) sum_{j=1}^{K-1} 1 / sin(pi j / K)`` and the ring's pull ``k_s R (R^2 - r^2)``, so

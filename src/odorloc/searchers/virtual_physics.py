@@ -19,9 +19,13 @@ Each control step (one step of eqs. 7-8):
    ``chemotaxis`` (eq. 3, towards the robot with the highest reading), ``anemotaxis`` (eq. 4,
    upwind of the mean wind when every robot reads above ``rho_T``) or ``fluxotaxis`` (eqs. 5-6,
    towards the robot with the most negative flux when every robot reads above ``rho_T``). When
-   the rule is silent the virtual robot waits where it is: that is the paper's plume finding by
-   passive monitoring (Sec. 2.2.1) before the plume has reached the group, and the same waiting
-   when the plume has swung away.
+   only part of the formation reads above ``rho_T``, anemotaxis and fluxotaxis re-centre the
+   formation on its strongest robot (``outside="chemotaxis"``: the paper's "move the lattice
+   upstream while keeping the robots inside the plume", Sec. 2.2.2.1) or wait
+   (``outside="wait"``, the rules read literally). When no rule applies the virtual robot
+   waits where it is: that is the paper's plume finding by passive monitoring (Sec. 2.2.1)
+   before the plume has reached the group, and the same waiting when the plume has swung
+   away.
 4. **Between groups** (:mod:`odorloc.behaviours.groups`): repulsion from virtual robots closer
    than ``repulsion_range`` (``5 r``), ``F' = F + f_v`` (eqs. 9-10), normalised; the forbidden
    circle of radius ``r_T`` around every group that has declared (eq. 11), bypassed by the rotary
@@ -84,6 +88,9 @@ class VirtualPhysicsParams(Params):
     ----------
     rule : {"chemotaxis", "anemotaxis", "fluxotaxis"}
         Goal force of the virtual robot (eqs. 3, 4, 5-6).
+    outside : {"chemotaxis", "wait"}
+        What anemotaxis and fluxotaxis do when some robots read ``rho_T`` or less: move towards
+        the strongest robot (keep the formation in the plume), or wait.
     radius : float, metres
         Ring radius ``r`` of the formation.
     k_r, k_s : float
