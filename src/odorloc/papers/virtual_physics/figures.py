@@ -309,22 +309,15 @@ def summary_figure(df: Any, path: Path, seed: int) -> None:
 
 def ablation_figure(df: Any, path: Path, seed: int) -> None:
     """Success, different sources reached, same source declared and mean time per variant."""
-    labels = [
-        "chemotaxis",
-        "chemotaxis-no-bypass",
-        "chemotaxis-no-repulsion",
-        "anemotaxis",
-        "anemotaxis-wait",
-        "fluxotaxis",
-        "fluxotaxis-wait",
-    ]
-    labels = [lab for lab in labels if len(_cell(df, lab))]
+    from odorloc.papers.virtual_physics.reproduction import ABLATIONS, SAME_SOURCE_REACH
+
+    labels = [lab for lab in ABLATIONS if len(_cell(df, lab))]
     fig, axes = plt.subplots(1, 4, figsize=(15, 4.2))
     cols = ("success", "reached_both", "same_source")
     names = (
         "both sources declared (%)",
         "groups reached different sources (%)",
-        "both groups declared one source (%)",
+        f"both groups ended within {SAME_SOURCE_REACH:g} m of one source (%)",
     )
     y = np.arange(len(labels))
     for ax, col, name in zip(axes[:3], cols, names, strict=True):

@@ -15,9 +15,11 @@ face the same wind and plume.
 
 Each row adds (:func:`vp_extras`): which source each group declared (``source_A``, ``source_B``,
 -1 for none) and how far from it, whether both groups declared the same source
-(``same_source``), the closest approach of each group's virtual robot to each source
-(``closest_A_0`` ...) and whether the two groups reached different sources (``reached_both``),
-and the times the first and the second source were found (``first_found``, ``second_found``).
+(``same_declared``), whether both ended at the same source (``same_source``: their virtual
+robots' final positions nearest to one source and within :data:`SAME_SOURCE_REACH` of it), the
+closest approach of each group's virtual robot to each source (``closest_A_0`` ...) and whether
+the two groups reached different sources (``reached_both``), and the times the first and the
+second source were found (``first_found``, ``second_found``).
 """
 
 from __future__ import annotations
@@ -56,15 +58,28 @@ VARIANTS: dict[str, dict[str, Any]] = {
     "fluxotaxis": {"rule": "fluxotaxis"},
     "chemotaxis-no-bypass": {"rule": "chemotaxis", "forbidden_area": False, "rotary": False},
     "chemotaxis-no-repulsion": {"rule": "chemotaxis", "repulsion": False},
+    "fluxotaxis-no-bypass": {"rule": "fluxotaxis", "forbidden_area": False, "rotary": False},
     "anemotaxis-wait": {"rule": "anemotaxis", "outside": "wait"},
     "fluxotaxis-wait": {"rule": "fluxotaxis", "outside": "wait"},
 }
-ABLATIONS = ("chemotaxis", "chemotaxis-no-bypass", "chemotaxis-no-repulsion")
+ABLATIONS = (
+    "chemotaxis",
+    "chemotaxis-no-bypass",
+    "chemotaxis-no-repulsion",
+    "fluxotaxis",
+    "fluxotaxis-no-bypass",
+    "anemotaxis",
+    "anemotaxis-wait",
+    "fluxotaxis-wait",
+)
+#: Distance (m) within which both groups' final virtual robots must lie of the same source for
+#: the episode to count as "both groups ended at the same source" (twice the forbidden radius).
+SAME_SOURCE_REACH = 3.0
 #: Frequency of the path figures (the paper's Figs. 5, 7, 9 are at treble frequency).
 FIGURE_FREQUENCY = 3
 #: The animated episode: rule, start set (episode 0 at FIGURE_FREQUENCY).
 ANIMATION = ("fluxotaxis", "P3")
-_KEEP = (*RULES, "chemotaxis-no-bypass", "chemotaxis-no-repulsion")
+_KEEP = (*RULES, "chemotaxis-no-bypass", "fluxotaxis-no-bypass")
 
 
 def _label(task: Any) -> str:
@@ -127,22 +142,32 @@ def vp_extras(task: Any, res: Any, rows: dict[str, dict[str, Any]]) -> dict[str,
         out.setdefault(f"source_{name}", -1)
         out.setdefault(f"error_{name}", math.nan)
     hits = [v for v in declared.values() if v >= 0]
-    out["same_source"] = bool(len(hits) >= 2 and len(set(hits)) < len(hits))
+    out["same_declared"] = bool(len(hits) >= 2 and len(set(hits)) < len(hits))
     rec = res.recording
     reached: list[set[int]] = []
+    ended: list[tuple[int, float]] = []
     for name, suffix in _group_suffixes(sc).items():
         vx = rec.diagnostics.get(f"vr_x{suffix}") if rec is not None else None
         vy = rec.diagnostics.get(f"vr_y{suffix}") if rec is not None else None
         near: set[int] = set()
-        for i, s in enumerate(sources):
-            if vx is None or vy is None or len(vx) == 0:
+        if vx is None or vy is None or len(vx) == 0:
+            for i in range(len(sources)):
                 out[f"closest_{name}_{i}"] = math.nan
-                continue
+            reached.append(near)
+            continue
+        for i, s in enumerate(sources):
             d = float(np.nanmin(np.hypot(vx - s[0], vy - s[1])))
             out[f"closest_{name}_{i}"] = d
             if d <= radius:
                 near.add(i)
         reached.append(near)
+        last = np.hypot(vx[-1] - sources[:, 0], vy[-1] - sources[:, 1])
+        ended.append((int(np.argmin(last)), float(last.min())))
+    out["same_source"] = bool(
+        len(ended) >= 2
+        and len({i for i, _ in ended}) == 1
+        and all(d <= SAME_SOURCE_REACH for _, d in ended)
+    )
     both = len(reached) >= 2 and any(i != j for i in reached[0] for j in reached[1])
     out["reached_both"] = bool(both)
     found = sorted(
@@ -382,6 +407,7 @@ class VirtualPhysicsReproduction(Reproduction):
                             fmt(ok["search_time"].mean(), 1) if len(ok) else "-",
                             fmt(_nanmean(_col(g, "first_found")), 1),
                             _frac(g, "same_source"),
+                            _frac(g, "same_declared"),
                             _frac(g, "reached_both"),
                         ]
                     )
@@ -397,7 +423,8 @@ class VirtualPhysicsReproduction(Reproduction):
                     "successes",
                     "mean time s",
                     "1st source s",
-                    "same source",
+                    "ended at one source",
+                    "declared one source",
                     "reached both",
                 ],
                 wide,
@@ -405,7 +432,7 @@ class VirtualPhysicsReproduction(Reproduction):
             )
         )
         abl = []
-        for label in (*ABLATIONS, "anemotaxis", "anemotaxis-wait", "fluxotaxis", "fluxotaxis-wait"):
+        for label in ABLATIONS:
             g = _select(df, label)
             ok = _successes(g)
             abl.append(
@@ -415,6 +442,7 @@ class VirtualPhysicsReproduction(Reproduction):
                     _rate(len(ok), len(g)),
                     _mean_ci(ok["search_time"], seed),
                     _frac(g, "reached_both"),
+                    _frac(g, "same_source"),
                     fmt(_nanmean(_col(g, "first_found")), 0),
                 ]
             )
@@ -422,11 +450,13 @@ class VirtualPhysicsReproduction(Reproduction):
             Table(
                 "ablations",
                 "Ablations, all frequencies and starts pooled",
-                ["variant", "n", "success %", "time s", "reached both", "1st s"],
+                ["variant", "n", "success %", "time s", "reached", "same end", "1st s"],
                 abl,
                 note="-no-bypass: no forbidden area, no rotary force; -wait: anemotaxis and "
                 "fluxotaxis wait while not every robot reads above rho_T (read literally) "
-                "instead of re-centring on the strongest robot",
+                "instead of re-centring on the strongest robot; reached: the groups came within "
+                "the success radius of different sources; same end: both groups ended within "
+                f"{SAME_SOURCE_REACH:g} m of one source",
             )
         )
         return tables
@@ -471,17 +501,16 @@ class VirtualPhysicsReproduction(Reproduction):
                 lambda p: vf.ablation_figure(df, p, seed),
             )
         )
-        if "chemotaxis-no-bypass" in recs:
-            figs.append(
-                Figure(
-                    "paths_chemotaxis-no-bypass.png",
-                    "chemotaxis without forbidden area and rotary force, treble frequency, "
-                    "episode 0",
-                    lambda p: vf.paths_figure(
-                        recs["chemotaxis-no-bypass"], "chemotaxis-no-bypass", p
-                    ),
+        for label in ("chemotaxis-no-bypass", "fluxotaxis-no-bypass"):
+            if label in recs:
+                figs.append(
+                    Figure(
+                        f"paths_{label}.png",
+                        f"{label.split('-')[0]} without forbidden area and rotary force, treble "
+                        "frequency, episode 0",
+                        lambda p, lab=label: vf.paths_figure(recs[lab], lab, p),
+                    )
                 )
-            )
         anim = vf.animation_recording(df, store, ANIMATION[0], ANIMATION[1], FIGURE_FREQUENCY)
         if anim is not None:
             figs.append(
