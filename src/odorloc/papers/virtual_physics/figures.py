@@ -362,26 +362,34 @@ def ablation_figure(df: Any, path: Path, seed: int) -> None:
 
 
 def animate_formations(rec: Recording, path: Path, max_frames: int = 120, fps: int = 8) -> Path:
-    """GIF of both formations moving over the plume: robots, virtual robots, trails, the
-    forbidden circle of a group once it has declared, sources and declarations."""
+    """GIF of both formations moving over the plume: the whole field (robots, virtual robots
+    and their trails, the forbidden circle of a group once it has declared, sources) and a
+    3 m window following each group's virtual robot (robot bodies to scale)."""
     from matplotlib.patches import Circle
 
     from odorloc.searchers.virtual_physics import VirtualPhysicsParams
 
     r_T = VirtualPhysicsParams().r_T
+    body = 0.1
+    half = 1.5
     path = Path(path)
     groups = _groups()
     b = rec.arena_bounds
-    fig, ax = plt.subplots(figsize=(6.2, 5.6))
-    im = _plume_image(ax, rec, 0)
-    if im is not None:
-        fig.colorbar(im, ax=ax, shrink=0.8, label="concentration (kg/m^3)")
-    ax.plot(rec.sources[:, 0], rec.sources[:, 1], "*", color="gold", mec="k", ms=13, zorder=7)
+    fig = plt.figure(figsize=(9.6, 6.0))
+    gs = fig.add_gridspec(2, 2, width_ratios=(2.0, 1.0))
+    ax = fig.add_subplot(gs[:, 0])
+    zooms = [fig.add_subplot(gs[i, 1]) for i in range(len(groups[:2]))]
+    images = [_plume_image(a, rec, 0) for a in (ax, *zooms)]
+    if images[0] is not None:
+        fig.colorbar(images[0], ax=ax, shrink=0.7, label="concentration (kg/m^3)")
+    for a in (ax, *zooms):
+        a.plot(rec.sources[:, 0], rec.sources[:, 1], "*", color="gold", mec="k", ms=13, zorder=7)
+        a.set_aspect("equal")
+        a.tick_params(labelsize=7)
     ax.set_xlim(b[0, 0], b[1, 0])
     ax.set_ylim(b[0, 1], b[1, 1])
-    ax.set_aspect("equal")
-    robots, trails, vrs, circles = [], [], [], []
-    for (name, _, _), col in zip(groups, GROUP_COLORS, strict=False):
+    robots, trails, vrs, circles, bodies, zvr = [], [], [], [], [], []
+    for g, ((name, agents, _), col) in enumerate(zip(groups, GROUP_COLORS, strict=False)):
         robots.append(
             ax.plot(
                 [], [], "o", color=col, mec="k", mew=0.4, ms=4, zorder=6, label=f"group {name}"
@@ -392,6 +400,15 @@ def animate_formations(rec: Recording, path: Path, max_frames: int = 120, fps: i
         c = Circle((0, 0), r_T, fill=False, ec=col, ls="--", lw=1, visible=False, zorder=5)
         ax.add_patch(c)
         circles.append(c)
+        if g < len(zooms):
+            bodies.append(
+                [
+                    zooms[g].add_patch(Circle((0, 0), body, fc=col, ec="k", lw=0.5, zorder=6))
+                    for _ in agents
+                ]
+            )
+            zvr.append(zooms[g].plot([], [], "+", color="k", ms=12, mew=2, zorder=7)[0])
+            zooms[g].set_title(f"group {name}: 3 m window, robots to scale", fontsize=8)
     ax.legend(loc="upper right", fontsize=7)
     title = ax.set_title("", fontsize=9)
     steps = np.unique(np.linspace(0, len(rec.t) - 1, min(max_frames, len(rec.t))).astype(int))
@@ -399,25 +416,33 @@ def animate_formations(rec: Recording, path: Path, max_frames: int = 120, fps: i
     def draw(i: int) -> list[Any]:
         k = steps[i]
         t = rec.t[k]
-        if im is not None:
+        if images[0] is not None:
             f = max(int(np.searchsorted(rec.plume_t, t, side="right") - 1), 0)
             fr = np.asarray(rec.plume_frames[f], float)
-            im.set_data(np.where(fr > _RHO_T / 10, fr, np.nan).T)
+            for im in images:
+                im.set_data(np.where(fr > _RHO_T / 10, fr, np.nan).T)
         for g, (_, agents, suffix) in enumerate(groups):
             p = rec.positions[k, agents, :2]
             robots[g].set_data(p[:, 0], p[:, 1])
             vr = _vr(rec, suffix)
-            if len(vr):
-                trails[g].set_data(vr[: k + 1, 0], vr[: k + 1, 1])
-                vrs[g].set_data([vr[k, 0]], [vr[k, 1]])
-                done = rec.diagnostics.get(f"declared{suffix}")
-                if done is not None and done[k] > 0:
-                    circles[g].center = (vr[k, 0], vr[k, 1])
-                    circles[g].set_visible(True)
+            if not len(vr):
+                continue
+            trails[g].set_data(vr[: k + 1, 0], vr[: k + 1, 1])
+            vrs[g].set_data([vr[k, 0]], [vr[k, 1]])
+            done = rec.diagnostics.get(f"declared{suffix}")
+            if done is not None and done[k] > 0:
+                circles[g].center = (vr[k, 0], vr[k, 1])
+                circles[g].set_visible(True)
+            if g < len(zooms):
+                for patch, q in zip(bodies[g], p, strict=True):
+                    patch.center = (q[0], q[1])
+                zvr[g].set_data([vr[k, 0]], [vr[k, 1]])
+                zooms[g].set_xlim(vr[k, 0] - half, vr[k, 0] + half)
+                zooms[g].set_ylim(vr[k, 1] - half, vr[k, 1] + half)
         title.set_text(f"t = {t:6.1f} s   (dashed: forbidden area of a group that has declared)")
         return [*robots, *trails, *vrs, title]
 
     anim = animation.FuncAnimation(fig, draw, frames=len(steps), blit=False)
-    anim.save(path, writer=animation.PillowWriter(fps=fps), dpi=70)
+    anim.save(path, writer=animation.PillowWriter(fps=fps), dpi=72)
     plt.close(fig)
     return path

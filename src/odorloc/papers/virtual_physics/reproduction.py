@@ -13,13 +13,14 @@ replayed to every rule and start (the sweep's ``replay`` option and the scenario
 ``agent_grid`` of start sets, which share the flow of their frequency): all cells of an episode
 face the same wind and plume.
 
-Each row adds (:func:`vp_extras`): which source each group declared (``source_A``, ``source_B``,
--1 for none) and how far from it, whether both groups declared the same source
-(``same_declared``), whether both ended at the same source (``same_source``: their virtual
-robots' final positions nearest to one source and within :data:`SAME_SOURCE_REACH` of it), the
-closest approach of each group's virtual robot to each source (``closest_A_0`` ...) and whether
-the two groups reached different sources (``reached_both``), and the times the first and the
-second source were found (``first_found``, ``second_found``).
+Each row adds (:func:`vp_extras`): the source nearest to each group's declaration
+(``source_A``, ``source_B``, -1 for none) and how far from it (``error_A`` ...), whether both
+groups declared nearest to the same source (``same_declared``), whether both ended at the same
+source (``same_source``: their virtual robots' final positions nearest to one source and within
+:data:`SAME_SOURCE_REACH` of it), the closest approach of each group's virtual robot to each
+source (``closest_A_0`` ...) and whether the two groups reached different sources
+(``reached_both``), and the times the first and the second source were found (``first_found``,
+``second_found``).
 """
 
 from __future__ import annotations
@@ -135,13 +136,13 @@ def vp_extras(task: Any, res: Any, rows: dict[str, dict[str, Any]]) -> dict[str,
         dist = np.linalg.norm(sources - d.positions[0][None, :], axis=1)
         i = int(np.argmin(dist))
         name = names[int(d.group)] if int(d.group) < len(names) else str(d.group)
-        out[f"source_{name}"] = i if dist[i] <= radius else -1
+        out[f"source_{name}"] = i
         out[f"error_{name}"] = float(dist[i])
-        declared[int(d.group)] = i if dist[i] <= radius else -1
+        declared[int(d.group)] = i
     for name in names:
         out.setdefault(f"source_{name}", -1)
         out.setdefault(f"error_{name}", math.nan)
-    hits = [v for v in declared.values() if v >= 0]
+    hits = list(declared.values())
     out["same_declared"] = bool(len(hits) >= 2 and len(set(hits)) < len(hits))
     rec = res.recording
     reached: list[set[int]] = []
