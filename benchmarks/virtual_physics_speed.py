@@ -15,6 +15,7 @@ Side by side in one run:
   it: what the run takes when the 2 cores are not shared.
 
     .venv/bin/python benchmarks/virtual_physics_speed.py [--skip-reproduction]
+        [--reproduction-out DIR]
 """
 
 from __future__ import annotations
@@ -70,6 +71,12 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--skip-reproduction", action="store_true")
     ap.add_argument("--limit", type=float, default=400.0, help="episode time limit, s")
+    ap.add_argument(
+        "--reproduction-out",
+        type=Path,
+        default=None,
+        help="keep the reproduction's output here (a new folder; default a temporary one)",
+    )
     args = ap.parse_args()
     print(f"cores: {os.cpu_count()}, load average: {os.getloadavg()[0]:.1f}")
 
@@ -129,9 +136,12 @@ def main() -> None:
         from odorloc.experiments.reproduction import get
 
         r = get("virtual-physics")
+        keep = args.reproduction_out
+        if keep is not None and keep.exists() and any(keep.iterdir()):
+            ap.error(f"--reproduction-out {keep} is not empty (a resumed run is not a timing)")
         with tempfile.TemporaryDirectory() as d:
             w0 = time.perf_counter()
-            out = r.run(Path(d), workers=2, progress=False)
+            out = r.run(keep or Path(d), workers=2, progress=False)
             repro_min = (time.perf_counter() - w0) / 60.0
             df = out.results
         groups = df.drop_duplicates(["scenario.frequency", "episode"])
