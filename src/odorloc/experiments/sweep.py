@@ -593,6 +593,7 @@ def run_sweep(
     timeout: float = 5.0,
     chunk_size: int | None = None,
     group_fn: Callable[[list[EpisodeTask]], list[dict]] | None = None,
+    summary: bool | None = None,
 ) -> Any:
     """Run (or resume) a sweep, writing every finished episode to the store at once.
 
@@ -629,6 +630,8 @@ def run_sweep(
         With ``replay: true``, the function running one world group (all cells of a flow key
         and episode, on one recorded flow); default
         :func:`odorloc.experiments.runner.replay_group`.
+    summary : bool, optional
+        Print the per-cell summary table at the end (default: with ``progress``).
 
     Returns
     -------
@@ -704,7 +707,7 @@ def run_sweep(
                     break
                 targets.update(more)
         df = store.frame()
-    if progress:
+    if progress if summary is None else summary:
         from odorloc.experiments.progress import print_summary
 
         print_summary(df)

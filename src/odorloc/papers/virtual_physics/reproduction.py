@@ -281,6 +281,7 @@ class VirtualPhysicsReproduction(Reproduction):
     )
     default_episodes = 2
     paper_episodes = 1
+    cell_summary = False  # 144 cells: the compact tables and cells.csv say it better
 
     def sweep(self, episodes: int, seed: int) -> dict[str, Any]:
         return {
