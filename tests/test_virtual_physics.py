@@ -154,7 +154,8 @@ def test_listens_to_other_groups_repulsion_and_bypass() -> None:
 @pytest.mark.parametrize(
     ("params", "word"),
     [
-        ({"s1": 0.12, "s2": 0.12}, "s1"),
+        ({"s1": 0.12, "s2": 0.12}, "s2"),
+        ({"s1": 0.2}, "s2"),
         ({"r_T": 0.2}, "r_T"),
         ({"rotary": True, "forbidden_area": False}, "rotary"),
         ({"rule": "infotaxis"}, "rule"),

@@ -60,7 +60,7 @@ from collections.abc import Sequence
 from typing import Any, Literal
 
 import numpy as np
-from pydantic import Field, model_validator
+from pydantic import Field, ValidationInfo, field_validator
 
 from odorloc.behaviours.formation import (
     FluxDeclaration,
@@ -133,7 +133,7 @@ class VirtualPhysicsParams(Params):
     k_r: Positive = 5.0
     k_s: Positive = 1.0e5
     s1: Positive = 0.06
-    s2: Positive = 0.12
+    s2: Positive = Field(0.12, validate_default=True)
     k_c: NonNegative = 1.0e-4
     rho_T: NonNegative = 0.005
     phi_T: Finite = 0.05
@@ -143,19 +143,32 @@ class VirtualPhysicsParams(Params):
     repulsion: bool = True
     repulsion_range: Positive | None = None
     forbidden_area: bool = True
-    rotary: bool = True
-    r_T: Positive = 1.5
+    rotary: bool = Field(True, validate_default=True)
+    r_T: Positive = Field(1.5, validate_default=True)
     surround_tolerance: float = Field(0.5, gt=0.0, lt=1.0)
 
-    @model_validator(mode="after")
-    def _check(self) -> VirtualPhysicsParams:
-        if not self.s1 < self.s2:
-            raise ValueError(f"s1 ({self.s1}) must be below s2 ({self.s2}) so the robots follow")
-        if not self.r_T > self.radius:
-            raise ValueError(f"r_T ({self.r_T}) must exceed the ring radius ({self.radius})")
-        if self.rotary and not self.forbidden_area:
-            raise ValueError("rotary needs forbidden_area (the rotary force goes around it)")
-        return self
+    @field_validator("s2")
+    @classmethod
+    def _s2_above_s1(cls, v: float, info: ValidationInfo) -> float:
+        s1 = info.data.get("s1")
+        if s1 is not None and not s1 < v:
+            raise ValueError(f"must exceed s1 ({s1}) so that the robots can follow")
+        return v
+
+    @field_validator("r_T")
+    @classmethod
+    def _r_t_above_radius(cls, v: float, info: ValidationInfo) -> float:
+        r = info.data.get("radius")
+        if r is not None and not v > r:
+            raise ValueError(f"must exceed the ring radius ({r})")
+        return v
+
+    @field_validator("rotary")
+    @classmethod
+    def _rotary_needs_area(cls, v: bool, info: ValidationInfo) -> bool:
+        if v and info.data.get("forbidden_area") is False:
+            raise ValueError("needs forbidden_area (the rotary force goes around it)")
+        return v
 
     @property
     def reach(self) -> float:
