@@ -149,11 +149,11 @@ def paths_figure(recs: dict[str, Recording], label: str, path: Path) -> None:
             continue
         _draw_episode(ax, rec, start)
     fig.suptitle(
-        f"{label}, treble frequency, episode 0: robots (o, red group A, blue group B), virtual "
+        f"{label}, treble frequency, episode 0\nrobots (o, red group A, blue group B), virtual "
         "robots (+), sources (*), declarations (x); plume at the last frame (log, from rho_T/10)",
         fontsize=10,
     )
-    fig.tight_layout(rect=(0, 0, 1, 0.96))
+    fig.tight_layout(rect=(0, 0, 1, 0.94))
     fig.savefig(path, dpi=90)
     plt.close(fig)
 
