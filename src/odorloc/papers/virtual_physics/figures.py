@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -307,17 +308,18 @@ def summary_figure(df: Any, path: Path, seed: int) -> None:
     plt.close(fig)
 
 
-def ablation_figure(df: Any, path: Path, seed: int) -> None:
-    """Success, different sources reached, same source declared and mean time per variant."""
-    from odorloc.papers.virtual_physics.reproduction import ABLATIONS, SAME_SOURCE_REACH
-
-    labels = [lab for lab in ABLATIONS if len(_cell(df, lab))]
+def ablation_figure(
+    df: Any, path: Path, seed: int, variants: Sequence[str], same_reach: float
+) -> None:
+    """Success, different sources reached, both groups ending at one source (within
+    ``same_reach`` m) and mean time per variant."""
+    labels = [lab for lab in variants if len(_cell(df, lab))]
     fig, axes = plt.subplots(1, 4, figsize=(15, 4.2))
     cols = ("success", "reached_both", "same_source")
     names = (
         "both sources declared (%)",
         "groups reached different sources (%)",
-        f"both groups ended within {SAME_SOURCE_REACH:g} m of one source (%)",
+        f"both groups ended within {same_reach:g} m of one source (%)",
     )
     y = np.arange(len(labels))
     for ax, col, name in zip(axes[:3], cols, names, strict=True):

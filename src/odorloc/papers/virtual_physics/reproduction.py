@@ -500,7 +500,7 @@ class VirtualPhysicsReproduction(Reproduction):
                 "ablations.png",
                 "What repulsion, the forbidden area and the rotary force buy (chemotaxis), and "
                 "the literal waiting reading of anemotaxis and fluxotaxis",
-                lambda p: vf.ablation_figure(df, p, seed),
+                lambda p: vf.ablation_figure(df, p, seed, ABLATIONS, SAME_SOURCE_REACH),
             )
         )
         for label in ("chemotaxis-no-bypass", "fluxotaxis-no-bypass"):
