@@ -5,5 +5,8 @@
 - :mod:`.surge_cast`: moth-inspired upwind surge, then widening crosswind casts;
 - :mod:`.stop_and_go`: one move of at most a period's reach, then standing still to read;
 - :mod:`.monitor`: passive monitoring and the strongest-reading memory;
-- :mod:`.wind`: running wind averages and the upwind direction.
+- :mod:`.wind`: running wind averages and the upwind direction;
+- :mod:`.formation`: virtual-structure formation forces around a virtual leader and the flux
+  declaration of a formation (virtual-physics paper);
+- :mod:`.groups`: forces between groups: repulsion, forbidden areas, rotary bypass.
 """

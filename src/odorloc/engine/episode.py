@@ -13,6 +13,11 @@ sources they find); end if the scenario's rule says so (``task.end``), or at the
 exhausted platform; otherwise deliver the messages (charging radio energy), charge the reported
 computation, move the platforms, advance the world by one control period and observe again.
 
+Platforms with a body (``radius > 0``) never pass through each other: they move one after
+another in agent order, each stopped where it would touch another body at that body's current
+position (:func:`~odorloc.platforms.base.body_contact_fraction`), as walls and obstacles stop
+it.
+
 :func:`run_episode` is the driver that lets a searcher answer: it is all that ``odorloc run``,
 sweeps and reproductions use.
 
@@ -229,6 +234,13 @@ class Episode:
         self._starts = np.asarray(sc.agents.starts, float)
         for k, pl in enumerate(b.platforms):
             pl.reset(self._starts[k], sc.agents.heading)
+        radii = np.array([float(pl.radius) for pl in b.platforms])
+        self._radii: np.ndarray | None = None
+        if self.n_agents > 1 and np.any(radii > 0):
+            self._radii = radii
+            # farthest a pair of bodies can close in one period: both radii and both reaches
+            reach = np.array([float(pl.speed_limit) for pl in b.platforms]) * self._T
+            self._contact = (radii + reach)[:, None] + (radii + reach)[None, :]
         for s in (*b.gas_sensors, *b.anemometers):
             s.reset(self._rng_sense)
         self.context: SearchContext = search_context(sc, b)
@@ -317,12 +329,28 @@ class Episode:
         self._inbox, sent = self._comm.deliver(positions, action.messages)
         self._bytes += sent
         arena = self.world.arena
+        # Bodies with a footprint stop each other: each agent moves against the others' current
+        # positions (those already moved this period included), so none enters another.
+        near = self._near(positions) if self._radii is not None else None
         for k, pl in enumerate(b.platforms):
             pl.charge_comm(self._comm.bytes_sent_by(k))
             bits = action.compute_bits.get(k, 0.0)
             if bits:
                 pl.charge_compute(bits)
-            pl.apply(action.commands[k], self._T, arena)
+            if near is not None and near[k].any():
+                assert self._radii is not None
+                others = near[k]
+                pl.apply(
+                    action.commands[k],
+                    self._T,
+                    arena,
+                    bodies=(positions[others], self._radii[others]),
+                )
+                positions[k] = pl.position
+            else:
+                pl.apply(action.commands[k], self._T, arena)
+                if near is not None:
+                    positions[k] = pl.position
         tw = time.perf_counter()
         for _ in range(self._n_sub):
             self.world.step(self._wdt, self._rng_world)
@@ -338,20 +366,30 @@ class Episode:
         return StepResult(self._obs, events, False, False, "running", self._t)
 
     # ------------------------------------------------------------------ internals
+    def _near(self, positions: np.ndarray) -> np.ndarray:
+        """``(N, N)`` pairs of bodies that could touch during this period (none on the
+        diagonal); the others cannot, whatever they are commanded."""
+        diff = positions[:, None, :] - positions[None, :, :]
+        near = np.einsum("ijd,ijd->ij", diff, diff) < self._contact**2
+        np.fill_diagonal(near, False)
+        return near
+
     def _observe(self, events: list[Event]) -> list[Observation]:
         b, t = self.built, self._t
         obs = []
+        # The plume and the wind are read once at every agent's position (one vectorised query
+        # each); every agent's own instruments then respond in agent order, drawing their noise
+        # from the sensor stream in the same order as one measurement after another.
+        positions = np.array([pl.position for pl in b.platforms])
+        truth = b.gas_sensors[0].sample(self.world.plume, positions)
+        air = self.world.wind.velocity(positions)
         for k, pl in enumerate(b.platforms):
-            reading = b.gas_sensors[k].measure(
-                self.world.plume, pl.position, self._T, self._rng_sense
-            )
-            wind = b.anemometers[k].measure(
-                self.world.wind, pl.position, pl.velocity, self._T, self._rng_sense
-            )
+            reading = b.gas_sensors[k].respond(float(truth[k]), self._T, self._rng_sense)
+            wind = b.anemometers[k].respond(air[k], pl.velocity, self._T, self._rng_sense)
             o = Observation(
                 agent=k,
                 t=t,
-                position=pl.position.copy(),
+                position=positions[k].copy(),
                 heading=float(pl.heading),
                 gas=float(reading.value),
                 detection=bool(reading.detection),

@@ -54,23 +54,29 @@ class EncounterSensor(GasSensor):
         """Threshold in hits per call period."""
         return SensorInfo(self.kind, float(self.params.threshold), "hits", False)
 
+    def sample(self, plume: PlumeModel, points: np.ndarray) -> np.ndarray:
+        """The plume's encounter rate at ``(Q, d)`` points, ``(Q,)`` 1/s."""
+        return plume.encounter_rate(points)
+
     def expected(self, plume: PlumeModel, position: ArrayLike, dt: float) -> float:
         """Expected hits in ``dt`` seconds at ``position``."""
+        rate = float(self.sample(plume, position_point(position, plume.dim))[0])
+        return self._mean(rate, dt)
+
+    def _mean(self, rate: float, dt: float) -> float:
         dt = check_dt(dt)
-        rate = float(plume.encounter_rate(position_point(position, plume.dim))[0])
         if not (np.isfinite(rate) and rate >= 0):
             raise ConfigError("encounter_rate", f"plume returned an invalid rate {rate}")
         return self.params.gain * rate * dt
 
-    def measure(
-        self, plume: PlumeModel, position: ArrayLike, dt: float, rng: np.random.Generator
-    ) -> GasReading:
-        """Count hits at ``position`` over the period ``dt`` (seconds).
+    def respond(self, value: float, dt: float, rng: np.random.Generator) -> GasReading:
+        """Count hits over the period ``dt`` (seconds) at the encounter rate ``value`` (1/s).
 
         Returns
         -------
         GasReading
+            ``value`` = hits, ``raw`` = expected hits ``gain R dt``.
         """
-        mu = self.expected(plume, position, dt)
+        mu = self._mean(float(value), dt)
         hits = int(rng.poisson(mu))
         return GasReading(value=float(hits), raw=mu, detection=hits >= self.params.threshold)
