@@ -2,6 +2,9 @@
 
 The Vergassola rate model (muc-osl paper, eqs. 1-3) gives an expected encounter rate
 ``R(r)`` (1/s); a sensor exposed for ``dt`` seconds counts ``h ~ Poisson(gain R(r) dt)`` hits.
+The first reading after :meth:`EncounterSensor.reset` is the plume's
+:meth:`~odorloc.plume.base.PlumeModel.initial_hits` when it has one (a search that starts from a
+first hit, as in the lattice problem of infotaxis).
 """
 
 from __future__ import annotations
@@ -48,6 +51,11 @@ class EncounterSensor(GasSensor):
 
     def __init__(self, params: EncounterSensorParams) -> None:
         self.params = params
+        self._first = True
+
+    def reset(self, rng: np.random.Generator | None = None) -> None:
+        """The next reading is the first of an episode (it may be the plume's initial hits)."""
+        self._first = True
 
     @property
     def info(self) -> SensorInfo:
@@ -72,5 +80,8 @@ class EncounterSensor(GasSensor):
         GasReading
         """
         mu = self.expected(plume, position, dt)
-        hits = int(rng.poisson(mu))
+        first = plume.initial_hits(position_point(position, plume.dim)[0]) if self._first else None
+        self._first = False
+        # The episode's first reading may be fixed by the plume (a search that starts from a hit).
+        hits = int(rng.poisson(mu)) if first is None else int(first)
         return GasReading(value=float(hits), raw=mu, detection=hits >= self.params.threshold)
