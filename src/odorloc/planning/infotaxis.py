@@ -135,6 +135,8 @@ class _Kernel:
         ch[z + 1] = found
         ch[z + 2] = np.abs(off / table.cell).sum(axis=-1) * keep
         ch = np.ascontiguousarray(ch)
+        self.single = int(found.sum()) == 1
+        self.found_channel = np.ascontiguousarray(found[None].astype(float))
         self.table = table
         self.channels = ch
         self.found = found
@@ -168,11 +170,14 @@ class LatticeOutcomes:
         ``P(z, not found)``.
     cond_entropy : (M,) ndarray, nats
         ``sum over not-found hypotheses of b(k, x) H(Z | k, x)``.
+    found_entropy : (M,) ndarray, nats
+        ``P(found) H(source | found)``: zero when only the candidate's own cell is found.
     """
 
     p_found: np.ndarray
     joint: np.ndarray
     cond_entropy: np.ndarray
+    found_entropy: np.ndarray
 
     @property
     def outcome_entropy(self) -> np.ndarray:
@@ -183,6 +188,12 @@ class LatticeOutcomes:
     def information(self) -> np.ndarray:
         """Mutual information of the source and the outcome, nats (``>= 0``)."""
         return self.outcome_entropy - self.cond_entropy
+
+    @property
+    def entropy_change(self) -> np.ndarray:
+        """Expected change of the belief's entropy, nats: ``-I - P(found) H(source | found)``
+        (finding the source ends the search, so it leaves no uncertainty)."""
+        return -self.information - self.found_entropy
 
 
 def _windows(
@@ -338,9 +349,30 @@ def lattice_outcomes(
         acc = sums if acc is None else acc + sums
     assert acc is not None
     z = tables[0].n_classes
+    pe = np.clip(acc[:, z + 1], 0.0, 1.0)
     return LatticeOutcomes(
-        np.clip(acc[:, z + 1], 0.0, 1.0), np.maximum(acc[:, :z], 0.0), np.maximum(acc[:, z], 0.0)
+        pe,
+        np.maximum(acc[:, :z], 0.0),
+        np.maximum(acc[:, z], 0.0),
+        _found_entropy(b, tables, cells, found_radius, pe),
     )
+
+
+def _found_entropy(
+    b: np.ndarray,
+    tables: Sequence[OffsetTable],
+    cells: np.ndarray,
+    radius: float,
+    pe: np.ndarray,
+) -> np.ndarray:
+    """``P(found) H(source | found) = pe log pe - sum_found b log b`` per candidate, nats."""
+    if all(_kernel(t, radius).single for t in tables):
+        return np.zeros(len(cells))
+    blogb = _xlogx(b)
+    s = np.zeros(len(cells))
+    for k, t in enumerate(tables):
+        s += _correlate(_kernel(t, radius).found_channel, blogb[k], cells, t.half)[:, 0]
+    return np.maximum(_xlogx(pe) - s, 0.0)
 
 
 def _sums(
@@ -606,7 +638,11 @@ class GridPolicyPlanner:
                     if self.policy == "entrotaxis":
                         s = -h_out / _LN2
                     else:
-                        s = (sums[:, z] - h_out) / _LN2  # minus the information, bits
+                        # minus the information (and the uncertainty a find removes), bits
+                        s = sums[:, z] - h_out
+                        if not _kernel(t0, radius).single:
+                            s -= _found_entropy(b, tables, sel, radius, sums[:, z + 1])
+                        s /= _LN2
                         if self.floor > 0 and len(s) > 1:
                             close = s <= s.min() + 2.0 * self._bound(b.size, z)
                             cs = s[close]

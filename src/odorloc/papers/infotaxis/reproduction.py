@@ -273,6 +273,8 @@ class SingleAgentReproduction(Reproduction):
         out = []
         for world in WORLDS:
             g = summ[summ.world == world]
+            if not len(g):
+                continue
             rows = []
             for s in STRATEGIES:
                 r = g[g.strategy == s]
