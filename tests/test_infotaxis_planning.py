@@ -24,7 +24,7 @@ EPS = 1e-10
 
 def _brute(w: np.ndarray, q: np.ndarray, found: np.ndarray) -> dict[str, np.ndarray]:
     """Expected entropy, predictive entropy, mean distance ingredients by enumeration (nats)."""
-    m, z, n = q.shape
+    m, z, _ = q.shape
     eh, ph = np.zeros(m), np.zeros(m)
     for k in range(m):
         pe = w[found[k]].sum()
@@ -350,3 +350,20 @@ def test_particle_planner_prefers_the_informative_move() -> None:
         belief, np.array([[0.0, 2.0]]), Near(), found_radius=0.5
     )
     assert found.scores[0] < plan.scores[0]
+
+
+def test_unknown_release_fast_and_explicit_agree() -> None:
+    # two release hypotheses: the correlations sum over them; the explicit posteriors run over
+    # the joint (release, cell) hypotheses
+    model = IsotropicHitModel(IsotropicHitParams(length=1.0, intensity=1.0, n_hits=3))
+    tables = [tabulate(model, 1.0, (6, 6), release=q) for q in (0.5, 2.0)]
+    rng = np.random.default_rng(8)
+    b = rng.dirichlet(np.ones(2 * 49)).reshape(2, 7, 7)
+    cells = inf.neighbour_cells((3, 3))
+    lo = inf.lattice_outcomes(b, tables, cells, 0.5)
+    pe, p, s, _ = inf.lattice_posteriors(b, tables, cells, 0.5)
+    s0 = -np.sum(b * np.log(b))
+    e = rewards.expected_entropy_from(pe, p, s * math.log(2))
+    np.testing.assert_allclose(lo.entropy_change, e - s0, atol=1e-12)
+    plan = inf.GridPolicyPlanner("infotaxis", floor=0.0).plan(b, tables, cells)
+    assert plan.index == int(np.argmin(e))

@@ -74,12 +74,12 @@ def test_encounter_sensor_reports_the_first_hit_once() -> None:
     first = s.measure(plume, start, 1.0, rng)
     assert first.value == plume.initial_hit and first.detection
     # later readings are Poisson: their mean is the plume's mean hits
-    vals = [s.measure(plume, start + [1.0, 0.0], 1.0, rng).value for _ in range(4000)]
-    mu = plume.encounter_rate(start + [1.0, 0.0])[0]
+    vals = [s.measure(plume, start + np.array([1.0, 0.0]), 1.0, rng).value for _ in range(4000)]
+    mu = plume.encounter_rate(start + np.array([1.0, 0.0]))[0]
     assert abs(np.mean(vals) - mu) < 4 * np.sqrt(mu / 4000)
     # an agent that does not start at the origin gets an ordinary first reading
     s.reset(rng)
-    assert plume.initial_hits(start + [3.0, 0.0]) is None
+    assert plume.initial_hits(start + np.array([3.0, 0.0])) is None
     fixed = _plume(start="fixed")
     fixed.reset(rng)
     assert fixed.initial_hit is None and fixed.initial_hits(start) is None
@@ -214,3 +214,34 @@ def test_infotaxis_mean_steps_agree_with_otto() -> None:
     se = np.hypot(np.std(steps, ddof=1) / np.sqrt(len(steps)), ref["sem"])
     assert abs(np.mean(steps) - ref["mean"]) < 4 * se
     assert len(steps) >= 396
+
+
+def test_unknown_release_is_learnt() -> None:
+    """Readings drawn with intensity 1 around a known source: the release posterior over
+    (0.5, 1, 2) concentrates on 1; a searcher with an unknown release runs its episodes."""
+    from odorloc.geometry.grid import CellGrid
+    from odorloc.inference.grid_filter import GridFilter
+    from odorloc.models.lattice import IsotropicHitModel, IsotropicHitParams
+
+    model = IsotropicHitModel(IsotropicHitParams(length=1.0, intensity=1.0, n_hits=3))
+    f = GridFilter(CellGrid((0.0, 0.0), 1.0, (9, 9)), releases=(0.5, 1.0, 2.0))
+    rng = np.random.default_rng(2)
+    src = np.array([[4.5, 4.5]])
+    for _ in range(400):
+        s = np.floor(rng.random(2) * 9) + 0.5
+        if np.allclose(s, src[0]):
+            continue
+        q = model.outcome_probabilities(s[None], src)[0, :, 0]
+        f.observe(model, int(rng.choice(3, p=q)), s)
+    assert f.release_prob[1] > 0.9
+    assert f.map_cell() == (4, 4)
+    sc = get_scenario("lattice-isotropic-2d")
+    spec = {
+        "type": "infotaxis",
+        "model": {"type": "lattice-isotropic", **model.params.model_dump()},
+        "releases": [0.5, 1.0, 2.0],
+    }
+    sc = sc.with_overrides({"searcher": spec})
+    for ep in range(5):
+        r = run_episode(sc, *episode_seeds(3, "release", ep), record=False)
+        assert r.metrics["termination"] in ("reached", "stuck", "time_limit")

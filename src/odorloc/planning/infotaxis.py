@@ -171,7 +171,8 @@ class LatticeOutcomes:
     cond_entropy : (M,) ndarray, nats
         ``sum over not-found hypotheses of b(k, x) H(Z | k, x)``.
     found_entropy : (M,) ndarray, nats
-        ``P(found) H(source | found)``: zero when only the candidate's own cell is found.
+        ``P(found) H(source | found)``: zero when a single hypothesis is found (the
+        candidate's own cell, a known release).
     """
 
     p_found: np.ndarray
@@ -342,6 +343,8 @@ def lattice_outcomes(
     b = np.asarray(joint, float)
     if len(tables) != b.shape[0]:
         raise ConfigError("tables", f"need {b.shape[0]} table(s), got {len(tables)}")
+    if len({t.n_classes for t in tables}) > 1:
+        raise ConfigError("tables", "the release hypotheses' tables need the same classes")
     cells = np.atleast_2d(np.asarray(cells, dtype=np.int64))
     acc = None
     for k, t in enumerate(tables):
@@ -366,8 +369,8 @@ def _found_entropy(
     pe: np.ndarray,
 ) -> np.ndarray:
     """``P(found) H(source | found) = pe log pe - sum_found b log b`` per candidate, nats."""
-    if all(_kernel(t, radius).single for t in tables):
-        return np.zeros(len(cells))
+    if len(tables) == 1 and _kernel(tables[0], radius).single:
+        return np.zeros(len(cells))  # one hypothesis found: nothing left uncertain
     blogb = _xlogx(b)
     s = np.zeros(len(cells))
     for k, t in enumerate(tables):
@@ -380,6 +383,8 @@ def _sums(
 ) -> np.ndarray:
     """Planning sums ``(M, Z + 3)`` of a ``(K, *shape)`` belief: ``J_z``, ``C``, ``p_found`` and
     the mean Manhattan distance (cells) over the not-found hypotheses."""
+    if len({t.n_classes for t in tables}) > 1:
+        raise ConfigError("tables", "the release hypotheses' tables need the same classes")
     acc = _correlate(_kernel(tables[0], radius).channels, b[0], cells, tables[0].half)
     for k in range(1, len(tables)):
         acc += _correlate(_kernel(tables[k], radius).channels, b[k], cells, tables[k].half)
@@ -640,8 +645,7 @@ class GridPolicyPlanner:
                     else:
                         # minus the information (and the uncertainty a find removes), bits
                         s = sums[:, z] - h_out
-                        if not _kernel(t0, radius).single:
-                            s -= _found_entropy(b, tables, sel, radius, sums[:, z + 1])
+                        s -= _found_entropy(b, tables, sel, radius, sums[:, z + 1])
                         s /= _LN2
                         if self.floor > 0 and len(s) > 1:
                             close = s <= s.min() + 2.0 * self._bound(b.size, z)
