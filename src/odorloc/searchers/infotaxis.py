@@ -284,7 +284,8 @@ class GridPolicySearcher(Searcher):
     def _observe_direct(self, z: int, pos: np.ndarray) -> None:
         """Update from the model itself (the agent's cell lies beyond the tables)."""
         f = self.filter
-        cond = self._conditions(self._table_wind if self._table_wind is not None else pos * 0)
+        assert self._table_wind is not None  # tabulated before the first update
+        cond = self._conditions(self._table_wind)
         centres = f.grid.flat_centers()
         rows = []
         for k in range(f.n_releases):

@@ -331,7 +331,8 @@ class SingleAgentReproduction(Reproduction):
         return [
             Figure(
                 "single_agent_success_time.png",
-                "Success rate and mean time of successes per strategy and world (95 % intervals)",
+                "Success rate, mean time and path length of the successes per strategy and world "
+                "(95 % intervals; red: infotaxis family, blue: reactive rules)",
                 lambda p: _figure(summ, p),
             )
         ]
@@ -341,7 +342,7 @@ def _figure(summ: Any, path: Path) -> None:
     import matplotlib.pyplot as plt
 
     worlds = list(WORLDS)
-    fig, axes = plt.subplots(2, len(worlds), figsize=(4.6 * len(worlds), 7.2), sharey="row")
+    fig, axes = plt.subplots(3, len(worlds), figsize=(4.6 * len(worlds), 10.2), sharey="row")
     colours = {"infotaxis family": "tab:red", "reactive": "tab:blue"}
     for j, w in enumerate(worlds):
         g = (
@@ -368,6 +369,13 @@ def _figure(summ: Any, path: Path) -> None:
         ]
         axes[1, j].barh(y, np.nan_to_num(t), xerr=terr, color=c, alpha=0.8, capsize=2)
         axes[1, j].set_xlabel("mean time of successes (s)")
+        pl = g.mean_path.to_numpy(float)
+        perr = [
+            np.nan_to_num(np.maximum(pl - g.path_lo.to_numpy(float), 0)),
+            np.nan_to_num(np.maximum(g.path_hi.to_numpy(float) - pl, 0)),
+        ]
+        axes[2, j].barh(y, np.nan_to_num(pl), xerr=perr, color=c, alpha=0.8, capsize=2)
+        axes[2, j].set_xlabel("mean path length of successes (m)")
         for ax in axes[:, j]:
             ax.set_yticks(y)
             ax.set_yticklabels(list(g.index), fontsize=8)
