@@ -346,7 +346,8 @@ def _distance_figure(df: Any, level: float, bins: int = 5) -> str | None:
         ax.errorbar(
             centres,
             100 * p,
-            yerr=[100 * (p - lo), 100 * (hi - p)],
+            # rounding can put a Wilson bound a hair inside its rate (p = 0 or 1)
+            yerr=[100 * np.maximum(p - lo, 0.0), 100 * np.maximum(hi - p, 0.0)],
             marker="o",
             capsize=3,
             label=lab,
