@@ -145,9 +145,10 @@ class StepResult:
     terminated : bool
         The task ended the episode (declarations by ``task.end``, or a source reached).
     truncated : bool
-        A limit ended it (time or energy).
+        A limit ended it (time, energy or the back-and-forth rule).
     termination : str
-        ``"running"``, ``"declared"``, ``"reached"``, ``"time_limit"`` or ``"energy"``.
+        ``"running"``, ``"declared"``, ``"reached"``, ``"time_limit"``, ``"energy"`` or
+        ``"stuck"`` (``task.stuck_limit``).
     t : float
         Time of ``observations`` (or of the end), seconds.
     """
@@ -243,6 +244,8 @@ class Episode:
             self._contact = (radii + reach)[:, None] + (radii + reach)[None, :]
         for s in (*b.gas_sensors, *b.anemometers):
             s.reset(self._rng_sense)
+        for k, gs in enumerate(b.gas_sensors):
+            gs.start(world.plume, self._starts[k])
         self.context: SearchContext = search_context(sc, b)
         self._comm = CommGraph(sc.agents.comm_radius)
         self._inbox: list[tuple[Message, ...]] = [() for _ in range(self.n_agents)]
@@ -257,6 +260,9 @@ class Episode:
         self._reach_time = math.nan
         self._reach_agent = -1
         self._reach_stats: dict[str, float] = {}
+        # positions after the last two steps and the back-and-forth counters (task.stuck_limit)
+        self._recent: list[np.ndarray] = []
+        self._back_and_forth = np.zeros(self.n_agents, int)
         self._events: list[Event] = []
         self._termination = "running"
         self._world_time = 0.0
@@ -264,6 +270,7 @@ class Episode:
         self._done = False
         self._started = True
         self._obs = self._observe(self._events)
+        self._recent = [np.array([o.position for o in self._obs])]
         if self._task_done():
             self._finish("reached", self._events)
         return self._obs
@@ -363,6 +370,8 @@ class Episode:
         self._obs = self._observe(events)
         if self._task_done():
             return self._finish("reached", events, probe)
+        if self._stuck():
+            return self._finish("stuck", events, probe)
         return StepResult(self._obs, events, False, False, "running", self._t)
 
     # ------------------------------------------------------------------ internals
@@ -421,6 +430,21 @@ class Episode:
                 events.append(ev)
                 self._events.append(ev)
         return obs
+
+    def _stuck(self) -> bool:
+        """Update the back-and-forth counters; ``True`` when every agent exceeds the limit.
+
+        At the step that reaches the time limit the limit wins (the episode ends there anyway).
+        """
+        limit = self.scenario.task.stuck_limit
+        if limit is None:
+            return False
+        pos = np.array([o.position for o in self._obs])
+        if len(self._recent) == 2:
+            back = np.all(np.abs(pos - self._recent[0]) <= 1e-9, axis=1)
+            self._back_and_forth = np.where(back, self._back_and_forth + 1, 0)
+        self._recent = [*self._recent[-1:], pos]
+        return bool(np.all(self._back_and_forth > limit)) and self._step < self.n_steps
 
     def _declare(self, d: Declaration, t: float, events: list[Event]) -> None:
         pos = np.atleast_2d(np.asarray(d.positions, float))

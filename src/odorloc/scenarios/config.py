@@ -171,12 +171,18 @@ class TaskConfig(_Strict):
     reach_radius : float, metres, optional
         Distance at which an agent has reached a source (required by ``end: reach``; otherwise
         reaching is only recorded).
+    stuck_limit : int, optional
+        Ends the episode as ``stuck`` (a failure) once every agent has moved back and forth more
+        than this many steps in a row: an agent's counter grows at each step that brings it back
+        to where it stood two steps earlier and resets at any other step (the lattice problem of
+        infotaxis uses 8, Loisy & Eloy 2022). ``None``: no such rule.
     """
 
     region: tuple[Point, Point] | None = None
     end: Literal["first_declaration", "all_groups", "reach", "limits"] = "first_declaration"
     success_radius: Positive = 0.5
     reach_radius: Positive | None = None
+    stuck_limit: int | None = Field(None, ge=0)
 
     @model_validator(mode="after")
     def _check(self) -> TaskConfig:

@@ -68,6 +68,13 @@ class GasSensor(ABC):
     def reset(self, rng: np.random.Generator | None = None) -> None:  # noqa: B027
         """Forget any state between episodes; default none."""
 
+    def start(self, plume: PlumeModel, position: ArrayLike) -> None:  # noqa: B027
+        """The episode starts with the sensor at ``position`` (``(d,)`` metres) in ``plume``.
+
+        Called after :meth:`reset` once the world is prepared; default nothing. A sensor whose
+        first reading the plume fixes (an initial hit) takes it here.
+        """
+
     def sample(self, plume: PlumeModel, points: np.ndarray) -> np.ndarray:
         """The plume quantity the sensor responds to at ``(Q, d)`` points, ``(Q,)``.
 

@@ -2,6 +2,9 @@
 
 The Vergassola rate model (muc-osl paper, eqs. 1-3) gives an expected encounter rate
 ``R(r)`` (1/s); a sensor exposed for ``dt`` seconds counts ``h ~ Poisson(gain R(r) dt)`` hits.
+The first reading after :meth:`EncounterSensor.start` is the plume's
+:meth:`~odorloc.plume.base.PlumeModel.initial_hits` when it has one (a search that starts from a
+first hit, as in the lattice problem of infotaxis).
 """
 
 from __future__ import annotations
@@ -48,6 +51,15 @@ class EncounterSensor(GasSensor):
 
     def __init__(self, params: EncounterSensorParams) -> None:
         self.params = params
+        self._first_hits: int | None = None
+
+    def reset(self, rng: np.random.Generator | None = None) -> None:
+        """Forget the pending initial hits of a previous episode."""
+        self._first_hits = None
+
+    def start(self, plume: PlumeModel, position: ArrayLike) -> None:
+        """The next reading is the plume's initial hits at the start ``position``, if it has any."""
+        self._first_hits = plume.initial_hits(position_point(position, plume.dim)[0])
 
     @property
     def info(self) -> SensorInfo:
@@ -78,5 +90,7 @@ class EncounterSensor(GasSensor):
             ``value`` = hits, ``raw`` = expected hits ``gain R dt``.
         """
         mu = self._mean(float(value), dt)
-        hits = int(rng.poisson(mu))
+        # The episode's first reading may be fixed by the plume (a search that starts from a hit).
+        first, self._first_hits = self._first_hits, None
+        hits = int(rng.poisson(mu)) if first is None else int(first)
         return GasReading(value=float(hits), raw=mu, detection=hits >= self.params.threshold)
