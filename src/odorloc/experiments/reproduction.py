@@ -103,6 +103,9 @@ class Reproduction(ABC):
         Episodes per cell of the default run (fits the issue's time budget on 2 cores).
     paper_episodes : int
         The paper's own count (``--episodes`` reaches it).
+    cell_summary : bool
+        Print the harness's per-cell summary before the reproduction's own tables (off for
+        sweeps of many cells, whose compact tables say it better).
     """
 
     name: ClassVar[str] = ""
@@ -110,6 +113,7 @@ class Reproduction(ABC):
     summary: ClassVar[str] = ""
     default_episodes: ClassVar[int] = 10
     paper_episodes: ClassVar[int] = 10
+    cell_summary: ClassVar[bool] = True
 
     def __init__(self, params: ReproductionParams | None = None) -> None:
         self.params = params or ReproductionParams()
@@ -171,6 +175,7 @@ class Reproduction(ABC):
             scheduler=scheduler,
             progress=progress,
             group_fn=self.group_fn(),
+            summary=progress and self.cell_summary,
         )
         wall = time.perf_counter() - t0
         df = df[df["episode"] < n] if len(df) else df
