@@ -6,15 +6,19 @@
 2. one Adap-PP decision of one UAV at N = 160: 26 directions x the Poisson outcome classes
    (eqs. 21-25), then the step length (eqs. 26-28);
 
-both as the vectorised NumPy code of odorloc and as a straightforward per-particle Python loop
-of the same maths, with a check that they agree (the deterministic parts: the weights of
-eqs. 13-14, and the direction rewards and the chosen hover point); then
+each as odorloc's code with the NumPy kernels and with the compiled ones (``backend: numpy`` /
+``numba``; the ``fast`` extra) and as a straightforward per-particle Python loop of the same
+maths, with a check that they agree (the deterministic parts: the weights of eqs. 13-14, and the
+direction rewards and the chosen hover point); then
 3. the mean wall time of whole episodes of each algorithm on ``muc-osl-3d`` (3 UAVs,
-   100 x 60 x 30 m), run one after another in this process.
+   100 x 60 x 30 m), with the two backends one after the other in this process, and whether
+   their metric rows are equal bit for bit (they must be: same seeds, same episodes).
 
-Targets: decision <= 2 ms, mean MUC-OSL episode <= 0.3 s. The last line is machine-readable::
+Targets: decision <= 2 ms, mean MUC-OSL episode <= 0.3 s (compiled kernels when numba is
+installed). The last line is machine-readable::
 
     RESULT colpf_update_ms=<x> adap_pp_decision_ms=<y> episode_s_mucosl=<z> episode_s_colinf=<w>
+           adap_pp_decision_ms_numpy=<a> episode_s_mucosl_numpy=<b> same_rows=<yes|no>
 
 Run: ``python benchmarks/muc_osl_speed.py [--repeat 200] [--episodes 6]``.
 """
@@ -35,7 +39,12 @@ from odorloc.geometry.arena import Arena
 from odorloc.inference.belief import ParticleBelief
 from odorloc.inference.particles.collaborative import fit_payload
 from odorloc.inference.particles.team_estimators import ColPFEstimator, ColPFParams, Measurement
-from odorloc.models.vergassola import VergassolaModel, correlation_length
+from odorloc.models.kernels import HAVE_NUMBA
+from odorloc.models.vergassola import (
+    VergassolaModel,
+    VergassolaModelParams,
+    correlation_length,
+)
 from odorloc.planning.adaptive import AdaptivePathPlanner, AdaptivePlannerParams
 from odorloc.planning.steps import lattice_offsets
 from odorloc.scenarios import get_scenario
@@ -44,6 +53,7 @@ N = 160
 WIND = np.array([0.0, -1.0, 0.0])
 Q, V, D, TAU, A = 5.0, 1.0, 1.0, 100.0, 1.0
 ALGORITHMS = ("muc-osl", "col-inf", "col-pf", "adap-pp")
+TIMING = ("wall_time", "wall_per_step_ms", "world_fraction", "searcher_fraction")
 
 
 def _case(seed: int = 0) -> dict:
@@ -219,6 +229,33 @@ def _time(fn: Callable[[], object], repeat: int) -> float:
     return best * 1e3
 
 
+def _episode_rows(name: str, backend: str, episodes: int) -> tuple[list[float], list[dict]]:
+    """Wall times (s) and metric rows of ``episodes`` episodes of one algorithm."""
+    planner = "adap-pp" if name in ("muc-osl", "adap-pp") else "fixed-step-infotaxis"
+    searcher = {
+        "type": name,
+        "model": {"type": "vergassola", "backend": backend},
+        "planner": {"type": planner, "backend": backend},
+    }
+    sc = get_scenario("muc-osl-3d").with_overrides({"searcher": searcher})
+    walls, rows = [], []
+    for e in range(episodes):
+        t0 = time.perf_counter()
+        res = run_episode(sc, *episode_seeds(2024, "muc-osl-3d", e), record=False)
+        walls.append(time.perf_counter() - t0)
+        rows.append({k: v for k, v in res.metrics.items() if k not in TIMING})
+    return walls, rows
+
+
+def _same(a: list[dict], b: list[dict]) -> bool:
+    """Metric rows equal bit for bit (NaN equal to NaN)."""
+    return all(
+        ra.keys() == rb.keys()
+        and all(v == rb[k] or (v != v and rb[k] != rb[k]) for k, v in ra.items())
+        for ra, rb in zip(a, b, strict=True)
+    )
+
+
 def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeat", type=int, default=200, help="calls per timing of the vector code")
@@ -227,109 +264,127 @@ def main(argv: list[str] | None = None) -> None:
 
     case = _case()
     ctx = _ctx()
-    model = VergassolaModel()
     rng = np.random.default_rng(1)
-
-    # ---- Col-PF update
-    est = ColPFEstimator(ColPFParams(n_particles=N, n_max=N))
-    est.reset(ctx, model, rng, n=N)
+    backends = ("numpy", "numba") if HAVE_NUMBA else ("numpy",)
+    models = {b: VergassolaModel(VergassolaModelParams(backend=b)) for b in backends}
     w0 = np.exp(case["lw"])
     mean0 = w0 @ case["x"]
     cov0 = ((case["x"] - mean0) * w0[:, None]).T @ (case["x"] - mean0)
     meas = Measurement(case["count"], case["pos"], 1.0, 5, WIND)
 
-    def colpf() -> None:
-        est.pf.replace(case["x"], case["lw"])
-        est.fit = (mean0, cov0)
-        est.target_n = N
-        est.cue_iterations = []
-        est.update(meas, case["inbox"], rng)
-
-    # the deterministic part (eqs. 10-14) against the loop: no resampling, no PUGL
-    check = ColPFEstimator(
-        ColPFParams(
-            n_particles=N, resample_threshold=0.0, env_pu="off", adaptive_count=False, col_pu=False
-        )
-    )
-    check.reset(ctx, model, rng, n=N)
-    check.pf.replace(case["x"], case["lw"])
-    check.fit = (mean0, cov0)
-    check.update(Measurement(case["count"], case["pos"], 1.0, 1000, WIND), case["inbox"], rng)
+    # ---- Col-PF update: the deterministic part (eqs. 10-14) against the loop (no resampling,
+    # no PUGL), then the whole update timed with each backend
     ref_w = colpf_weights_loop(case, (mean0, cov0))
-    colpf_ok = bool(np.allclose(check.pf.weights, ref_w, rtol=1e-9, atol=1e-15))
-    t_colpf = _time(colpf, args.repeat)
+    t_colpf, colpf_ok = {}, {}
+    for b, model in models.items():
+        check = ColPFEstimator(
+            ColPFParams(
+                n_particles=N,
+                resample_threshold=0.0,
+                env_pu="off",
+                adaptive_count=False,
+                col_pu=False,
+            )
+        )
+        check.reset(ctx, model, rng, n=N)
+        check.pf.replace(case["x"], case["lw"])
+        check.fit = (mean0, cov0)
+        check.update(Measurement(case["count"], case["pos"], 1.0, 1000, WIND), case["inbox"], rng)
+        colpf_ok[b] = bool(np.allclose(check.pf.weights, ref_w, rtol=1e-9, atol=1e-15))
+        est = ColPFEstimator(ColPFParams(n_particles=N, n_max=N))
+        est.reset(ctx, model, rng, n=N)
+
+        def colpf(est: ColPFEstimator = est) -> None:
+            est.pf.replace(case["x"], case["lw"])
+            est.fit = (mean0, cov0)
+            est.target_n = N
+            est.cue_iterations = []
+            est.update(meas, case["inbox"], rng)
+
+        t_colpf[b] = _time(colpf, args.repeat)
     t_colpf_ref = _time(lambda: colpf_update_loop(case, (mean0, cov0), rng), 1)
 
-    # ---- Adap-PP decision
-    params = AdaptivePlannerParams(l_max=4, tail_mass=1e-300)
-    planner = AdaptivePathPlanner(params)
-    planner.reset(ctx)
+    # ---- Adap-PP decision: exact classes (tail 1e-300) against the loop, then the default
+    # (classes merged beyond the predicted tail) timed with each backend
     belief = ParticleBelief(case["x"], case["lw"])
-    bound = model.bind(dt=1.0, direction=WIND)
-
-    def decide() -> object:
-        return planner.plan(belief, case["pos"], bound, case["hist"], rng)
-
-    plan = decide()
-    z = bound.outcome_probabilities(case["pos"] + planner.steps, case["x"]).shape[1]
-    t_ref0 = time.perf_counter()
-    k_ref, l_ref, r_ref = adap_pp_loop(case, params.h1_scale, params.h2_scale, 4, z)
-    t_dec_ref = (time.perf_counter() - t_ref0) * 1e3
-    finite = np.isfinite(r_ref)
-    dec_ok = (
-        plan.direction == k_ref
-        and plan.length == l_ref
-        and bool(np.allclose(plan.scores[finite], r_ref[finite], rtol=1e-8, atol=1e-8))
-    )
-    # the timed decision merges the count classes beyond the predicted tail (the default)
-    planner_fast = AdaptivePathPlanner(AdaptivePlannerParams(l_max=4))
-    planner_fast.reset(ctx)
-    t_dec = _time(
-        lambda: planner_fast.plan(belief, case["pos"], bound, case["hist"], rng), args.repeat
-    )
+    t_dec, dec_ok = {}, {}
+    k_ref = l_ref = r_ref = None
+    t_dec_ref = math.nan
+    for b, model in models.items():
+        bound = model.bind(dt=1.0, direction=WIND)
+        params = AdaptivePlannerParams(l_max=4, tail_mass=1e-300, backend=b)
+        planner = AdaptivePathPlanner(params)
+        planner.reset(ctx)
+        plan = planner.plan(belief, case["pos"], bound, case["hist"], rng)
+        if r_ref is None:
+            z = bound.outcome_probabilities(case["pos"] + planner.steps, case["x"]).shape[1]
+            t_ref0 = time.perf_counter()
+            k_ref, l_ref, r_ref = adap_pp_loop(case, params.h1_scale, params.h2_scale, 4, z)
+            t_dec_ref = (time.perf_counter() - t_ref0) * 1e3
+        finite = np.isfinite(r_ref)
+        dec_ok[b] = (
+            plan.direction == k_ref
+            and plan.length == l_ref
+            and bool(np.allclose(plan.scores[finite], r_ref[finite], rtol=1e-8, atol=1e-8))
+        )
+        fast = AdaptivePathPlanner(AdaptivePlannerParams(l_max=4, backend=b))
+        fast.reset(ctx)
+        t_dec[b] = _time(
+            lambda fast=fast, bound=bound: fast.plan(belief, case["pos"], bound, case["hist"], rng),
+            args.repeat,
+        )
+    best = backends[-1]
 
     print(f"N = {N} particles, 26 directions, l_max = 4, two neighbours (shared machine)")
     print(
-        f"{'operation':<22} {'vector ms':>10} {'loop ms':>10} {'speed-up':>9} "
-        f"{'target ms':>10} {'agree':>6}"
+        f"{'operation':<22} {'backend':>8} {'ms':>8} {'loop ms':>9} {'vs loop':>8} "
+        f"{'vs numpy':>9} {'target':>7} {'agree':>6}"
     )
-    for name, tv, tl, target, ok in (
+    for name, times, tl, target, oks in (
         ("Col-PF update", t_colpf, t_colpf_ref, math.nan, colpf_ok),
         ("Adap-PP decision", t_dec, t_dec_ref, 2.0, dec_ok),
     ):
-        tgt = "-" if math.isnan(target) else f"{target:.1f}"
-        flag = "" if math.isnan(target) or tv <= target else "  (over target)"
-        print(
-            f"{name:<22} {tv:10.3f} {tl:10.1f} {tl / tv:8.0f}x {tgt:>10} "
-            f"{'yes' if ok else 'NO':>6}{flag}"
-        )
+        for b in backends:
+            tv = times[b]
+            tgt = "-" if math.isnan(target) else f"{target:.1f}"
+            flag = "" if math.isnan(target) or tv <= target else "  (over target)"
+            print(
+                f"{name:<22} {b:>8} {tv:8.3f} {tl:9.1f} {tl / tv:7.0f}x "
+                f"{times['numpy'] / tv:8.1f}x {tgt:>7} {'yes' if oks[b] else 'NO':>6}{flag}"
+            )
 
-    # ---- whole episodes
-    sc0 = get_scenario("muc-osl-3d")
+    # ---- whole episodes, the two backends alternating per algorithm (same seeds: the rows
+    # must be equal bit for bit)
     print(f"\nepisodes of muc-osl-3d (3 UAVs), {args.episodes} per algorithm, one process")
-    print(f"{'algorithm':<10} {'mean s':>8} {'per step ms':>12} {'sim time s':>11} {'reached':>8}")
-    means = {}
-    for name in ALGORITHMS:
-        sc = sc0.with_overrides({"searcher": {"type": name}})
-        walls, steps, reached, sim = [], [], 0, []
-        for e in range(args.episodes):
-            t0 = time.perf_counter()
-            res = run_episode(sc, *episode_seeds(2024, "muc-osl-3d", e), record=False)
-            walls.append(time.perf_counter() - t0)
-            steps.append(res.metrics["steps"])
-            sim.append(res.metrics["search_time"])
-            reached += int(res.metrics["success"])
-        means[name] = float(np.mean(walls))
-        per_step = 1e3 * sum(walls) / max(sum(steps), 1)
-        print(
-            f"{name:<10} {means[name]:8.3f} {per_step:12.3f} {np.mean(sim):11.0f} "
-            f"{reached:>4}/{args.episodes}"
-        )
-    target = "  (over the 0.3 s target)" if means["muc-osl"] > 0.3 else ""
-    print(f"mean MUC-OSL episode {means['muc-osl']:.3f} s{target}")
     print(
-        f"RESULT colpf_update_ms={t_colpf:.3f} adap_pp_decision_ms={t_dec:.3f} "
-        f"episode_s_mucosl={means['muc-osl']:.3f} episode_s_colinf={means['col-inf']:.3f}"
+        f"{'algorithm':<10} {'backend':>8} {'mean s':>8} {'per step ms':>12} "
+        f"{'vs numpy':>9} {'reached':>8} {'same rows':>10}"
+    )
+    means: dict[tuple[str, str], float] = {}
+    same_all = True
+    for name in ALGORITHMS:
+        rows = {}
+        for b in backends:
+            walls, rows[b] = _episode_rows(name, b, args.episodes)
+            means[name, b] = float(np.mean(walls))
+            steps = sum(r["steps"] for r in rows[b])
+            reached = sum(int(r["success"]) for r in rows[b])
+            same = _same(rows["numpy"], rows[b])
+            same_all &= same
+            print(
+                f"{name:<10} {b:>8} {means[name, b]:8.3f} {1e3 * sum(walls) / max(steps, 1):12.3f} "
+                f"{means[name, 'numpy'] / means[name, b]:8.1f}x {reached:>4}/{args.episodes} "
+                f"{'yes' if same else 'NO':>10}"
+            )
+    m = means["muc-osl", best]
+    target = "  (over the 0.3 s target)" if m > 0.3 else ""
+    print(f"mean MUC-OSL episode ({best}) {m:.3f} s{target}")
+    print(
+        f"RESULT colpf_update_ms={t_colpf[best]:.3f} adap_pp_decision_ms={t_dec[best]:.3f} "
+        f"episode_s_mucosl={m:.3f} episode_s_colinf={means['col-inf', best]:.3f} "
+        f"adap_pp_decision_ms_numpy={t_dec['numpy']:.3f} "
+        f"episode_s_mucosl_numpy={means['muc-osl', 'numpy']:.3f} "
+        f"same_rows={'yes' if same_all else 'no'}"
     )
 
 
