@@ -9,15 +9,15 @@ baselines in an ordinary odorloc sweep (same worlds for every searcher: common r
 2. A registered searcher drives the same environment through ``SearcherPolicy`` (here
    ``zigzag``), for its return on the training episodes beside the trained policy's.
 3. The trained policy is saved (``linear.npz``) and named in a sweep as the ``policy`` searcher
-   (``callable: odorloc.searchers.policy:linear``), beside ``zigzag`` and the hand-written
-   ``upwind_surge`` policy, on episodes of another root seed (``--seed``).
+   (``callable: odorloc.searchers.policy:linear``), beside ``infotaxis``, ``zigzag`` and the
+   hand-written ``upwind_surge`` policy, on episodes of another root seed (``--seed``).
 
     .venv/bin/python examples/train_policy.py --out odorloc-out/policy
 
 The scenario is ``examples/policy-search.yaml`` (a small room with a meandering wind and a
 source drawn anew each episode; the task is to come within 0.5 m of it). Another single-agent
-scenario works the same way (``--scenario``); to compare with another searcher add it to
-``BASELINES`` (for instance ``{"name": "infotaxis"}`` once that searcher is registered).
+scenario works the same way (``--scenario``, e.g. ``lattice-isotropic-2d``, whose moves are the
+same five); to compare with another searcher add it to ``BASELINES``.
 """
 
 from __future__ import annotations
@@ -36,9 +36,15 @@ from odorloc.searchers.policy import LinearPolicy
 HERE = Path(__file__).resolve().parent
 ACTION = {"kind": "discrete", "moves": "axis", "stay": True, "declare": "none"}
 BASELINES = [
+    {"name": "infotaxis"},
     {"name": "zigzag"},
     {"name": "policy", "label": "upwind-surge"},
 ]
+
+
+def world_key(scenario: str) -> str:
+    """Seed key of the scenario: its file's stem, so results do not depend on where it lies."""
+    return Path(scenario).stem if scenario.endswith((".yaml", ".yml")) else scenario
 
 
 def normaliser(env: SearchEnv) -> tuple[np.ndarray, np.ndarray]:
@@ -81,7 +87,7 @@ def searcher_return(env: SearchEnv, name: str, seed: int, episode: int) -> float
 def train(
     scenario: str, iterations: int, population: int, episodes: int, seed: int
 ) -> tuple[LinearPolicy, list[float]]:
-    env = SearchEnv(scenario, action=ACTION)
+    env = SearchEnv(scenario, action=ACTION, world_key=world_key(scenario))
     shift, scale = normaliser(env)
     n_act, n_feat = env.action_space.n, len(shift) + 1
     rng = np.random.default_rng(seed)
@@ -133,7 +139,7 @@ def main() -> None:
     )
     weights = policy.save(args.out / "linear.npz")
     print(f"trained in {time.perf_counter() - t0:.0f} s; policy saved to {weights}")
-    env = SearchEnv(args.scenario, action=ACTION)
+    env = SearchEnv(args.scenario, action=ACTION, world_key=world_key(args.scenario))
     eps = range(args.train_episodes)
     mine = np.mean([episode_return(env, policy, args.train_seed, e) for e in eps])
     zig = np.mean([searcher_return(env, "zigzag", args.train_seed, e) for e in eps])
@@ -143,7 +149,7 @@ def main() -> None:
         "name": "trained-policy-vs-baselines",
         "seed": args.seed,
         "episodes": args.episodes,
-        "scenarios": [{"name": args.scenario}],
+        "scenarios": [{"name": args.scenario, "label": world_key(args.scenario)}],
         "searchers": [
             {
                 "name": "policy",
