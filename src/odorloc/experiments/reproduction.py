@@ -53,7 +53,8 @@ class ReproductionParams(Params):
 class Table:
     """A result table: a title, headers, formatted rows, and whether to print it.
 
-    Wide tables (``console=False``) go only to CSV and the report.
+    Wide tables (``console=False``) go only to CSV and the report. The first ``left`` columns
+    are aligned left on the console (text), the others right (numbers).
     """
 
     name: str
@@ -62,6 +63,7 @@ class Table:
     rows: list[list[str]]
     console: bool = True
     note: str = ""
+    left: int = 1
 
 
 @dataclass
@@ -200,7 +202,8 @@ class Reproduction:
         chosen = select_sweeps(list(specs), only)
         out = Path(out)
         out.mkdir(parents=True, exist_ok=True)
-        console = Console(width=120)
+        # the console output is meant to be read in a 100-column terminal
+        console = Console(width=100)
         t0 = time.perf_counter()
         frames = []
         stores: dict[str, Path] = {}
@@ -241,7 +244,7 @@ class Reproduction:
             if tab.console:
                 rt = RichTable(title=tab.title)
                 for i, h in enumerate(tab.headers):
-                    rt.add_column(h, justify="left" if i == 0 else "right")
+                    rt.add_column(h, justify="left" if i < tab.left else "right")
                 for r in tab.rows:
                     rt.add_row(*r)
                 console.print(rt)
