@@ -392,6 +392,10 @@ def _energy_claims(data: _Data, rng: np.random.Generator) -> list[Claim]:
     return out
 
 
+def _when(at: float) -> str:
+    return f"{at / 60:g} min" if at % 60 == 0 else f"{at:g} s"
+
+
 def _success_by(g: Any, limit: float) -> np.ndarray:
     return (g["success"].to_numpy(bool) & (g["time"].to_numpy(float) <= limit)).astype(float)
 
@@ -411,28 +415,24 @@ def _filament_claims(
     out.append(
         Claim(
             "filament",
-            f"MUC-OSL succeeds in about 90 % by {at / 60:g} min (100x60x30 m)",
+            f"MUC-OSL succeeds in about 90 % by {_when(at)} (100x60x30 m)",
             "Fig. 9(a): about 90 %",
-            f"SR at {at / 60:g} min {_pct(k, n)}",
+            f"SR at {_when(at)} {_pct(k, n)}",
             verdict(lo, hi, +1, 0.75),
         )
     )
     uav_sweep = next((sw for sw in sweeps if sw.key == "uavs"), None)
-    if uav_sweep is not None:
-        big = [v for v in uav_sweep.values if v > 3]
-        s = (
-            np.concatenate([_success_by(fil.one(uav_sweep.setting(v), "muc-osl"), at) for v in big])
-            if big
-            else np.zeros(0)
-        )
+    big = [v for v in uav_sweep.values if v > 3] if uav_sweep is not None else []
+    if uav_sweep is not None and big:
+        s = np.concatenate([_success_by(fil.one(uav_sweep.setting(v), "muc-osl"), at) for v in big])
         k, n = int(s.sum()), len(s)
         lo, hi = stats.wilson_interval(k, n) if n else (math.nan, math.nan)
         out.append(
             Claim(
                 "filament",
-                f"MUC-OSL above 80 % by {at / 60:g} min with more than 3 UAVs",
+                f"MUC-OSL above 80 % by {_when(at)} with more than 3 UAVs",
                 "Fig. 9(b): > 80 %",
-                f"SR at {at / 60:g} min, {', '.join(str(v) for v in big)} UAVs: {_pct(k, n)}",
+                f"SR at {_when(at)}, {', '.join(str(v) for v in big)} UAVs: {_pct(k, n)}",
                 verdict(lo, hi, +1, 0.80),
             )
         )

@@ -117,6 +117,8 @@ class MucOslReproduction(Reproduction):
         Run only these values of each sweep (tests); a sweep without any is left out.
     filament : bool
         Include the filament world.
+    fig3 : bool
+        Draw Fig. 3 and its animation (it runs MUC-OSL episodes until one succeeds, up to 10).
     """
 
     name = "muc-osl"
@@ -132,8 +134,10 @@ class MucOslReproduction(Reproduction):
         time_limit: float | None = None,
         values: Mapping[str, Sequence[Any]] | None = None,
         filament: bool = True,
+        fig3: bool = True,
     ) -> None:
         super().__init__(params)
+        self.fig3 = fig3
         self.time_limit = time_limit
         self.limit = 1200.0 if time_limit is None else float(time_limit)
         self.rate_sweeps = _restrict(SWEEPS, values)
@@ -506,6 +510,8 @@ class MucOslReproduction(Reproduction):
                 ),
             )
         )
+        if not self.fig3:
+            return figs
         figs.append(
             Figure(
                 "fig3_team_3d.png",
