@@ -302,3 +302,26 @@ def test_claims_held_and_not_held_on_made_up_episodes() -> None:
     lost = {c.statement: c for c in evaluate_claims(Cells(_world("col-inf")), "muc-osl-3d", uavs)}
     assert lost["MUC-OSL has the highest SR at every point"].verdict == "not held"
     assert lost["MUC-OSL has the lowest MST at every point"].verdict == "not held"
+
+
+def test_recorded_filament_flow_replays_the_layered_wind_and_the_plume() -> None:
+    """The 3-D Farrell wind is recorded on its node grid in two layers: the replay gives the
+    live wind at any point and height, and the live plume's concentration at the frame times."""
+    from odorloc.engine.episode import prepare_world
+    from odorloc.engine.replay import record_flow
+    from odorloc.world.world import World
+
+    sc = get_scenario("muc-osl-filament-3d").with_overrides({"limits.time": 5.0})
+    movie = record_flow(sc, 11)
+    assert movie.wind.shape == (6, 15, 15, 2, 3)
+    live, rng, _ = prepare_world(sc, 11)
+    replay = World.replay(movie)
+    pts = np.random.default_rng(0).uniform([0, 0, 0], [100, 60, 30], (50, 3))
+    for _ in range(5):
+        for _ in range(2):
+            live.step(0.5, rng)
+        replay.step(1.0, rng)
+        np.testing.assert_allclose(replay.wind.velocity(pts), live.wind.velocity(pts), atol=1e-12)
+        np.testing.assert_array_equal(
+            replay.plume.concentration(pts), live.plume.concentration(pts)
+        )

@@ -46,7 +46,7 @@ from odorloc.core.seeds import episode_seeds
 from odorloc.experiments.reproduction import Figure, Reproduction, ReproductionParams, Table, fmt
 from odorloc.papers.muc_osl.analysis import Cells, add_uav_search_time, summarize_point
 from odorloc.papers.muc_osl.claims import evaluate_claims
-from odorloc.papers.muc_osl.reference import ALGORITHMS, TABLE2, TABLE3
+from odorloc.papers.muc_osl.reference import ALGORITHMS, LARGEST_AREA_SUCCESS, TABLE2, TABLE3
 from odorloc.papers.muc_osl.sweeps import (
     DEFAULT,
     SWEEPS,
@@ -170,7 +170,15 @@ class MucOslReproduction(Reproduction):
         return out
 
     def reference(self) -> dict[str, dict[str, Any]]:
-        return {}
+        """The paper's success rates at 100 x 200 x 50 m (the only per-point numbers it gives)."""
+        s = next((sw for sw in self.rate_sweeps if sw.key == "area"), None)
+        if s is None or (100.0, 200.0, 50.0) not in s.values:
+            return {}
+        setting = s.setting((100.0, 200.0, 50.0))
+        return {
+            "/".join(cell_of(SCENARIO, setting, a)): {"success_rate": v, "source": "Sect. VI.2.1"}
+            for a, v in LARGEST_AREA_SUCCESS.items()
+        }
 
     # ----------------------------------------------------------------- tables
     def _cells(self, df: Any) -> Cells:
