@@ -18,7 +18,7 @@ VALUES = {"area": [(100.0, 60.0, 30.0)], "uavs": [3], "radius": [30.0], "particl
 SWEEPS = ("rate", "rate-particles", "filament", "filament-particles")
 #: Columns that hold timings (they differ between any two runs).
 TIMING = ["wall_time", "finished_at", "extra", "wall_per_step_ms", "world_fraction",
-          "searcher_fraction", "movie_wall_time"]  # fmt: skip
+          "searcher_fraction", "movie_wall_time", "movie_cpu_time", "cpu_time"]  # fmt: skip
 
 
 def _small() -> MucOslReproduction:

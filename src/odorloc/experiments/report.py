@@ -346,7 +346,8 @@ def _distance_figure(df: Any, level: float, bins: int = 5) -> str | None:
         ax.errorbar(
             centres,
             100 * p,
-            yerr=[100 * (p - lo), 100 * (hi - p)],
+            # round-off can leave the Wilson bound a hair past the point (k = 0 or n)
+            yerr=[100 * np.maximum(p - lo, 0.0), 100 * np.maximum(hi - p, 0.0)],
             marker="o",
             capsize=3,
             label=lab,
@@ -456,7 +457,7 @@ class ReportSection:
     tables : list of (caption, headers, rows)
         Rows of already formatted cells.
     figures : list of (path, caption)
-        PNG files to embed.
+        PNG (or GIF) files to embed.
     """
 
     title: str
@@ -479,8 +480,9 @@ def _extra_section(sec: ReportSection) -> str:
         except OSError as exc:
             parts.append(f'<p class="note">figure {_e(Path(path).name)} unavailable: {_e(exc)}</p>')
             continue
+        mime = "image/gif" if Path(path).suffix.lower() == ".gif" else "image/png"
         parts.append(
-            f'<figure><img alt="{_e(caption)}" src="data:image/png;base64,{data}" '
+            f'<figure><img alt="{_e(caption)}" src="data:{mime};base64,{data}" '
             f'style="max-width:1150px"><figcaption>{_e(caption)}</figcaption></figure>'
         )
     return "".join(parts)

@@ -113,6 +113,9 @@ class Reproduction:
     report_paired : bool
         Include the generic paired comparisons of every two cells of a world in the report
         (a reproduction with many cells per world and its own paired tables turns them off).
+    cell_summary : bool
+        Print the harness's per-cell summary before the reproduction's own tables (off for
+        sweeps of many cells, whose compact tables say it better).
     """
 
     name: ClassVar[str] = ""
@@ -121,6 +124,7 @@ class Reproduction:
     default_episodes: ClassVar[int] = 10
     paper_episodes: ClassVar[int] = 10
     report_paired: ClassVar[bool] = True
+    cell_summary: ClassVar[bool] = True
 
     def __init__(self, params: ReproductionParams | None = None) -> None:
         self.params = params or ReproductionParams()
@@ -218,6 +222,7 @@ class Reproduction:
                     scheduler=scheduler,
                     progress=progress,
                     group_fn=self.group_fn(),
+                    summary=progress and self.cell_summary,
                 )
             else:
                 part = _stored_rows(spec, path, console)

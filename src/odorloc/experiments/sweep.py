@@ -13,6 +13,7 @@ seed::
       - name: indoor-pf-entropy     # built-in name or path to a scenario file
         params: {time_limit: 600}   # fixed overrides
         grid: {start_index: [2, 4]} # swept overrides (cartesian product)
+        agent_grid: {}              # swept agent placements that share the flow (see below)
     searchers:
       - name: pf-entropy
         grid: {n_particles: [500, 1000]}
@@ -33,11 +34,19 @@ scenario faces the same world realisation (wind, plume, start pose) and differen
 searchers can be paired episode by episode. Because the seeds travel inside the task, results do not
 depend on the backend, the number of workers or the order of execution.
 
+Agent placements that share the flow
+------------------------------------
+A scenario's ``agent_grid`` sweeps settings that only place the agents (``start_set``,
+``start_index``, ``agents.*``). Its cells keep their own world key (the cell id, and the cells
+paired in comparisons), but share the *flow key* of the scenario's grid point: the world seeds
+come from the flow key, so every placement of episode ``i`` faces the same wind and plume, and
+with ``replay: true`` one recorded flow serves them all.
+
 Record once, replay many
 ------------------------
-With ``replay: true`` the flow (wind and plume) of each world key and episode is recorded once
-(:func:`~odorloc.engine.replay.record_flow`) and replayed to every searcher cell of that world
-key, in one work item (:func:`~odorloc.experiments.runner.replay_group`). Every searcher then faces
+With ``replay: true`` the flow (wind and plume) of each flow key and episode is recorded once
+(:func:`~odorloc.engine.replay.record_flow`) and replayed to every cell of that flow key, in one
+work item (:func:`~odorloc.experiments.runner.replay_group`). Every searcher then faces
 exactly the same plume frames, which a live plume gives only when it does not depend on the agents;
 for expensive plumes (filaments, Eulerian grids) it also saves simulating the flow once per
 searcher.
@@ -70,6 +79,9 @@ from odorloc.core.errors import ConfigError, format_validation_error
 from odorloc.core.params import Params
 from odorloc.core.seeds import episode_seeds
 
+#: Overrides that only place agents (allowed in a scenario's ``agent_grid``, with ``agents.*``).
+AGENT_KEYS = ("start_set", "start_index")
+
 EpisodeFn = Callable[["EpisodeTask"], dict]
 """An episode function: runs one task and returns one row dict (see :mod:`.store`)."""
 
@@ -100,6 +112,10 @@ class ComponentSpec(Params):
         Fixed parameter overrides.
     grid : dict of list
         Swept parameter overrides; the cartesian product of the lists is taken.
+    agent_grid : dict of list
+        Swept agent placements (scenarios only: ``start_set``, ``start_index``, ``agents.*``),
+        crossed with ``grid``; their cells share the flow of their ``grid`` point (module
+        docstring).
     label : str, optional
         Short display name used in cell ids and reports (defaults to ``name``).
     """
@@ -107,12 +123,24 @@ class ComponentSpec(Params):
     name: str = Field(min_length=1)
     params: dict[str, Any] = Field(default_factory=dict)
     grid: dict[str, list[Any]] = Field(default_factory=dict)
+    agent_grid: dict[str, list[Any]] = Field(default_factory=dict)
     label: str | None = None
 
     @field_validator("params")
     @classmethod
     def _params_ok(cls, v: dict[str, Any]) -> dict[str, Any]:
         return _check_value(v, "value")
+
+    @field_validator("agent_grid")
+    @classmethod
+    def _agent_grid_ok(cls, v: dict[str, list[Any]]) -> dict[str, list[Any]]:
+        for key in v:
+            if key not in AGENT_KEYS and not key.startswith("agents."):
+                raise ValueError(
+                    f"{key!r} is not an agent placement (start_set, start_index, agents.*); "
+                    "put settings that change the world in 'grid'"
+                )
+        return cls._grid_ok(v)
 
     @field_validator("grid")
     @classmethod
@@ -128,9 +156,14 @@ class ComponentSpec(Params):
 
     @model_validator(mode="after")
     def _no_overlap(self) -> ComponentSpec:
-        both = sorted(set(self.params) & set(self.grid))
-        if both:
-            raise ValueError(f"{both[0]!r} is both a fixed param and a grid axis")
+        for a, b, what in (
+            (self.params, self.grid, "a fixed param and a grid axis"),
+            (self.params, self.agent_grid, "a fixed param and an agent_grid axis"),
+            (self.grid, self.agent_grid, "a grid and an agent_grid axis"),
+        ):
+            both = sorted(set(a) & set(b))
+            if both:
+                raise ValueError(f"{both[0]!r} is both {what}")
         return self
 
     @property
@@ -258,6 +291,8 @@ def hashed_content(spec: SweepSpec) -> dict[str, Any]:
     scen = []
     for s in spec.scenarios:
         d = s.model_dump()
+        if not d["agent_grid"]:
+            del d["agent_grid"]  # sweeps without one keep the hash they always had
         d["file_sha256"] = _scenario_file_digest(s.name, spec.base_dir)
         scen.append(d)
     out = {
@@ -290,12 +325,15 @@ class Cell:
     cell_id : str
         Readable unique id, e.g. ``"room[start=2]/pf[n=500]"``.
     world_key : str
-        Scenario part of the id; cells sharing it share world seeds (common random numbers).
+        Scenario part of the id; cells sharing it are paired (common random numbers).
     spec : dict
         ``{"scenario", "scenario_params", "searcher", "searcher_params"}`` with the fixed and
         swept overrides merged.
     swept : dict
         Only the swept overrides, keys prefixed ``scenario.`` / ``searcher.``.
+    flow_key : str
+        Key of the world seeds and of the recorded flow: the world key without the
+        ``agent_grid`` axes (equal to it without them).
     """
 
     index: int
@@ -303,6 +341,11 @@ class Cell:
     world_key: str
     spec: dict[str, Any]
     swept: dict[str, Any]
+    flow_key: str = ""
+
+    def __post_init__(self) -> None:
+        if not self.flow_key:
+            object.__setattr__(self, "flow_key", self.world_key)
 
 
 def _fmt_point(point: dict[str, Any]) -> str:
@@ -323,30 +366,34 @@ def expand_cells(spec: SweepSpec) -> list[Cell]:
     """All cells in deterministic order: scenarios, their grid, searchers, their grid."""
     cells: list[Cell] = []
     for sc in spec.scenarios:
-        for sp in _grid_points(sc.grid):
-            world_key = f"{sc.display}{_fmt_point(sp)}"
-            for se in spec.searchers:
-                for ep in _grid_points(se.grid):
-                    cell_id = f"{world_key}/{se.display}{_fmt_point(ep)}"
-                    swept = {f"scenario.{k}": v for k, v in sp.items()}
-                    swept.update({f"searcher.{k}": v for k, v in ep.items()})
-                    cells.append(
-                        Cell(
-                            index=len(cells),
-                            cell_id=cell_id,
-                            world_key=world_key,
-                            spec={
-                                "scenario": sc.name,
-                                "scenario_label": sc.display,
-                                "scenario_params": {**sc.params, **sp},
-                                "searcher": se.name,
-                                "searcher_label": se.display,
-                                "searcher_params": {**se.params, **ep},
-                                "swept": swept,
-                            },
-                            swept=swept,
+        for gp in _grid_points(sc.grid):
+            flow_key = f"{sc.display}{_fmt_point(gp)}"
+            for ap in _grid_points(sc.agent_grid):
+                sp = {**gp, **ap}
+                world_key = f"{sc.display}{_fmt_point(sp)}"
+                for se in spec.searchers:
+                    for ep in _grid_points(se.grid):
+                        cell_id = f"{world_key}/{se.display}{_fmt_point(ep)}"
+                        swept = {f"scenario.{k}": v for k, v in sp.items()}
+                        swept.update({f"searcher.{k}": v for k, v in ep.items()})
+                        cells.append(
+                            Cell(
+                                index=len(cells),
+                                cell_id=cell_id,
+                                world_key=world_key,
+                                spec={
+                                    "scenario": sc.name,
+                                    "scenario_label": sc.display,
+                                    "scenario_params": {**sc.params, **sp},
+                                    "searcher": se.name,
+                                    "searcher_label": se.display,
+                                    "searcher_params": {**se.params, **ep},
+                                    "swept": swept,
+                                },
+                                swept=swept,
+                                flow_key=flow_key,
+                            )
                         )
-                    )
     return cells
 
 
@@ -376,6 +423,9 @@ class EpisodeTask:
         Position of the cell in the sweep's expansion order.
     world_key : str
         Scenario part of ``cell_id`` (episodes with equal ``world_key`` and index are paired).
+    flow_key : str
+        Key of the world seeds and of the recorded flow (``world_key`` unless the scenario has
+        an ``agent_grid``).
     keep_arrays : bool
         Whether the sweep stores per-episode arrays; an episode function may skip recording
         them when ``False`` (the harness drops them anyway).
@@ -391,11 +441,16 @@ class EpisodeTask:
     cell_index: int = 0
     world_key: str = ""
     keep_arrays: bool = False
+    flow_key: str = ""
+
+    def __post_init__(self) -> None:
+        if not self.flow_key:
+            object.__setattr__(self, "flow_key", self.world_key)
 
 
 def make_task(spec: SweepSpec, cell: Cell, episode: int, chash: str | None = None) -> EpisodeTask:
     """The task of episode ``episode`` of ``cell``."""
-    ws, as_ = episode_seeds(spec.seed, cell.world_key, episode)
+    ws, as_ = episode_seeds(spec.seed, cell.flow_key, episode)
     return EpisodeTask(
         cell_id=cell.cell_id,
         cell=cell.spec,
@@ -407,6 +462,7 @@ def make_task(spec: SweepSpec, cell: Cell, episode: int, chash: str | None = Non
         cell_index=cell.index,
         world_key=cell.world_key,
         keep_arrays=spec.keep_arrays or episode in spec.keep_episodes,
+        flow_key=cell.flow_key,
     )
 
 
@@ -446,13 +502,22 @@ def validate_names(spec: SweepSpec) -> None:
                 if p.is_file():
                     name = str(p)
             try:
-                get_scenario(name)
+                base = get_scenario(name)
             except ConfigError as exc:
                 raise ConfigError(f"scenarios[{i}].name", str(exc)) from None
             except (KeyError, FileNotFoundError, ValueError) as exc:
                 raise ConfigError(
                     f"scenarios[{i}].name", f"unknown scenario {sc.name!r}: {exc}"
                 ) from None
+            drawn = base.world.source_draw is not None or any(
+                k.startswith("world.source_draw") for k in (*sc.params, *sc.grid)
+            )
+            if sc.agent_grid and drawn:
+                # the drawn sources keep a distance from the starts: placements would not
+                # share one world
+                raise ConfigError(
+                    f"scenarios[{i}].agent_grid", "cannot be used with world.source_draw"
+                )
     try:
         from odorloc.core import registry
 
@@ -528,6 +593,7 @@ def run_sweep(
     timeout: float = 5.0,
     chunk_size: int | None = None,
     group_fn: Callable[[list[EpisodeTask]], list[dict]] | None = None,
+    summary: bool | None = None,
 ) -> Any:
     """Run (or resume) a sweep, writing every finished episode to the store at once.
 
@@ -561,9 +627,11 @@ def run_sweep(
     chunk_size : int, optional
         Episodes per work item; default chosen from the number of tasks and workers.
     group_fn : callable, optional
-        With ``replay: true``, the function running one world group (all searcher cells of a
-        world key and episode, on one recorded flow); default
+        With ``replay: true``, the function running one world group (all cells of a flow key
+        and episode, on one recorded flow); default
         :func:`odorloc.experiments.runner.replay_group`.
+    summary : bool, optional
+        Print the per-cell summary table at the end (default: with ``progress``).
 
     Returns
     -------
@@ -619,7 +687,7 @@ def run_sweep(
                     assert group_fn is not None
                     groups: dict[tuple[str, int], list[EpisodeTask]] = {}
                     for task in pending:
-                        groups.setdefault((task.world_key, task.episode), []).append(task)
+                        groups.setdefault((task.flow_key, task.episode), []).append(task)
                     work = runner.run(
                         pending, group_fn, keep_arrays=keep, groups=list(groups.values())
                     )
@@ -639,7 +707,7 @@ def run_sweep(
                     break
                 targets.update(more)
         df = store.frame()
-    if progress:
+    if progress if summary is None else summary:
         from odorloc.experiments.progress import print_summary
 
         print_summary(df)

@@ -22,7 +22,7 @@ true concentration (ppm) at the sensor and ``detection`` is ``hits >= threshold`
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Literal
+from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -33,9 +33,6 @@ from odorloc.core.registry import register
 from odorloc.core.types import SensorInfo
 from odorloc.sensors.base import GasReading, GasSensor
 from odorloc.sensors.gas import ConcentrationSensor, ConcentrationSensorParams
-
-if TYPE_CHECKING:
-    from odorloc.plume.base import PlumeModel
 
 __all__ = ["PIDCountParams", "PIDCountSensor", "hits_from_concentration"]
 
@@ -131,10 +128,11 @@ class PIDCountSensor(GasSensor):
         """Forget the PID's delay buffer and lag state."""
         self.pid.reset(rng)
 
-    def measure(
-        self, plume: PlumeModel, position: ArrayLike, dt: float, rng: np.random.Generator
-    ) -> GasReading:
-        """Read the PID at ``position`` (``(d,)`` metres) and count the encounters.
+    def respond(self, value: float, dt: float, rng: np.random.Generator) -> GasReading:
+        """One period's reading from the true concentration ``value`` (ppm) at the sensor.
+
+        The PID chain runs on ``value`` (:meth:`GasSensor.sample` gives the concentration) and
+        its output is counted in encounters.
 
         Returns
         -------
@@ -142,7 +140,7 @@ class PIDCountSensor(GasSensor):
             ``value``: hits (a whole number); ``raw``: true concentration, ppm;
             ``detection``: ``hits >= threshold``.
         """
-        r = self.pid.measure(plume, position, dt, rng)
+        r = self.pid.respond(value, dt, rng)
         p = self.params
         hits = int(hits_from_concentration(r.value, p.ppm_per_hit, p.max_hits))
         return GasReading(value=float(hits), raw=r.raw, detection=hits >= p.threshold)

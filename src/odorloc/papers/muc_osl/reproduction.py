@@ -127,6 +127,7 @@ class MucOslReproduction(Reproduction):
     default_episodes = 8
     paper_episodes = 200
     report_paired = False
+    cell_summary = False  # hundreds of cells: the per-point tables say it better
 
     def __init__(
         self,
