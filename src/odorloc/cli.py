@@ -271,6 +271,13 @@ def reproduce(
     scheduler: Annotated[
         str | None, typer.Option(help="Join a running Dask scheduler (tcp://host:port).")
     ] = None,
+    only: Annotated[
+        list[str] | None,
+        typer.Option(
+            help="Run only these sweeps of a reproduction made of several (repeat or separate "
+            "by commas); the others' stored rows are still shown."
+        ),
+    ] = None,
     list_: Annotated[bool, typer.Option("--list", help="List the reproductions.")] = False,
 ) -> None:
     """Reproduce a paper's headline comparison: table beside the paper's numbers, figures, report.
@@ -299,6 +306,7 @@ def reproduce(
             seed=seed,
             backend="dask" if scheduler else backend,
             scheduler=scheduler,
+            only=[w.strip() for o in only for w in o.split(",") if w.strip()] if only else None,
         )
     except OdorlocError as exc:
         _fail(str(exc))

@@ -32,12 +32,16 @@ def record_flow(scenario: Scenario, world_seed: int, duration: float | None = No
     duration : float, optional
         Seconds recorded after the warm-up (default the time limit); one frame per control
         period. The wind is sampled on the Farrell node grid of the scenario's wind when it has
-        one (``nodes``), else on 15 nodes per horizontal axis (5 vertically).
+        one (``nodes``; in 3-D on two layers, the field being the same at every height), else on
+        15 nodes per horizontal axis (5 vertically).
     """
     world, rng_world, _ = prepare_world(scenario, world_seed)
     T, _, wdt = control_substeps(scenario)
     nodes: Any = scenario.world.wind.values.get("nodes")
     shape = tuple(int(n) for n in nodes) if nodes is not None else None
+    if shape is not None and len(shape) == len(scenario.world.arena.lower) - 1:
+        # a horizontal node grid in 3-D (the layered Farrell field): two layers hold it
+        shape = (*shape, 2)
     return world.record(
         float(duration if duration is not None else scenario.limits.time),
         T,

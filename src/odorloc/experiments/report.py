@@ -499,6 +499,7 @@ def write_report(
     level: float = 0.95,
     seed: int = 0,
     sections: Sequence[ReportSection] = (),
+    paired: bool = True,
 ) -> Path:
     """Write a self-contained HTML report.
 
@@ -524,6 +525,9 @@ def write_report(
         Seed of the bootstrap.
     sections : sequence of ReportSection
         Extra sections shown first (a reproduction's key tables and figures).
+    paired : bool
+        Include the paired comparisons of every two cells of each world (``False`` for results
+        with many cells per world whose paired tables are given in ``sections``).
 
     Returns
     -------
@@ -569,7 +573,8 @@ def write_report(
             body.append('<p class="note">No episodes stored yet.</p>')
         else:
             body.append(_summary_section(summ, level))
-            body.append(_paired_section(df, level, seed))
+            if paired:
+                body.append(_paired_section(df, level, seed))
             if reference:
                 body.append(_paper_section(summ, reference))
             figs = _param_figures(summ, level)

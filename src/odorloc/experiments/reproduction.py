@@ -5,7 +5,11 @@ A reproduction (registry family ``"reproduction"``) lives in its paper package
 
 - :meth:`Reproduction.sweep` gives the sweep (scenarios x searchers x grids x episodes, the
   ``replay`` option for record-once/replay-many); it runs through the ordinary harness, so it is
-  stored as it goes, resumes after a kill, and runs on the local pool or on Dask;
+  stored as it goes, resumes after a kill, and runs on the local pool or on Dask. A reproduction
+  made of several sweeps (different worlds, a ``replay`` flag for some, searcher grids that must
+  not cross every scenario) overrides :meth:`Reproduction.sweeps` instead: each named sweep has
+  its own store ``<name>.sqlite``, ``run(only=...)`` runs some of them and reads the others'
+  stored rows, and the tables and figures see all rows with a ``sweep`` column;
 - :meth:`Reproduction.tables` turns the stored rows into compact tables printed beside the
   paper's numbers (wide tables go to CSV and the report);
 - :meth:`Reproduction.figures` draws the paper's figures; each figure is drawn on its own, so
@@ -20,8 +24,7 @@ import math
 import time
 import traceback
 import warnings
-from abc import ABC, abstractmethod
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, ClassVar
@@ -38,6 +41,7 @@ __all__ = [
     "fmt",
     "get",
     "names_of_reproductions",
+    "select_sweeps",
 ]
 
 
@@ -49,7 +53,8 @@ class ReproductionParams(Params):
 class Table:
     """A result table: a title, headers, formatted rows, and whether to print it.
 
-    Wide tables (``console=False``) go only to CSV and the report.
+    Wide tables (``console=False``) go only to CSV and the report. The first ``left`` columns
+    are aligned left on the console (text), the others right (numbers).
     """
 
     name: str
@@ -58,6 +63,7 @@ class Table:
     rows: list[list[str]]
     console: bool = True
     note: str = ""
+    left: int = 1
 
 
 @dataclass
@@ -90,9 +96,10 @@ class Outcome:
     failed_figures: list[str] = field(default_factory=list)
     report: Path | None = None
     wall_time: float = math.nan
+    stores: dict[str, Path] = field(default_factory=dict)
 
 
-class Reproduction(ABC):
+class Reproduction:
     """Base class of paper reproductions (see the module docstring).
 
     Class attributes
@@ -103,6 +110,9 @@ class Reproduction(ABC):
         Episodes per cell of the default run (fits the issue's time budget on 2 cores).
     paper_episodes : int
         The paper's own count (``--episodes`` reaches it).
+    report_paired : bool
+        Include the generic paired comparisons of every two cells of a world in the report
+        (a reproduction with many cells per world and its own paired tables turns them off).
     cell_summary : bool
         Print the harness's per-cell summary before the reproduction's own tables (off for
         sweeps of many cells, whose compact tables say it better).
@@ -113,15 +123,28 @@ class Reproduction(ABC):
     summary: ClassVar[str] = ""
     default_episodes: ClassVar[int] = 10
     paper_episodes: ClassVar[int] = 10
+    report_paired: ClassVar[bool] = True
     cell_summary: ClassVar[bool] = True
 
     def __init__(self, params: ReproductionParams | None = None) -> None:
         self.params = params or ReproductionParams()
 
     # ------------------------------------------------------------------ to override
-    @abstractmethod
     def sweep(self, episodes: int, seed: int) -> dict[str, Any]:
-        """The sweep specification (see :mod:`odorloc.experiments.sweep`)."""
+        """The sweep specification (see :mod:`odorloc.experiments.sweep`) of a one-sweep
+        reproduction; a reproduction of several sweeps overrides :meth:`sweeps` instead."""
+        raise NotImplementedError(f"{type(self).__name__} defines neither sweep() nor sweeps()")
+
+    def sweeps(self, episodes: int | None, seed: int) -> dict[str, dict[str, Any]]:
+        """The reproduction's sweeps by name, in running order; each is stored in
+        ``<name>.sqlite``.
+
+        ``episodes`` is the count asked for (``None``: the reproduction's defaults, which may
+        differ between sweeps). The default is one sweep named ``results``: :meth:`sweep` with
+        ``episodes`` or :attr:`default_episodes`.
+        """
+        n = self.default_episodes if episodes is None else int(episodes)
+        return {"results": self.sweep(n, seed)}
 
     def group_fn(self) -> Callable[[list[Any]], list[dict[str, Any]]] | None:
         """The group function of a ``replay`` sweep (default: the harness's)."""
@@ -149,37 +172,69 @@ class Reproduction(ABC):
         progress: bool = True,
         backend: str = "local",
         scheduler: str | None = None,
+        only: Sequence[str] | None = None,
     ) -> Outcome:
-        """Run (or resume) the reproduction and write tables, figures and the report to ``out``."""
+        """Run (or resume) the reproduction and write tables, figures and the report to ``out``.
+
+        Parameters
+        ----------
+        out : path
+            Output folder (stores, CSV, figures, report).
+        episodes : int, optional
+            Episodes per cell (default: the reproduction's defaults).
+        workers, backend, scheduler
+            Where the episodes run (see :func:`~odorloc.experiments.sweep.run_sweep`).
+        seed : int
+            Root seed.
+        progress : bool
+            Live progress and the harness's summary.
+        only : sequence of str, optional
+            Run only these sweeps (a name selects the sweep of that name and those named
+            ``<name>-...``); the others contribute the rows already in their stores.
+        """
         import pandas as pd
         from rich.console import Console
         from rich.table import Table as RichTable
 
         from odorloc.experiments.report import ReportSection, write_report
         from odorloc.experiments.store import ResultStore
-        from odorloc.experiments.sweep import run_sweep
+        from odorloc.experiments.sweep import load_sweep, run_sweep
 
-        n = self.default_episodes if episodes is None else int(episodes)
-        if n < 1:
-            raise ConfigError("episodes", f"must be >= 1, got {n}")
+        if episodes is not None and int(episodes) < 1:
+            raise ConfigError("episodes", f"must be >= 1, got {episodes}")
+        specs = {name: load_sweep(spec) for name, spec in self.sweeps(episodes, seed).items()}
+        chosen = select_sweeps(list(specs), only)
         out = Path(out)
         out.mkdir(parents=True, exist_ok=True)
-        console = Console(width=120)
+        # the console output is meant to be read in a 100-column terminal
+        console = Console(width=100)
         t0 = time.perf_counter()
-        store_path = out / "results.sqlite"
-        df = run_sweep(
-            self.sweep(n, seed),
-            store_path,
-            backend=backend,
-            workers=workers,
-            scheduler=scheduler,
-            progress=progress,
-            group_fn=self.group_fn(),
-            summary=progress and self.cell_summary,
-        )
+        frames = []
+        stores: dict[str, Path] = {}
+        for name, spec in specs.items():
+            path = out / f"{name}.sqlite"
+            if name in chosen:
+                part = run_sweep(
+                    spec,
+                    path,
+                    backend=backend,
+                    workers=workers,
+                    scheduler=scheduler,
+                    progress=progress,
+                    group_fn=self.group_fn(),
+                    summary=progress and self.cell_summary,
+                )
+            else:
+                part = _stored_rows(spec, path, console)
+            if path.is_file():
+                stores[name] = path
+            if len(part):
+                part = part[part["episode"] < spec.episodes].copy()
+                part["sweep"] = name
+                frames.append(part)
         wall = time.perf_counter() - t0
-        df = df[df["episode"] < n] if len(df) else df
-        outcome = Outcome(results=df, wall_time=wall)
+        df = pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
+        outcome = Outcome(results=df, wall_time=wall, stores=stores)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             df.to_csv(out / "results.csv", index=False)
@@ -194,7 +249,7 @@ class Reproduction(ABC):
             if tab.console:
                 rt = RichTable(title=tab.title)
                 for i, h in enumerate(tab.headers):
-                    rt.add_column(h, justify="left" if i == 0 else "right")
+                    rt.add_column(h, justify="left" if i < tab.left else "right")
                 for r in tab.rows:
                     rt.add_row(*r)
                 console.print(rt)
@@ -203,14 +258,18 @@ class Reproduction(ABC):
         console.print(f"wall time {wall:.0f} s on {workers} worker(s) ({backend})")
         sections = []
         figs: list[tuple[Path, str]] = []
-        with ResultStore(store_path, readonly=True) as store:
+        if not stores:
+            console.print("nothing stored yet: no figures or report")
+            return outcome
+        # the first sweep's store goes to the figures (and, for one sweep, to the report)
+        with ResultStore(next(iter(stores.values())), readonly=True) as store:
             try:
-                specs = self.figures(df, store, out, seed)
+                fig_specs = self.figures(df, store, out, seed)
             except Exception:
-                specs = []
+                fig_specs = []
                 outcome.failed_figures.append("figures")
                 console.print(f"[red]figures failed:[/]\n{traceback.format_exc()}")
-            for fig in specs:
+            for fig in fig_specs:
                 path = out / fig.name
                 try:
                     fig.draw(path)
@@ -232,12 +291,13 @@ class Reproduction(ABC):
                 with warnings.catch_warnings():
                     warnings.simplefilter("ignore")
                     outcome.report = write_report(
-                        store,
+                        store if len(specs) == 1 else df,
                         out / "report.html",
                         title=f"{self.name} reproduction",
                         reference=self.reference(),
                         sections=sections,
                         seed=seed,
+                        paired=self.report_paired,
                     )
             except Exception:
                 console.print(f"[red]report failed:[/]\n{traceback.format_exc()}")
@@ -245,6 +305,37 @@ class Reproduction(ABC):
             if p is not None:
                 console.print(f"wrote {p}")
         return outcome
+
+
+def select_sweeps(names: Sequence[str], only: Sequence[str] | None) -> list[str]:
+    """The sweeps ``only`` selects (all when ``None``): a name selects the sweep of that name and
+    the sweeps named ``<name>-...``; :class:`ConfigError` naming ``--only`` for one that selects
+    none."""
+    if not only:
+        return list(names)
+    chosen: list[str] = []
+    for want in only:
+        hit = [n for n in names if n == want or n.startswith(f"{want}-")]
+        if not hit:
+            raise ConfigError("--only", f"no sweep {want!r} (sweeps: {', '.join(names)})")
+        chosen += [n for n in hit if n not in chosen]
+    return [n for n in names if n in chosen]
+
+
+def _stored_rows(spec: Any, path: Path, console: Any) -> Any:
+    """The stored rows of a sweep that is not run now (empty if none, or of other settings)."""
+    import pandas as pd
+
+    from odorloc.experiments.store import ResultStore
+    from odorloc.experiments.sweep import config_hash
+
+    if not path.is_file():
+        return pd.DataFrame()
+    with ResultStore(path, readonly=True) as store:
+        if store.config_hash != config_hash(spec):
+            console.print(f"{path.name} holds another sweep's settings: not used")
+            return pd.DataFrame()
+        return store.frame()
 
 
 def names_of_reproductions() -> list[str]:

@@ -431,19 +431,23 @@ def expand_frame(df: Any) -> Any:
     """Add the ``extra`` metrics and the swept parameters as columns of an episode table."""
     import pandas as pd
 
+    new: dict[str, Any] = {}
     if "extra" in df.columns:
         extras = [json.loads(x) if isinstance(x, str) and x else {} for x in df["extra"]]
         keys = sorted({k for e in extras for k in e})
         for k in keys:
             if k not in df.columns:
-                df[k] = pd.array([e.get(k, np.nan) for e in extras], dtype=float)
+                new[k] = pd.array([e.get(k, np.nan) for e in extras], dtype=float)
     if "cell" in df.columns:
         swept = [json.loads(x).get("swept", {}) if isinstance(x, str) else {} for x in df["cell"]]
         keys = sorted({k for s in swept for k in s})
         for k in keys:
-            if k not in df.columns:
-                df[k] = [s.get(k) for s in swept]
-    return df
+            if k not in df.columns and k not in new:
+                new[k] = [s.get(k) for s in swept]
+    if not new:
+        return df
+    # one concatenation: inserting hundreds of per-agent columns one by one fragments the frame
+    return pd.concat([df, pd.DataFrame(new, index=df.index)], axis=1)
 
 
 def open_results(source: Any) -> Any:

@@ -1,10 +1,12 @@
-"""Sensors: gas concentration, particle-encounter counter, anemometer, and signal pre-processing."""
+"""Sensors: gas concentration, particle-encounter counter, PID encounter counts, anemometer, and
+signal pre-processing."""
 
 from __future__ import annotations
 
 from odorloc.sensors.anemometer import Anemometer, AnemometerParams
 from odorloc.sensors.encounter import EncounterSensor, EncounterSensorParams
 from odorloc.sensors.gas import ConcentrationSensor, ConcentrationSensorParams, GasReading
+from odorloc.sensors.pid import PIDCountParams, PIDCountSensor, hits_from_concentration
 from odorloc.sensors.preprocessing import (
     OnlinePreprocessor,
     PreprocessedSample,
@@ -30,6 +32,8 @@ __all__ = [
     "EncounterSensorParams",
     "GasReading",
     "OnlinePreprocessor",
+    "PIDCountParams",
+    "PIDCountSensor",
     "PreprocessedSample",
     "PreprocessedSignal",
     "PreprocessorParams",
@@ -37,6 +41,7 @@ __all__ = [
     "align_delay",
     "average_wind",
     "delay_steps",
+    "hits_from_concentration",
     "moving_baseline",
     "preprocess",
     "relative_concentration",

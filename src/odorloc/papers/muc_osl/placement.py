@@ -5,7 +5,8 @@ The paper's three UAVs start on the lower edge of the arena's downwind side, at
 (1 to 8 UAVs) gives no positions for the others. Here further UAVs continue along the same edge
 (``y = 10``, ``z = 5``) on the free multiples of 10 m of ``x``, in increasing order: 20, 40, 50,
 70, 80, 90 (then 0 and 100 in a 100 m wide arena), so ``n`` UAVs always include the first
-``n - 1``'s positions.
+``n - 1``'s positions. In a narrower arena only the positions strictly inside it are used first
+(60 m wide: 10, 30, 20, 40, 50, then 0 and 60).
 """
 
 from __future__ import annotations
@@ -30,7 +31,8 @@ def uav_starts(n: int, width: float = 100.0, y: float = 10.0, z: float = 5.0) ->
     y, z : float, metres
         The edge the UAVs start on.
     """
-    xs = [p[0] for p in PAPER_STARTS if p[0] <= width]
+    # a start on the far wall could not move away from it in x: inner positions come first
+    xs = [p[0] for p in PAPER_STARTS if p[0] < width]
     extra = [10.0 * k for k in range(1, int(width // 10) + 1)]
     xs += [x for x in extra if x not in xs and x < width]
     xs += [x for x in (0.0, float(width)) if x not in xs]

@@ -39,3 +39,12 @@ RUNS = 200
 
 #: Names of the four algorithms in the paper's order.
 ALGORITHMS = ("muc-osl", "col-inf", "col-pf", "adap-pp")
+
+#: Success rates at 100 x 200 x 50 m with 3 UAVs (Sect. VI.2.1, Fig. 4): MUC-OSL "only 24 %",
+#: Col-Inf "could not accomplish localization task under the energy constraint".
+LARGEST_AREA_SUCCESS = {"muc-osl": 0.24, "col-inf": 0.0}
+
+#: Filament (GADEN) world, MUC-OSL (Sect. VI.3, Fig. 9): "about 90 %" success within 8 minutes
+#: in 100 x 60 x 30 m, and "more than 80 %" within 8 minutes with more than 3 UAVs.
+FILAMENT_SUCCESS_8MIN = 0.90
+FILAMENT_SUCCESS_8MIN_MANY_UAVS = 0.80

@@ -1,0 +1,124 @@
+"""``odorloc reproduce muc-osl`` on a small point: its sweeps and stores, resuming, ``--only``,
+and the same rows on a Dask cluster as on the local pool."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from odorloc.core.errors import ConfigError
+from odorloc.papers.muc_osl.reproduction import MucOslReproduction
+
+#: Two worlds (the default and the 4-UAV one) and one more particle count, 20 s episodes.
+VALUES = {"area": [(100.0, 60.0, 30.0)], "uavs": [3], "radius": [30.0], "particles": [20, 100]}
+SWEEPS = ("rate", "rate-particles", "filament", "filament-particles")
+#: Columns that hold timings (they differ between any two runs).
+TIMING = ["wall_time", "finished_at", "extra", "wall_per_step_ms", "world_fraction",
+          "searcher_fraction", "movie_wall_time", "movie_cpu_time", "cpu_time"]  # fmt: skip
+
+
+def _small() -> MucOslReproduction:
+    return MucOslReproduction(time_limit=20.0, values=VALUES)
+
+
+def _rows(df: pd.DataFrame) -> pd.DataFrame:
+    keep = df.drop(columns=[c for c in TIMING if c in df.columns])
+    return keep.sort_values(["sweep", "cell_id", "episode"]).reset_index(drop=True)
+
+
+def test_sweeps_of_the_reproduction() -> None:
+    full = MucOslReproduction().sweeps(None, 2024)
+    assert list(full) == list(SWEEPS)
+    assert full["rate"]["episodes"] == 8 and full["filament"]["episodes"] == 5
+    assert full["filament"]["replay"] and not full["rate"]["replay"]
+    assert len(full["rate"]["scenarios"]) == 17 and len(full["filament"]["scenarios"]) == 11
+    assert {s["name"] for s in full["rate"]["scenarios"]} == {"muc-osl-3d"}
+    assert {s["name"] for s in full["filament"]["scenarios"]} == {"muc-osl-filament-3d"}
+    labels = [s["label"] for s in full["rate-particles"]["searchers"]]
+    assert len(labels) == 41 and "muc-osl-no-env-pu" in labels
+    assert MucOslReproduction().sweeps(200, 1)["filament-particles"]["episodes"] == 200
+
+
+def test_small_run_stores_resumes_and_runs_only_some_sweeps(tmp_path) -> None:
+    rep = _small()
+    first = rep.run(tmp_path, episodes=1, workers=1, progress=False)
+    df = first.results
+    assert set(df["sweep"]) == set(SWEEPS)
+    assert (df["status"] == "ok").all(), df.loc[df["status"] != "ok", "error"].tolist()
+    assert sorted(first.stores) == sorted(SWEEPS)
+    # 2 worlds x 4 algorithms, + 4 particle cells and the ablation, in each world
+    sizes = {"rate": 8, "rate-particles": 5, "filament": 8, "filament-particles": 5}
+    assert df.groupby("sweep").size().to_dict() == sizes
+    assert df.loc[df["sweep"].str.startswith("filament"), "replay"].all()
+    assert not first.failed_figures
+    for name in (
+        "points.csv",
+        "claims_rate.csv",
+        "claims_filament.csv",
+        "rate_table2.csv",
+        "filament_table3.csv",
+        "fig5_uavs.png",
+        "fig9_filament.png",
+        "comparison.png",
+        "fig3_team_3d.png",
+        "report.html",
+    ):
+        assert (tmp_path / name).stat().st_size > 0, name
+    points = pd.read_csv(tmp_path / "points.csv")
+    assert set(points["world"]) == {"rate", "filament"} and (points["n"] == 1).all()
+    html = (tmp_path / "report.html").read_text()
+    assert "Table 2, rate world" in html and "Fig. 9" in html
+
+    rep = MucOslReproduction(time_limit=20.0, values=VALUES, fig3=False)
+    again = rep.run(tmp_path, episodes=1, workers=1, progress=False)
+    pd.testing.assert_frame_equal(
+        again.results[["cell_id", "finished_at"]], df[["cell_id", "finished_at"]]
+    )
+    more = rep.run(tmp_path, episodes=2, workers=1, progress=False, only=["rate"])
+    n = more.results.groupby("sweep")["episode"].nunique()
+    assert n["rate"] == n["rate-particles"] == 2 and n["filament"] == n["filament-particles"] == 1
+    with pytest.raises(ConfigError, match="--only"):
+        rep.run(tmp_path, episodes=1, workers=1, progress=False, only=["gaden"])
+
+
+def test_dask_cluster_gives_the_local_pools_rows(tmp_path) -> None:
+    """Both worlds (the filament one replays its flows) on a LocalCluster of 2 workers."""
+    pytest.importorskip("distributed")
+    import logging
+
+    from distributed import LocalCluster
+
+    rep = MucOslReproduction(
+        time_limit=15.0, values={"uavs": [3], "particles": [20, 100]}, fig3=False
+    )
+    local = rep.run(tmp_path / "local", episodes=2, workers=2, progress=False)
+    with LocalCluster(
+        n_workers=2, threads_per_worker=1, dashboard_address=None, silence_logs=logging.ERROR
+    ) as cluster:
+        dask = rep.run(
+            tmp_path / "dask",
+            episodes=2,
+            backend="dask",
+            scheduler=cluster.scheduler_address,
+            progress=False,
+        )
+    a, b = _rows(local.results), _rows(dask.results)
+    assert len(a) == 2 * (4 + 5) * 2 and (a["status"] == "ok").all()
+    pd.testing.assert_frame_equal(a, b)
+    assert np.isfinite(a["energy"]).all()
+
+
+def test_cli_names_an_unknown_sweep(tmp_path) -> None:
+    r = subprocess.run(
+        [sys.executable, "-m", "odorloc.cli", "reproduce", "muc-osl", "--only", "rate,gaden",
+         "--out", str(tmp_path)],
+        capture_output=True, text=True, timeout=120,
+    )  # fmt: skip
+    assert r.returncode == 2
+    lines = [ln for ln in r.stderr.strip().splitlines() if ln.strip()]
+    assert len(lines) == 1 and "--only" in lines[0] and "gaden" in lines[0]
+    assert "Traceback" not in r.stderr

@@ -1,0 +1,327 @@
+"""The multi-UAV evaluation: sweep settings, the filament world, the PID counts, the statistics
+and the verdicts on the paper's statements."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from odorloc.core.errors import ConfigError
+from odorloc.core.seeds import episode_seeds
+from odorloc.experiments.runner import cell_scenario
+from odorloc.experiments.sweep import expand_cells, load_sweep, make_task
+from odorloc.papers.muc_osl.analysis import (
+    Cells,
+    bootstrap,
+    combine,
+    slope,
+    summarize_point,
+    verdict,
+)
+from odorloc.papers.muc_osl.claims import evaluate_claims
+from odorloc.papers.muc_osl.reference import ALGORITHMS
+from odorloc.papers.muc_osl.sweeps import (
+    DEFAULT,
+    FIG9_VALUES,
+    SWEEPS,
+    Setting,
+    cell_of,
+    fig9_settings,
+    source_position,
+    sweep_files,
+)
+from odorloc.plume.filament import FilamentParams
+from odorloc.scenarios import Scenario, get_scenario
+from odorloc.sensors.pid import PIDCountParams, PIDCountSensor, hits_from_concentration
+
+# ----------------------------------------------------------------------------- settings
+
+
+def test_sweeps_are_the_papers() -> None:
+    by = {s.key: s for s in SWEEPS}
+    assert [s.figure for s in SWEEPS] == ["Fig. 4", "Fig. 5", "Fig. 6", "Fig. 7"]
+    assert by["area"].values == ((60, 60, 30), (100, 60, 30), (100, 100, 50), (100, 200, 50))
+    assert by["uavs"].values == tuple(range(1, 9))
+    assert by["radius"].values == (0, 5, 10, 15, 20, 25, 30)
+    assert by["radius"].base.n_uavs == 4
+    assert by["particles"].values == tuple(range(20, 221, 20))
+    assert Setting((100.0, 60.0, 30.0), 3, 30.0, 100) == DEFAULT
+
+
+def test_source_keeps_the_defaults_place_in_every_area() -> None:
+    assert source_position((100, 60, 30)) == (10.0, 30.0, 25.0)
+    assert source_position((60, 60, 30)) == (6.0, 30.0, 25.0)
+    x, y, z = source_position((100, 200, 50))
+    assert (x, y) == (10.0, 100.0) and z == pytest.approx(125 / 3, abs=1e-6)
+
+
+def test_every_setting_gives_a_valid_world() -> None:
+    """Area, source, starts and radius land in the scenario; starts and source are inside."""
+    for sw in SWEEPS:
+        for s in sw.settings():
+            sc = cell_scenario({"scenario": "muc-osl-3d", "scenario_params": s.scenario_params()})
+            hi = np.asarray(sc.world.arena.upper)
+            src = np.asarray(sc.world.sources[0].position)
+            starts = np.asarray(sc.agents.starts)
+            assert tuple(hi) == tuple(s.area)
+            assert np.allclose(src, source_position(s.area))
+            assert len(starts) == s.n_uavs and sc.agents.comm_radius == s.radius
+            assert np.all(starts > 0) and np.all(starts < hi) and np.all(src < hi)
+            assert len({tuple(p) for p in starts}) == s.n_uavs
+
+
+def test_world_keys_and_common_random_numbers() -> None:
+    """The default world is the scenario's own name; particle counts share the default world,
+    so every algorithm and count gets the same seeds as ``odorloc run muc-osl-3d``."""
+    assert cell_of("muc-osl-3d", DEFAULT, "col-inf") == ("muc-osl-3d", "col-inf")
+    s = Setting(n_uavs=4, radius=0.0)
+    assert cell_of("muc-osl-3d", s, "muc-osl")[0] == "muc-osl-3d[radius=0,uavs=4]"
+    n20 = Setting(n_particles=20)
+    assert cell_of("muc-osl-3d", n20, "adap-pp") == ("muc-osl-3d", "adap-pp[N=20]")
+    files = sweep_files("muc-osl-3d", SWEEPS, 3, 2024)
+    main, parts = load_sweep(files[""]), load_sweep(files["particles"])
+    cells = expand_cells(main) + expand_cells(parts)
+    assert len(expand_cells(main)) == 17 * 4 and len(expand_cells(parts)) == 10 * 4
+    assert len({c.cell_id for c in cells}) == len(cells)
+    seeds = {
+        c.cell_id: make_task(main if c in expand_cells(main) else parts, c, 2).world_seed
+        for c in cells
+        if c.world_key == "muc-osl-3d"
+    }
+    assert len(seeds) == 4 + 40 and len(set(seeds.values())) == 1
+    assert set(seeds.values()) == {episode_seeds(2024, "muc-osl-3d", 2)[0]}
+    # the radius-30 point of Fig. 6 is the 4-UAV point of Fig. 5
+    worlds = [c.world_key for c in expand_cells(main)]
+    assert worlds.count("muc-osl-3d[uavs=4]") == 4
+
+
+def test_particle_counts_are_searcher_parameters() -> None:
+    files = sweep_files("muc-osl-3d", SWEEPS, 1, 0)
+    se = {s["label"]: s for s in files["particles"]["searchers"]}
+    assert se["muc-osl[N=20]"]["params"] == {"estimator": {"type": "col-pf", "n_particles": 20}}
+    assert se["col-inf[N=220]"]["params"]["estimator"]["type"] == "standard-pf"
+    assert "muc-osl[N=100]" not in se
+    sc = cell_scenario(
+        {
+            "scenario": "muc-osl-3d",
+            "searcher": "adap-pp",
+            "searcher_params": se["adap-pp[N=40]"]["params"],
+        }
+    )
+    assert sc.searcher.values["estimator"] == {"type": "standard-pf", "n_particles": 40}
+
+
+def test_fig9_settings_are_subsets() -> None:
+    for full, sub in zip(SWEEPS, fig9_settings(), strict=True):
+        assert set(sub.values) <= set(full.values)
+        assert sub.values == FIG9_VALUES[full.key]
+
+
+# ----------------------------------------------------------------------------- filament world
+
+
+def test_filament_world_has_the_papers_gaden_parameters() -> None:
+    sc = get_scenario("muc-osl-filament-3d")
+    p = sc.world.plume.params("plume")
+    ref = FilamentParams.from_gaden(
+        initial_std_cm=50.0, growth_gamma_cm2=50.0, noise_std_m=0.5, ppm_center=100.0,
+        time_step=0.5,
+    )  # fmt: skip
+    for k in ("sigma0", "gamma", "noise_std", "amount"):
+        assert getattr(p, k) == pytest.approx(getattr(ref, k), rel=1e-12), k
+    assert sc.world.sources[0].rate == 50.0 and sc.world.dt == 0.5
+    # a new filament peaks at 100 ppm at its centre
+    peak = p.amount / (2 * math.pi * p.sigma0**2) ** 1.5
+    assert peak == pytest.approx(100.0)
+    w = sc.world.wind.params("wind")
+    assert w.speed == 1.0 and w.direction == -90.0 and w.noise_std > 0  # towards -y, varying
+    base = get_scenario("muc-osl-3d")
+    assert sc.agents.starts == base.agents.starts and sc.task == base.task
+    assert sc.world.sources[0].position == base.world.sources[0].position
+    assert (
+        sc.sensors.gas.type == "pid-count"
+        and sc.sensors.anemometer.params("anemometer").noise_std > 0
+    )
+
+
+def test_filament_plume_reaches_the_start_edge_and_is_intermittent() -> None:
+    """After the warm-up the plume is 20 m downwind at the source height, patchy, and absent
+    at the UAVs' start height."""
+    from odorloc.engine.episode import prepare_world
+
+    sc = get_scenario("muc-osl-filament-3d")
+    world, rng, _ = prepare_world(sc, 7)
+    pts = np.array([[10.0, 10.0, 25.0], [10.0, 10.0, 5.0]])
+    c = []
+    for _ in range(120):
+        world.step(0.5, rng)
+        c.append(world.plume.concentration(pts))
+    c = np.array(c)
+    assert 0.2 < np.mean(c[:, 0] >= 100.0) < 0.95
+    assert np.max(c[:, 1]) < 1.0
+
+
+# ----------------------------------------------------------------------------- PID counts
+
+
+def test_hits_floor_the_concentration_per_hit() -> None:
+    c = np.array([-5.0, 0.0, 99.9, 100.0, 199.99, 200.0, 250.0, 1e4])
+    np.testing.assert_array_equal(hits_from_concentration(c, 100.0), [0, 0, 0, 1, 1, 2, 2, 100])
+    np.testing.assert_array_equal(hits_from_concentration(c, 100.0, max_hits=5)[-1], 5)
+
+
+class _Constant:
+    """A plume stand-in with a set concentration."""
+
+    dim = 3
+
+    def __init__(self) -> None:
+        self.c = 0.0
+
+    def concentration(self, points: np.ndarray) -> np.ndarray:
+        return np.full(len(points), self.c)
+
+
+def test_pid_counts_follow_the_pid_response() -> None:
+    """A step of 450 ppm seen through a 1 s lag, read every second: the count follows
+    ``floor(450 (1 - exp(-k)) / 100)``; the raw value is the true concentration."""
+    s = PIDCountSensor(PIDCountParams(tau=1.0, start="zero"))
+    s.reset()
+    plume, rng = _Constant(), np.random.default_rng(0)
+    plume.c = 450.0
+    got = [s.measure(plume, np.zeros(3), 1.0, rng) for _ in range(5)]
+    want = [math.floor(450 * (1 - math.exp(-(k + 1))) / 100) for k in range(5)]
+    assert [r.value for r in got] == want
+    assert all(r.raw == 450.0 for r in got)
+    assert [r.detection for r in got] == [v >= 1 for v in want]
+    assert s.info.unit == "hits" and s.info.threshold == 1.0
+
+
+def test_pid_noise_is_seeded_and_bad_settings_are_named() -> None:
+    plume = _Constant()
+    plume.c = 150.0
+
+    def roll() -> list[float]:
+        s = PIDCountSensor(PIDCountParams(noise_std=60.0))
+        rng = np.random.default_rng(3)
+        return [s.measure(plume, np.zeros(3), 1.0, rng).value for _ in range(50)]
+
+    a = roll()
+    assert a == roll() and len(set(a)) > 1
+    data = get_scenario("muc-osl-filament-3d").to_dict()
+    data["sensors"]["gas"]["ppm_per_hit"] = 0.0
+    with pytest.raises(ConfigError, match=r"sensors\.gas\.ppm_per_hit"):
+        Scenario.from_dict(data)
+
+
+# ----------------------------------------------------------------------------- statistics
+
+
+def test_slope_of_exact_lines_and_verdicts() -> None:
+    x = [1.0, 2.0, 4.0]
+    means = np.array([[1.0, 3.0, 7.0], [5.0, 5.0, 5.0]])
+    np.testing.assert_allclose(slope(x, means, [3, 3, 3]), [2.0, 0.0])
+    assert np.isnan(slope([2.0], means[:, :1], [4])[0])
+    assert verdict(0.1, 0.5, +1) == "held"
+    assert verdict(-0.5, -0.1, +1) == "not held"
+    assert verdict(-0.1, 0.5, +1) == "undecided"
+    assert verdict(-0.5, -0.1, -1) == "held"
+    assert verdict(0.8, 0.9, +1, 0.75) == "held" and verdict(0.5, 0.7, +1, 0.75) == "not held"
+    assert verdict(math.nan, 1.0, +1) == "undecided"
+    assert combine(["held", "held"]) == "held"
+    assert combine(["held", "undecided"]) == "undecided"
+    assert combine(["held", "not held", "undecided"]) == "not held"
+
+
+def test_bootstrap_interval_covers_a_known_mean() -> None:
+    rng = np.random.default_rng(1)
+    x = rng.normal(10.0, 2.0, 400)
+    v, lo, hi = bootstrap(lambda a: a[0].mean(axis=1), [x], np.random.default_rng(2))
+    assert v == pytest.approx(x.mean())
+    half = 1.96 * 2.0 / math.sqrt(400)
+    assert lo == pytest.approx(x.mean() - half, abs=0.05) and hi == pytest.approx(
+        x.mean() + half, abs=0.05
+    )
+    assert math.isnan(bootstrap(lambda a: a[0].mean(axis=1), [np.zeros(0)], rng)[0])
+
+
+def test_point_summary() -> None:
+    g = pd.DataFrame({"success": [True, True, False, False], "time": [100.0, 300.0, 1200, 1200]})
+    p = summarize_point(g, np.random.default_rng(0))
+    assert (p.n, p.k, p.sr) == (4, 2, 0.5)
+    assert p.mst == pytest.approx(700.0) and p.mst_success == pytest.approx(200.0)
+    assert p.sr_lo < 0.5 < p.sr_hi and p.mst_lo <= 700.0 <= p.mst_hi
+
+
+def _rows(world: str, label: str, success: list[bool], time: list[float]) -> pd.DataFrame:
+    n = len(success)
+    return pd.DataFrame(
+        {
+            "world_key": world,
+            "searcher": label,
+            "episode": np.arange(n),
+            "status": "ok",
+            "success": success,
+            "uav_search_time": time,
+            "movement_kj": np.full(n, 1000.0 if label != "muc-osl" else 900.0),
+            "team_hover_time": np.full(n, 100.0 if label != "muc-osl" else 80.0),
+            "team_turn_time": np.full(n, 100.0 if label != "muc-osl" else 80.0),
+            "path_length": np.full(n, 500.0),
+        }
+    )
+
+
+def _world(good: str, n: int = 30) -> pd.DataFrame:
+    """Every algorithm at every point of the UAV sweep: ``good`` always succeeds (faster with
+    more UAVs), the others succeed in a third of the episodes."""
+    frames = []
+    uavs = next(s for s in SWEEPS if s.key == "uavs")
+    for v in uavs.values:
+        for a in ALGORITHMS:
+            world, label = cell_of("muc-osl-3d", uavs.setting(v), a)
+            if a == good:
+                frames.append(_rows(world, label, [True] * n, [600.0 - 50 * v] * n))
+            else:
+                ok = [i % 3 == 0 for i in range(n)]
+                frames.append(_rows(world, label, ok, [700.0 if s else 1200.0 for s in ok]))
+    return pd.concat(frames, ignore_index=True)
+
+
+def test_claims_held_and_not_held_on_made_up_episodes() -> None:
+    uavs = [s for s in SWEEPS if s.key == "uavs"]
+    held = {c.statement: c for c in evaluate_claims(Cells(_world("muc-osl")), "muc-osl-3d", uavs)}
+    assert held["MUC-OSL has the highest SR at every point"].verdict == "held"
+    assert held["MUC-OSL has the lowest MST at every point"].verdict == "held"
+    assert held["MUC-OSL's movement energy E_M is below Col-Inf's"].verdict == "held"
+    assert "-10.0 [-10.0, -10.0] %" in held["MUC-OSL's movement energy E_M is below Col-Inf's"].ours
+    # the baselines' success does not change with the team size: not a rise for all four
+    assert held["SR rises with more UAVs (all four)"].verdict == "undecided"
+    lost = {c.statement: c for c in evaluate_claims(Cells(_world("col-inf")), "muc-osl-3d", uavs)}
+    assert lost["MUC-OSL has the highest SR at every point"].verdict == "not held"
+    assert lost["MUC-OSL has the lowest MST at every point"].verdict == "not held"
+
+
+def test_recorded_filament_flow_replays_the_layered_wind_and_the_plume() -> None:
+    """The 3-D Farrell wind is recorded on its node grid in two layers: the replay gives the
+    live wind at any point and height, and the live plume's concentration at the frame times."""
+    from odorloc.engine.episode import prepare_world
+    from odorloc.engine.replay import record_flow
+    from odorloc.world.world import World
+
+    sc = get_scenario("muc-osl-filament-3d").with_overrides({"limits.time": 5.0})
+    movie = record_flow(sc, 11)
+    assert movie.wind.shape == (6, 15, 15, 2, 3)
+    live, rng, _ = prepare_world(sc, 11)
+    replay = World.replay(movie)
+    pts = np.random.default_rng(0).uniform([0, 0, 0], [100, 60, 30], (50, 3))
+    for _ in range(5):
+        for _ in range(2):
+            live.step(0.5, rng)
+        replay.step(1.0, rng)
+        np.testing.assert_allclose(replay.wind.velocity(pts), live.wind.velocity(pts), atol=1e-12)
+        np.testing.assert_array_equal(
+            replay.plume.concentration(pts), live.plume.concentration(pts)
+        )
