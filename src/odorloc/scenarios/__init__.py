@@ -46,8 +46,8 @@ def builtin_path(name: str) -> Path:
 
 
 def get_scenario(name_or_path: str | Path) -> Scenario:
-    """A built-in scenario by name, or a scenario file by path."""
-    p = Path(name_or_path)
-    if p.suffix in (".yaml", ".yml") or p.exists():
-        return Scenario.from_yaml(p)
-    return Scenario.from_yaml(builtin_path(str(name_or_path)))
+    """A built-in scenario by name, or a scenario file by path (see
+    :func:`odorloc.scenarios.loading.load_scenario`)."""
+    from odorloc.scenarios.loading import load_scenario
+
+    return load_scenario(name_or_path)

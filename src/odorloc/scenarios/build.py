@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 
 from odorloc.core import registry
-from odorloc.core.errors import ConfigError
+from odorloc.core.errors import ConfigError, join_field
 from odorloc.core.types import Group, SearchContext
 from odorloc.geometry.arena import Arena
 from odorloc.platforms.base import Platform
@@ -26,10 +26,13 @@ def build_arena(cfg: ArenaConfig) -> Arena:
     obs = cfg.obstacles
     if obs.file:
         path = Path(obs.file)
-        if not path.exists():
+        if not path.is_file():
             raise ConfigError("world.arena.obstacles.file", f"{path} does not exist")
         loader = Arena.from_csv if path.suffix.lower() == ".csv" else Arena.from_image
-        grid = loader(path, cfg.resolution, cfg.lower)
+        try:
+            grid = loader(path, cfg.resolution, cfg.lower)
+        except ConfigError as exc:
+            raise ConfigError("world.arena.obstacles.file", exc.problem) from None
         if grid.grid_shape != arena.grid_shape:
             raise ConfigError(
                 "world.arena.obstacles.file",
@@ -54,7 +57,7 @@ def _prefixed(field: str, fn: Any, *args: Any, **kwargs: Any) -> Any:
         # Components name fields relative to themselves ("sigma0"); errors that already carry
         # a scenario path ("world.sources[0]...") are kept as they are.
         if not inner.startswith(_TOP_LEVEL):
-            inner = f"{field}.{inner}"
+            inner = join_field(field, inner)
         raise ConfigError(inner, exc.problem) from None
 
 
@@ -109,7 +112,8 @@ def build(sc: Scenario, world: World | None = None) -> Built:
     starts = np.asarray(sc.agents.starts, float)
     for k, s in enumerate(starts):
         if not world.arena.is_free(s)[0]:
-            raise ConfigError(f"agents.starts[{k}]", f"{tuple(s)} is outside the arena or blocked")
+            where = "(" + ", ".join(f"{float(x):g}" for x in s) + ")"
+            raise ConfigError(f"agents.starts[{k}]", f"{where} is outside the arena or blocked")
     gp = sc.sensors.gas.params("gas_sensor", "sensors.gas")
     ap = sc.sensors.anemometer.params("anemometer", "sensors.anemometer")
     gas_cls = registry.entry("gas_sensor", sc.sensors.gas.type).build
