@@ -189,22 +189,45 @@ class ResultStore:
 
     # ------------------------------------------------------------------ lifecycle
     def _check_existing(self) -> None:
+        if self.path.is_dir():
+            raise ConfigError("store", f"{self.path} is a folder, not a results store")
         if not self.path.is_file():
             raise ConfigError("store", f"no results store at {self.path}")
         if self.path.stat().st_size == 0:
+            if self.readonly:
+                raise ConfigError("store", f"{self.path} is empty (0 bytes): no results stored")
             return
         try:
             con = sqlite3.connect(f"file:{self.path}?mode=ro", uri=True)
             try:
                 tables = {r[0] for r in con.execute("SELECT name FROM sqlite_master")}
+                columns = {
+                    t: {r[1] for r in con.execute(f"PRAGMA table_info({t})")}
+                    for t in ("meta", "episodes", "arrays")
+                    if t in tables
+                }
             finally:
                 con.close()
         except sqlite3.DatabaseError:
             raise ConfigError("store", f"{self.path} is not an odorloc results store") from None
-        if tables and not {"meta", "episodes"} <= tables:
+        if not tables:
+            if self.readonly:
+                raise ConfigError("store", f"{self.path} is an empty database: no results stored")
+            return
+        if not {"meta", "episodes"} <= tables:
             raise ConfigError(
                 "store", f"{self.path} is a database but not an odorloc results store"
             )
+        wanted = {"meta": {"key", "value"}, "episodes": set(COLUMNS)}
+        wanted["arrays"] = {"cell_id", "episode", "npz"}
+        for t, cols in columns.items():
+            missing = sorted(wanted[t] - cols)
+            if missing:
+                raise ConfigError(
+                    "store",
+                    f"{self.path} is not an odorloc results store: table {t!r} lacks "
+                    f"column(s) {', '.join(missing[:5])}" + (" ..." if len(missing) > 5 else ""),
+                )
 
     def close(self) -> None:
         """Close the connection (the data are already committed)."""
@@ -365,9 +388,14 @@ class ResultStore:
         """
         import pandas as pd
 
-        df = pd.read_sql_query(
-            f"SELECT {', '.join(COLUMNS)} FROM episodes ORDER BY cell_index, episode", self._con
-        )
+        try:
+            df = pd.read_sql_query(
+                f"SELECT {', '.join(COLUMNS)} FROM episodes ORDER BY cell_index, episode",
+                self._con,
+            )
+        except (sqlite3.DatabaseError, pd.errors.DatabaseError) as exc:
+            reason = " ".join(str(exc).split())[-120:]
+            raise ConfigError("store", f"cannot read {self.path}: {reason}") from None
         df["success"] = df["success"].astype("boolean")
         for k, t in STANDARD_METRICS.items():
             if t == "REAL":
@@ -431,23 +459,85 @@ def expand_frame(df: Any) -> Any:
     """Add the ``extra`` metrics and the swept parameters as columns of an episode table."""
     import pandas as pd
 
+    new: dict[str, Any] = {}
     if "extra" in df.columns:
         extras = [json.loads(x) if isinstance(x, str) and x else {} for x in df["extra"]]
         keys = sorted({k for e in extras for k in e})
         for k in keys:
             if k not in df.columns:
-                df[k] = pd.array([e.get(k, np.nan) for e in extras], dtype=float)
+                new[k] = pd.array([e.get(k, np.nan) for e in extras], dtype=float)
     if "cell" in df.columns:
         swept = [json.loads(x).get("swept", {}) if isinstance(x, str) else {} for x in df["cell"]]
         keys = sorted({k for s in swept for k in s})
         for k in keys:
             if k not in df.columns:
-                df[k] = [s.get(k) for s in swept]
+                new[k] = [s.get(k) for s in swept]
+    if not new:
+        return df
+    # one concatenation instead of one insertion per column (no fragmented frame)
+    return pd.concat([df, pd.DataFrame(new, index=df.index)], axis=1)
+
+
+REQUIRED_COLUMNS = ("cell_id", "world_key", "episode", "scenario", "searcher", "status")
+"""Columns a results table (store, CSV or Parquet export) must have, with the standard
+metrics."""
+
+
+def check_results_frame(df: Any, source: str = "results") -> Any:
+    """``df`` with its standard columns typed, or :class:`ConfigError` if it is not a results
+    table (missing columns, a metric column that is not numeric)."""
+    import pandas as pd
+
+    missing = [c for c in (*REQUIRED_COLUMNS, *STANDARD_METRICS) if c not in df.columns]
+    if missing:
+        more = " ..." if len(missing) > 5 else ""
+        raise ConfigError(
+            "results",
+            f"{source} is not an odorloc results table: no column(s) "
+            f"{', '.join(missing[:5])}{more}",
+        )
+    df = df.copy()
+    for k, t in STANDARD_METRICS.items():
+        if t == "TEXT":
+            df[k] = df[k].astype("string").fillna("")
+            continue
+        col = df[k]
+        if k == "success":
+            col = col.map(
+                lambda v: (
+                    {"true": 1, "false": 0}.get(v.strip().lower(), v) if isinstance(v, str) else v
+                )
+            )
+        try:
+            num = pd.to_numeric(col)
+        except (ValueError, TypeError):
+            raise ConfigError(
+                "results", f"{source}: column {k!r} holds values that are not numbers"
+            ) from None
+        if k == "success":
+            df[k] = num.astype("Float64").astype("boolean")
+        else:
+            df[k] = num.astype(float)
+    try:
+        df["episode"] = pd.to_numeric(df["episode"]).astype(int)
+    except (ValueError, TypeError):
+        raise ConfigError("results", f"{source}: column 'episode' must hold integers") from None
+    df["status"] = df["status"].astype("string").fillna("ok")
+    if "error" not in df.columns:
+        df["error"] = ""
+    df["error"] = df["error"].astype("string").fillna("")
     return df
 
 
 def open_results(source: Any) -> Any:
-    """A results DataFrame from a store, a store path, a CSV/Parquet file or a DataFrame."""
+    """A results DataFrame from a store, a store path, a CSV/Parquet file or a DataFrame.
+
+    Raises
+    ------
+    ConfigError
+        ``results``: a file that cannot be read as a table or is not a results table;
+        ``store``: a database that is not a results store.
+    """
     import pandas as pd
 
     if isinstance(source, pd.DataFrame):
@@ -455,9 +545,17 @@ def open_results(source: Any) -> Any:
     if isinstance(source, ResultStore):
         return source.frame()
     path = Path(source)
-    if path.suffix == ".csv":
-        return expand_frame(pd.read_csv(path))
-    if path.suffix in (".parquet", ".pq"):
-        return expand_frame(pd.read_parquet(path))
+    if path.suffix in (".csv", ".parquet", ".pq"):
+        if not path.is_file():
+            raise ConfigError("results", f"no such file: {path}")
+        try:
+            if path.suffix == ".csv":
+                df = pd.read_csv(path, encoding="utf-8", low_memory=False)
+            else:
+                df = pd.read_parquet(path)
+        except Exception as exc:  # any reader failure means the file is not a table we can use
+            reason = " ".join(str(exc).split())[:120] or type(exc).__name__
+            raise ConfigError("results", f"cannot read {path} as a table: {reason}") from None
+        return expand_frame(check_results_frame(df, str(path)))
     with ResultStore(path, readonly=True) as st:
         return st.frame()

@@ -25,6 +25,7 @@ from odorloc.experiments.reproduction import (
     fmt,
 )
 from odorloc.papers.indoor_pf_entropy.reference import TABLE1
+from odorloc.viz.intervals import errorbar_lengths
 
 __all__ = ["PF_LITERAL", "PF_LITERAL_PARAMS", "IndoorReproduction", "table1_wall_time"]
 
@@ -193,11 +194,8 @@ class IndoorReproduction(Reproduction):
 
 
 def _errorbar(center: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> list[np.ndarray]:
-    """Non-negative error-bar lengths (an interval that excludes its point is widened to it)."""
-    c = np.asarray(center, float)
-    low = np.nan_to_num(np.maximum(c - np.asarray(lo, float), 0.0))
-    high = np.nan_to_num(np.maximum(np.asarray(hi, float) - c, 0.0))
-    return [low, high]
+    """Non-negative error-bar lengths (see :func:`odorloc.viz.intervals.errorbar_lengths`)."""
+    return list(errorbar_lengths(center, lo, hi))
 
 
 def _fig8(summ: Any, path: Path) -> None:
