@@ -161,6 +161,23 @@ def watch_parent(pid: int, period: float = 0.5) -> None:
     threading.Thread(target=watch, name="odorloc-parent-watch", daemon=True).start()
 
 
+def warm_kernels() -> None:
+    """Load the compiled kernels now (:func:`odorloc.core.jit.warm`), so that a worker's first
+    episode is not slower than the others; a failure here only costs that speed."""
+    try:
+        from odorloc.core.jit import warm
+
+        warm()
+    except Exception:  # an optimisation only: the episode compiles what it needs
+        pass
+
+
+def init_worker(parent_pid: int) -> None:
+    """Initializer of a local pool worker: watch the parent, then load the kernels."""
+    watch_parent(parent_pid)
+    warm_kernels()
+
+
 class LocalBackend:
     """A process pool on this machine.
 
@@ -188,7 +205,7 @@ class LocalBackend:
         return ProcessPoolExecutor(
             max_workers=self.workers,
             mp_context=ctx,
-            initializer=watch_parent,
+            initializer=init_worker,
             initargs=(os.getpid(),),
         )
 
@@ -370,6 +387,7 @@ class DaskBackend:
                 silence_logs=logging.ERROR,
             )
             self._client = distributed.Client(self._cluster, set_as_default=False)
+        self._client.run(warm_kernels)
         return self
 
     def __exit__(self, *exc: object) -> None:
