@@ -527,6 +527,9 @@ def write_report(
     level: float = 0.95,
     seed: int = 0,
     sections: Sequence[ReportSection] = (),
+    success: str = "success",
+    success_label: str = "",
+    rows: Any = None,
 ) -> Path:
     """Write a self-contained HTML report.
 
@@ -552,12 +555,22 @@ def write_report(
         Seed of the bootstrap.
     sections : sequence of ReportSection
         Extra sections shown first (a reproduction's key tables and figures).
+    success : str
+        Column that says whether an episode succeeded (default the episode's own
+        ``success``); a reproduction whose paper scores episodes differently names its column
+        here, so that every table of the page (and the console) counts the same thing.
+    success_label : str
+        What ``success`` means, shown under the title.
+    rows : pandas.DataFrame, optional
+        The episodes to report when they are a subset of the store's (a reproduction run with
+        fewer episodes than the store holds); the store still provides the stored arrays.
 
     Returns
     -------
     pathlib.Path
         ``out_html``.
     """
+    from odorloc.core.errors import ConfigError
     from odorloc.experiments.store import ResultStore, open_results
 
     store = None
@@ -572,7 +585,15 @@ def write_report(
         store = ResultStore(store_or_df, readonly=True)
         own = True
     try:
-        df = store.frame() if store is not None else open_results(store_or_df)
+        if rows is not None:
+            df = rows
+        else:
+            df = store.frame() if store is not None else open_results(store_or_df)
+        if success != "success" and len(df):
+            if success not in df.columns:
+                raise ConfigError("success", f"the results have no column {success!r}")
+            df = df.copy()
+            df["success"] = df[success].astype("boolean").fillna(False)
         meta = store.meta() if store is not None else {}
         sweep_name = ""
         if meta.get("sweep"):
@@ -594,6 +615,8 @@ def write_report(
             f"{n_err} errors; config hash {_e(meta.get('config_hash', '–'))}; "
             f"generated {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}.</p>",
         ]
+        if success_label:
+            body.append(f'<p class="meta">Success: {_e(success_label)}</p>')
         for sec in sections:
             body.append(_guarded(f"section {sec.title!r}", _extra_section, sec))
         if len(df) == 0:

@@ -17,6 +17,7 @@ A reproduction (registry family ``"reproduction"``) lives in its paper package
 from __future__ import annotations
 
 import math
+import shutil
 import time
 import traceback
 import warnings
@@ -27,6 +28,7 @@ from pathlib import Path
 from typing import Any, ClassVar
 
 from odorloc.core.errors import ConfigError
+from odorloc.core.loading import check_output_dir
 from odorloc.core.params import Params
 from odorloc.core.registry import entry, names
 
@@ -103,6 +105,10 @@ class Reproduction(ABC):
         Episodes per cell of the default run (fits the issue's time budget on 2 cores).
     paper_episodes : int
         The paper's own count (``--episodes`` reaches it).
+    success_column, success_label : str
+        The row column that says an episode succeeded by the paper's own criterion (default
+        the episode's ``success``) and what it means; the console tables and every table of
+        the report count that column, so they say one thing.
     """
 
     name: ClassVar[str] = ""
@@ -110,6 +116,8 @@ class Reproduction(ABC):
     summary: ClassVar[str] = ""
     default_episodes: ClassVar[int] = 10
     paper_episodes: ClassVar[int] = 10
+    success_column: ClassVar[str] = "success"
+    success_label: ClassVar[str] = ""
 
     def __init__(self, params: ReproductionParams | None = None) -> None:
         self.params = params or ReproductionParams()
@@ -159,8 +167,8 @@ class Reproduction(ABC):
         if n < 1:
             raise ConfigError("episodes", f"must be >= 1, got {n}")
         out = Path(out)
-        out.mkdir(parents=True, exist_ok=True)
-        console = Console(width=120)
+        check_output_dir(out, "out")
+        console = Console(width=shutil.get_terminal_size((100, 24)).columns)
         t0 = time.perf_counter()
         store_path = out / "results.sqlite"
         df = run_sweep(
@@ -171,6 +179,7 @@ class Reproduction(ABC):
             scheduler=scheduler,
             progress=progress,
             group_fn=self.group_fn(),
+            summary=False,
         )
         wall = time.perf_counter() - t0
         df = df[df["episode"] < n] if len(df) else df
@@ -233,6 +242,9 @@ class Reproduction(ABC):
                         reference=self.reference(),
                         sections=sections,
                         seed=seed,
+                        success=self.success_column,
+                        success_label=self.success_label,
+                        rows=df,
                     )
             except Exception:
                 console.print(f"[red]report failed:[/]\n{traceback.format_exc()}")

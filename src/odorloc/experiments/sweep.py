@@ -586,6 +586,7 @@ def run_sweep(
     timeout: float = 5.0,
     chunk_size: int | None = None,
     group_fn: Callable[[list[EpisodeTask]], list[dict]] | None = None,
+    summary: bool = True,
 ) -> Any:
     """Run (or resume) a sweep, writing every finished episode to the store at once.
 
@@ -624,6 +625,9 @@ def run_sweep(
         With ``replay: true``, the function running one world group (all searcher cells of a
         world key and episode, on one recorded flow); default
         :func:`odorloc.experiments.runner.replay_group`.
+    summary : bool
+        With ``progress``, print the per-cell summary table at the end (a reproduction prints
+        its own tables instead).
 
     Returns
     -------
@@ -700,7 +704,7 @@ def run_sweep(
                     break
                 targets.update(more)
         df = store.frame()
-    if progress:
+    if progress and summary:
         from odorloc.experiments.progress import print_summary
 
         print_summary(df)
