@@ -23,6 +23,7 @@ import numpy as np
 
 from odorloc.core.registry import register
 from odorloc.experiments.reproduction import Figure, Reproduction, ReproductionParams, Table, fmt
+from odorloc.inference.evidence.mapper import RULES as MAP_RULES
 from odorloc.inference.evidence.mapper import DSMapParams
 from odorloc.papers.ds_multi_source.reference import PAPER, RATIOS, SCENES
 
@@ -35,7 +36,7 @@ SEARCHERS: dict[str, dict[str, Any]] = {
     WAVE: {"rounds": 5, "lane_spacing": 2.0, "lanes_along": "y"},
     DYNAMIC: {},
 }
-RULES = ("", "upwind", "peak", "centroid")
+RULES = ("", *MAP_RULES)
 """Source rules reported: the default ('') and each named one."""
 _BELIEF_STRIDE = 40  # one map snapshot every 20 s of a kept episode
 
@@ -48,8 +49,10 @@ def map_errors(
     Returns ``source_error_i{tag}`` (distance from true source ``i`` to the nearest mapped
     source, NaN if none), ``map_false_sources{tag}`` (mapped sources farther than ``radius``
     from every true source) and ``map_success{tag}`` (every true source within ``radius``).
+    The number of positions is ``mapped_sources`` for ``kind="mapped"``, else ``{kind}_n``.
     """
-    k = int(row.get("mapped_sources", 0) or 0)
+    count = row.get("mapped_sources" if kind == "mapped" else f"{kind}_n", 0)
+    k = int(count or 0)
     mapped = np.array([[row[f"{kind}_x_{i}"], row[f"{kind}_y_{i}"]] for i in range(k)])
     out: dict[str, Any] = {}
     if k:
