@@ -33,10 +33,12 @@ from odorloc.core.params import Params
 from odorloc.core.registry import entry, names
 
 __all__ = [
+    "CONSOLE_WIDTH",
     "Figure",
     "Reproduction",
     "ReproductionParams",
     "Table",
+    "console_table",
     "fmt",
     "get",
     "names_of_reproductions",
@@ -60,6 +62,8 @@ class Table:
     rows: list[list[str]]
     console: bool = True
     note: str = ""
+    left: int = 1
+    """Leading text columns (left-aligned); the others are numbers (right-aligned)."""
 
 
 @dataclass
@@ -157,7 +161,6 @@ class Reproduction(ABC):
         """Run (or resume) the reproduction and write tables, figures and the report to ``out``."""
         import pandas as pd
         from rich.console import Console
-        from rich.table import Table as RichTable
 
         from odorloc.experiments.report import ReportSection, write_report
         from odorloc.experiments.store import ResultStore
@@ -196,12 +199,7 @@ class Reproduction(ABC):
         for tab in tables:
             pd.DataFrame(tab.rows, columns=tab.headers).to_csv(out / f"{tab.name}.csv", index=False)
             if tab.console:
-                rt = RichTable(title=tab.title)
-                for i, h in enumerate(tab.headers):
-                    rt.add_column(h, justify="left" if i == 0 else "right")
-                for r in tab.rows:
-                    rt.add_row(*r)
-                console.print(rt)
+                console.print(console_table(tab))
                 if tab.note:
                     console.print(tab.note)
         console.print(f"wall time {wall:.0f} s on {workers} worker(s) ({backend})")
@@ -252,6 +250,24 @@ class Reproduction(ABC):
             if p is not None:
                 console.print(f"wrote {p}")
         return outcome
+
+
+CONSOLE_WIDTH = 100
+"""Columns a reproduction's console tables must fit in (wider ones go to CSV and the report)."""
+
+
+def console_table(tab: Table) -> Any:
+    """A compact rich table of ``tab`` (no vertical rules, so that it fits
+    :data:`CONSOLE_WIDTH` columns)."""
+    from rich import box
+    from rich.table import Table as RichTable
+
+    rt = RichTable(title=tab.title, box=box.SIMPLE_HEAD, show_edge=False, collapse_padding=True)
+    for i, h in enumerate(tab.headers):
+        rt.add_column(h, justify="left" if i < tab.left else "right", no_wrap=True)
+    for r in tab.rows:
+        rt.add_row(*r)
+    return rt
 
 
 def names_of_reproductions() -> list[str]:

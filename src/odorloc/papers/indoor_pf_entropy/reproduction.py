@@ -117,10 +117,10 @@ class IndoorReproduction(Reproduction):
                 f"{fmt(100 * r.success_hi, 0)}]"
             )
 
-        def mtime(r: Any) -> str:
+        def mtime(r: Any, d: int = 0) -> str:
             if r is None:
                 return "-"
-            return f"{fmt(r.mean_time)} [{fmt(r.mean_time_lo)}, {fmt(r.mean_time_hi)}]"
+            return f"{fmt(r.mean_time, d)} [{fmt(r.mean_time_lo, d)}, {fmt(r.mean_time_hi, d)}]"
 
         t1 = []
         for idx, ref in TABLE1.items():
@@ -158,13 +158,16 @@ class IndoorReproduction(Reproduction):
                     "start",
                     "method",
                     "n",
-                    "success % [95% CI]",
+                    "success % [CI]",
                     "paper %",
-                    "mean time s [95% CI]",
+                    "time s [CI]",
                     "paper s",
                     "error m",
                 ],
                 t1,
+                note="95 % intervals: Wilson for the success rate, bootstrap for the mean time of "
+                "successful episodes; error m: mean localisation error",
+                left=2,
             ),
             Table(
                 "fig8",
