@@ -68,7 +68,7 @@ class FilamentParams(Params):
     noise_std: NonNegative = 0.1
     amount: Positive = 1.0
     cutoff: float = Field(default=4.0, ge=1.0, le=10.0)
-    max_filaments: int = Field(default=100_000, ge=1)
+    max_filaments: int = Field(default=100_000, ge=1, le=10_000_000)
     release: Literal["poisson", "deterministic"] = "poisson"
     integrator: Literal["euler", "midpoint"] = "midpoint"
     sensor_radius: Positive = 0.1

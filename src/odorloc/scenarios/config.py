@@ -232,9 +232,9 @@ class RecordingConfig(_Strict):
     a coarse plume frame every ``plume_stride`` steps on a grid of ``plume_grid`` cells per
     metre."""
 
-    stride: int = Field(1, ge=1)
-    belief_stride: int = Field(4, ge=1)
-    plume_stride: int = Field(4, ge=1)
+    stride: int = Field(1, ge=1, le=1_000_000)
+    belief_stride: int = Field(4, ge=1, le=1_000_000_000)
+    plume_stride: int = Field(4, ge=1, le=1_000_000_000)
     plume_grid: Positive = 10.0
     enabled: bool = True
 

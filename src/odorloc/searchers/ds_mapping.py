@@ -111,7 +111,7 @@ class DSMappingParams(DSMapParams):
         ``eta_E`` of the stop rule (0.5, D-S paper section 3).
     """
 
-    dwell_periods: int = Field(1, ge=0)
+    dwell_periods: int = Field(1, ge=0, le=1000)
     step_range: Positive | None = None
     stay_candidate: bool = False
     edge_reach: NonNegative | None = None
@@ -222,10 +222,10 @@ class DSRectangularWaveParams(DSMapParams):
         (:func:`~odorloc.planning.coverage.wave_waypoints`).
     """
 
-    dwell_periods: int = Field(1, ge=0)
+    dwell_periods: int = Field(1, ge=0, le=1000)
     lane_spacing: Positive = 2.0
     lanes_along: Literal["x", "y"] = "y"
-    rounds: int = Field(5, ge=1)
+    rounds: int = Field(5, ge=1, le=1000)
     margin: NonNegative = 0.0
     round_order: Literal["restart", "alternate"] = "restart"
 

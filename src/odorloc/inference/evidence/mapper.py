@@ -138,7 +138,7 @@ class DSMapParams(Params):
     kernel: Literal["point", "cell"] = "point"
     ds: DSParams = DSParams()
     source_min_mass: float = Field(0.5, gt=0.0, le=1.0)
-    source_min_cells: int = Field(1, ge=1)
+    source_min_cells: int = Field(1, ge=1, le=1_000_000)
     source_rule: Literal["likelihood", "peak", "centroid", "upwind"] = "likelihood"
     upwind_depth: Positive = 1.5
     source_hit_rate: float = Field(0.8, gt=0.0, lt=1.0)
