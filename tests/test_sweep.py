@@ -97,14 +97,17 @@ def test_yaml_file_expands_deterministically(tmp_path):
         ({"episodes": 0}, "episodes"),
         ({"episode": 3}, "episode"),  # typo of a key
         ({"searchers": []}, "searchers"),
-        ({"searchers": [{"name": "a", "grid": {"skill": []}}]}, "searchers[0].grid"),
-        ({"searchers": [{"name": "a", "grid": {"skill": [1, 1]}}]}, "searchers[0].grid"),
-        ({"scenarios": [{"name": "toy", "params": {"x": float("nan")}}]}, "scenarios[0].params"),
+        ({"searchers": [{"name": "a", "grid": {"skill": []}}]}, "searchers[0].grid.skill"),
+        ({"searchers": [{"name": "a", "grid": {"skill": [1, 1]}}]}, "searchers[0].grid.skill"),
+        (
+            {"scenarios": [{"name": "toy", "params": {"x": float("nan")}}]},
+            "scenarios[0].params.x",
+        ),
         ({"searchers": [{"name": "a"}, {"name": "a"}]}, "searchers[1].label"),
         ({"adaptive": {"target_width": -1}}, "adaptive.target_width"),
         (
             {"searchers": [{"name": "a", "params": {"k": 1}, "grid": {"k": [1, 2]}}]},
-            "searchers[0]",
+            "searchers[0].grid.k",
         ),
     ],
 )

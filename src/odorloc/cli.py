@@ -13,7 +13,6 @@ import sys
 from pathlib import Path
 from typing import Annotated, Any
 
-import click
 import typer
 from rich.console import Console
 from rich.markup import escape
@@ -23,6 +22,11 @@ from typer.core import TyperGroup
 from odorloc.core.errors import ConfigError, OdorlocError
 from odorloc.core.loading import check_output_dir, check_output_file
 from odorloc.core.seeds import check_seed
+
+try:  # typer vendors its own click in recent versions
+    from typer._click import exceptions as _click_errors
+except ImportError:  # pragma: no cover - older typer on the click package
+    from click import exceptions as _click_errors
 
 MAX_FRAMES = 10_000
 """Most animation frames of ``odorloc run``."""
@@ -41,21 +45,21 @@ class _OneLineErrors(TyperGroup):
             return super().main(*args, standalone_mode=False, **kwargs)
         try:
             rv = super().main(*args, standalone_mode=False, **kwargs)
-        except click.exceptions.UsageError as exc:
+        except _click_errors.UsageError as exc:
             err_console.print(
                 f"error: {escape(_one_line(exc.format_message()))}",
                 highlight=False,
                 soft_wrap=True,
             )
             sys.exit(2)
-        except click.exceptions.ClickException as exc:
+        except _click_errors.ClickException as exc:
             err_console.print(
                 f"error: {escape(_one_line(exc.format_message()))}",
                 highlight=False,
                 soft_wrap=True,
             )
             sys.exit(exc.exit_code)
-        except click.exceptions.Abort:
+        except typer.Abort:
             sys.exit(1)
         sys.exit(rv if isinstance(rv, int) else 0)
 
@@ -135,20 +139,26 @@ def run(
     Episode I of root seed R is exactly episode I of ``odorloc batch`` with ``--seed R`` and the
     same scenario (given the same way, name or file path).
     """
+    from odorloc.experiments.sweep import MAX_EPISODES
+
+    try:
+        # the options first, before the heavy imports and any file is read
+        _check_count(episode, "--episode", 0, MAX_EPISODES - 1)
+        _check_count(frames, "--frames", 1, MAX_FRAMES)
+        if seed is not None:
+            check_seed(seed, "--seed")
+        check_output_dir(out, "--out")
+    except OdorlocError as exc:
+        _fail(str(exc))
+        return
     from odorloc.core.seeds import episode_seeds
     from odorloc.engine.episode import run_episode
-    from odorloc.experiments.sweep import MAX_EPISODES
     from odorloc.scenarios import DEFAULT_SCENARIO
     from odorloc.scenarios.loading import check_scenario, load_scenario
     from odorloc.viz.episode import animate, ffmpeg_available, plot_traces, plot_trajectory
 
     ref = scenario or DEFAULT_SCENARIO
     try:
-        _check_count(episode, "--episode", 0, MAX_EPISODES - 1)
-        _check_count(frames, "--frames", 1, MAX_FRAMES)
-        if seed is not None:
-            check_seed(seed, "--seed")
-        check_output_dir(out, "--out")
         sc = load_scenario(ref)
         if searcher:
             from odorloc.core import registry

@@ -93,14 +93,19 @@ def format_validation_error(
     errors = err.errors()
     first = errors[0]
     parts = list(first["loc"])
+    inner = (first.get("ctx") or {}).get("error")
     if first.get("type") == "component":
         # a nested component's own error: its field continues the path
         parts += str(first["ctx"]["field"]).split(".")
     loc = ".".join(str(p) if not isinstance(p, int) else f"[{p}]" for p in parts)
     loc = loc.replace(".[", "[")
+    msg = str(first["msg"]).removeprefix("Value error, ").removeprefix("Assertion failed, ")
+    if isinstance(inner, ConfigError):
+        # a validator raised a field error of its own: its field continues the path
+        loc = join_field(loc, inner.field) if loc else inner.field
+        msg = inner.problem
     if prefix:
         loc = join_field(prefix, loc) if loc else prefix
-    msg = str(first["msg"]).removeprefix("Value error, ").removeprefix("Assertion failed, ")
     if first.get("type") == "extra_forbidden":
         known = _fields_at(model, parts[:-1]) if model is not None else None
         msg = "unknown setting" + (f" (known: {', '.join(known)})" if known else "")

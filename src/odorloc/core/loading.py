@@ -203,7 +203,7 @@ def read_text(path: str | Path, what: str = "file") -> str:
     if len(data) > MAX_FILE_BYTES:
         raise ConfigError(what, f"{p} is larger than {MAX_FILE_BYTES} bytes")
     if b"\x00" in data:
-        raise ConfigError(what, f"{p} is a binary file, not YAML text")
+        raise ConfigError(what, f"{p} is a binary file, not text")
     try:
         return data.decode("utf-8-sig")
     except UnicodeDecodeError as exc:
@@ -324,12 +324,18 @@ def check_output_file(path: str | Path, field: str = "--out") -> Path:
     Raises
     ------
     ConfigError
-        The path is a folder, its parent is a file, or it is not writable.
+        The path is a folder, lies under a file, or is not writable.
     """
     p = Path(path)
     if p.is_dir():
         raise ConfigError(field, f"{p} is a folder, not a file")
-    if p.exists() and not os.access(p, os.W_OK):
-        raise ConfigError(field, f"{p} is not writable")
-    check_output_dir(p.absolute().parent, field)
+    if p.exists():
+        if not os.access(p, os.W_OK):
+            raise ConfigError(field, f"{p} is not writable")
+        return p
+    parent = p.absolute().parent
+    base = _first_existing(parent)
+    if not base.is_dir():
+        raise ConfigError(field, f"{p} lies under {base}, which is a file")
+    check_output_dir(parent, field)
     return p

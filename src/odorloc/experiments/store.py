@@ -85,6 +85,18 @@ VOLATILE_COLUMNS = ("wall_time", "finished_at")
 _RESERVED = {"status", "error", "wall_time", "arrays", "traceback"}
 
 
+def connect_readonly(path: Path) -> sqlite3.Connection:
+    """A read-only connection that leaves the store's folder as it is.
+
+    A reader of a write-ahead-log database normally creates its ``-wal`` and ``-shm`` files;
+    when there is no ``-wal`` file (the store was closed cleanly, everything is in the main
+    file) the file is opened as immutable, which creates nothing.
+    """
+    wal = path.with_name(path.name + "-wal")
+    extra = "" if wal.exists() else "&immutable=1"
+    return sqlite3.connect(f"{Path(path).absolute().as_uri()}?mode=ro{extra}", uri=True)
+
+
 def _create_sql() -> str:
     metric_cols = ",\n  ".join(f"{k} {t}" for k, t in STANDARD_METRICS.items())
     return f"""
@@ -178,7 +190,7 @@ class ResultStore:
         if readonly or self.path.exists():
             self._check_existing()
         if readonly:
-            self._con = sqlite3.connect(f"file:{self.path}?mode=ro", uri=True)
+            self._con = connect_readonly(self.path)
         else:
             self.path.parent.mkdir(parents=True, exist_ok=True)
             self._con = sqlite3.connect(self.path)
@@ -198,7 +210,7 @@ class ResultStore:
                 raise ConfigError("store", f"{self.path} is empty (0 bytes): no results stored")
             return
         try:
-            con = sqlite3.connect(f"file:{self.path}?mode=ro", uri=True)
+            con = connect_readonly(self.path)
             try:
                 tables = {r[0] for r in con.execute("SELECT name FROM sqlite_master")}
                 columns = {

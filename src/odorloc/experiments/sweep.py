@@ -83,16 +83,17 @@ MAX_CELLS = 10_000
 
 
 def _check_value(v: Any, where: str) -> Any:
-    """Reject values that cannot be written canonically to JSON (so the hash is well defined)."""
+    """Reject values that cannot be written canonically to JSON (so the hash is well defined);
+    :class:`ConfigError` naming ``where`` (the override key)."""
     if isinstance(v, float) and not math.isfinite(v):
-        raise ValueError(f"{where}: must be finite")
+        raise ConfigError(where, "must be finite")
     if isinstance(v, _SCALAR):
         return v
     if isinstance(v, list | tuple):
         return [_check_value(x, where) for x in v]
     if isinstance(v, dict):
         return {str(k): _check_value(x, where) for k, x in v.items()}
-    raise ValueError(f"{where}: unsupported value type {type(v).__name__}")
+    raise ConfigError(where, f"unsupported value type {type(v).__name__}")
 
 
 class ComponentSpec(Params):
@@ -118,25 +119,25 @@ class ComponentSpec(Params):
     @field_validator("params")
     @classmethod
     def _params_ok(cls, v: dict[str, Any]) -> dict[str, Any]:
-        return _check_value(v, "value")
+        return {str(k): _check_value(x, str(k)) for k, x in v.items()}
 
     @field_validator("grid")
     @classmethod
     def _grid_ok(cls, v: dict[str, list[Any]]) -> dict[str, list[Any]]:
         for key, values in v.items():
             if len(values) == 0:
-                raise ValueError(f"grid {key!r} has no values")
+                raise ConfigError(key, "has no values")
             _check_value(values, key)
             canon = [json.dumps(x, sort_keys=True) for x in values]
             if len(set(canon)) != len(canon):
-                raise ValueError(f"grid {key!r} repeats a value")
+                raise ConfigError(key, "repeats a value")
         return v
 
     @model_validator(mode="after")
     def _no_overlap(self) -> ComponentSpec:
         both = sorted(set(self.params) & set(self.grid))
         if both:
-            raise ValueError(f"{both[0]!r} is both a fixed param and a grid axis")
+            raise ConfigError(f"grid.{both[0]}", "is also a fixed parameter (params)")
         return self
 
     @property

@@ -39,9 +39,11 @@ def check_cell_count(
     ``counts`` are the (float) cells per axis, e.g. ``extent / cell_size``.
     """
     c = np.maximum(np.asarray(counts, float), 1.0)
-    total = float(np.prod(c))
-    if not (np.all(np.isfinite(c)) and total <= MAX_GRID_CELLS):
-        shown = f"{total:.3g}" if math.isfinite(total) else "too many"
+    # in logarithms: the product of absurd counts must not overflow (and warn) before it is
+    # refused
+    log_total = float(np.sum(np.log(c))) if np.all(np.isfinite(c)) else math.inf
+    if not log_total <= math.log(MAX_GRID_CELLS):
+        shown = f"{math.exp(log_total):.3g}" if log_total < 700 else "too many"
         raise ConfigError(
             field,
             f"{cell_size} m cells make a grid of {shown} cells; at most {MAX_GRID_CELLS} "

@@ -156,6 +156,12 @@ class Movie:
         p = Path(path)
         if not p.is_file():
             raise ConfigError("path", f"movie file not found: {p}")
+        with p.open("rb") as fh:
+            magic = fh.read(6)
+        if magic.startswith(b"\x93NUMPY"):
+            raise ConfigError("path", f"{p} holds one array, not a movie (.npz archive)")
+        if not magic.startswith(b"PK"):
+            raise ConfigError("path", f"{p} is not a movie (.npz archive)")
         try:
             z = np.load(p, allow_pickle=False)
         except (OSError, ValueError, EOFError, zipfile.BadZipFile) as exc:

@@ -49,7 +49,9 @@ def build_arena(cfg: ArenaConfig) -> Arena:
 _TOP_LEVEL = ("world.", "sensors.", "platform.", "agents.", "searcher.", "limits.")
 
 
-def _prefixed(field: str, fn: Any, *args: Any, **kwargs: Any) -> Any:
+def prefixed(field: str, fn: Any, *args: Any, **kwargs: Any) -> Any:
+    """``fn(*args, **kwargs)``, its :class:`ConfigError` named under ``field`` (a component's
+    own field names are relative to it)."""
     try:
         return fn(*args, **kwargs)
     except ConfigError as exc:
@@ -63,11 +65,11 @@ def _prefixed(field: str, fn: Any, *args: Any, **kwargs: Any) -> Any:
 
 def build_world(sc: Scenario) -> World:
     """Arena, wind and plume of a scenario (not yet reset)."""
-    arena = _prefixed("world.arena", build_arena, sc.world.arena)
+    arena = prefixed("world.arena", build_arena, sc.world.arena)
     wp = sc.world.wind.params("wind", "world.wind")
-    wind = _prefixed("world.wind", registry.entry("wind", sc.world.wind.type).build, wp, arena)
+    wind = prefixed("world.wind", registry.entry("wind", sc.world.wind.type).build, wp, arena)
     pp = sc.world.plume.params("plume", "world.plume")
-    plume = _prefixed(
+    plume = prefixed(
         "world.plume",
         registry.entry("plume", sc.world.plume.type).build,
         pp,
@@ -122,14 +124,14 @@ def build(sc: Scenario, world: World | None = None) -> Built:
     plp = sc.platform.params("platform", "platform")
     se = registry.entry("searcher", sc.searcher.type)
     sp = sc.searcher.params("searcher", "searcher")
-    searcher = _prefixed("searcher", se.build, sp)
+    searcher = prefixed("searcher", se.build, sp)
     _check_searcher(sc, searcher)
     return Built(
         scenario=sc,
         world=world,
-        gas_sensors=[_prefixed("sensors.gas", gas_cls, gp) for _ in range(n)],
-        anemometers=[_prefixed("sensors.anemometer", an_cls, ap) for _ in range(n)],
-        platforms=[_prefixed("platform", pl_cls, plp) for _ in range(n)],
+        gas_sensors=[prefixed("sensors.gas", gas_cls, gp) for _ in range(n)],
+        anemometers=[prefixed("sensors.anemometer", an_cls, ap) for _ in range(n)],
+        platforms=[prefixed("platform", pl_cls, plp) for _ in range(n)],
         searcher=searcher,
     )
 

@@ -157,20 +157,22 @@ class AgentsConfig(_Strict):
     @model_validator(mode="after")
     def _check(self) -> AgentsConfig:
         if not (self.comm_radius >= 0):
-            raise ValueError("comm_radius must be >= 0")
+            raise ConfigError("comm_radius", "must be >= 0")
         seen: set[int] = set()
         n = len(self.starts)
         for k, g in enumerate(self.groups):
             for a in g.agents:
                 if not 0 <= a < n:
-                    raise ValueError(f"groups[{k}] names agent {a}, but there are {n} agents")
+                    raise ConfigError(
+                        f"groups[{k}].agents", f"names agent {a}, but there are {n} agents"
+                    )
                 if a in seen:
-                    raise ValueError(f"groups[{k}]: agent {a} is in two groups")
+                    raise ConfigError(f"groups[{k}].agents", f"agent {a} is in two groups")
                 seen.add(a)
         for name, pts in self.start_sets.items():
             if self.groups and len(pts) != len(self.groups):
-                raise ValueError(
-                    f"start_sets[{name}] has {len(pts)} points for {len(self.groups)} groups"
+                raise ConfigError(
+                    f"start_sets.{name}", f"has {len(pts)} points for {len(self.groups)} groups"
                 )
         return self
 
@@ -204,7 +206,7 @@ class TaskConfig(_Strict):
         if self.region is not None:
             check_region(self.region, "region")
         if self.end == "reach" and self.reach_radius is None:
-            raise ValueError("end 'reach' needs reach_radius")
+            raise ConfigError("reach_radius", "is required by end 'reach'")
         return self
 
 

@@ -95,14 +95,14 @@ def check_scenario(sc: Scenario, world: Any = None) -> Any:
     ConfigError
         The first field that stops the scenario from running.
     """
-    from odorloc.scenarios.build import build, build_world, search_context
+    from odorloc.scenarios.build import build, build_world, prefixed, search_context
 
     if world is None:
         world = build_world(sc)
     built = build(sc, world=world)
     ctx = search_context(sc, built)
     # a throwaway generator: the check must not touch any episode's stream
-    built.searcher.reset(ctx, np.random.default_rng(0))
+    prefixed("searcher", built.searcher.reset, ctx, np.random.default_rng(0))
     return world
 
 
