@@ -570,7 +570,8 @@ def write_report(
     pathlib.Path
         ``out_html``.
     """
-    from odorloc.core.errors import ConfigError
+    import pandas as pd
+
     from odorloc.experiments.store import ResultStore, open_results
 
     store = None
@@ -590,10 +591,10 @@ def write_report(
         else:
             df = store.frame() if store is not None else open_results(store_or_df)
         if success != "success" and len(df):
-            if success not in df.columns:
-                raise ConfigError("success", f"the results have no column {success!r}")
             df = df.copy()
-            df["success"] = df[success].astype("boolean").fillna(False)
+            # rows without the column (failed episodes) did not meet the criterion
+            col = df[success] if success in df.columns else False
+            df["success"] = pd.Series(col, index=df.index).astype("boolean").fillna(False)
         meta = store.meta() if store is not None else {}
         sweep_name = ""
         if meta.get("sweep"):

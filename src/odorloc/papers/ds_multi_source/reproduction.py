@@ -20,6 +20,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import pandas as pd
 
 from odorloc.core.registry import register
 from odorloc.experiments.reproduction import Figure, Reproduction, ReproductionParams, Table, fmt
@@ -190,7 +191,8 @@ def _stopped(g: Any) -> str:
 def _count(g: Any, col: str) -> str:
     if col not in g:
         return f"0/{len(g)}"
-    return f"{int(g[col].fillna(False).astype(bool).sum())}/{len(g)}"
+    hits = pd.to_numeric(g[col], errors="coerce").fillna(0.0) > 0.5
+    return f"{int(hits.sum())}/{len(g)}"
 
 
 @register("reproduction", "ds-multi-source", ReproductionParams, "Sec. 4 and Figs. 1-2")
@@ -244,6 +246,21 @@ class DSReproduction(Reproduction):
     def tables(self, df: Any, seed: int) -> list[Table]:
         import pandas as pd
 
+        # rows of failed episodes carry none of the mapping columns: read them as missing
+        needed = [
+            "search_time",
+            "path_length",
+            "residual_uncertainty",
+            "initial_uncertainty",
+            "time_to_baseline_residual",
+            "distance_to_baseline_residual",
+            "source_error_0",
+            "source_error_1",
+            *[f"map_false_sources{('_' + r) if r else ''}" for r in RULES],
+            *[f"map_success{('_' + r) if r else ''}" for r in RULES],
+            *[f"scene_residual_{k}" for k in range(3)],
+        ]
+        df = df.assign(**{c: np.nan for c in needed if c not in df.columns})
         df = df.sort_values(["searcher", "episode"])
         compact, wide = [], []
         for label in SEARCHERS:
@@ -285,8 +302,14 @@ class DSReproduction(Reproduction):
                     fmt(_mean_sd(g.initial_uncertainty)[0], 0),
                     _ms(g.source_error_0, 2),
                     _ms(g.source_error_1, 2),
-                    *[_count(g, f"map_success{('_' + r) if r else ''}") for r in RULES],
-                    _ms(g.map_false_sources),
+                    *[
+                        cell
+                        for r in MAP_RULES
+                        for cell in (
+                            _count(g, f"map_success_{r}"),
+                            _ms(g.get(f"map_false_sources_{r}", [])),
+                        )
+                    ],
                 ]
             )
         rule = DSMapParams().source_rule
@@ -315,8 +338,7 @@ class DSReproduction(Reproduction):
                     "initial ΣX",
                     "err src1 m",
                     "err src2 m",
-                    *[f"both ({r or rule})" for r in RULES],
-                    "false",
+                    *[h for r in MAP_RULES for h in (f"both ({r})", f"false ({r})")],
                 ],
                 wide,
                 console=False,
