@@ -308,7 +308,8 @@ class ReplayParams(Params):
     Attributes
     ----------
     path : str or None
-        ``.npz`` movie file (required unless a :class:`Movie` is passed in code).
+        ``.npz`` movie file (required unless a :class:`Movie` is passed in code); in a scenario
+        file, a relative path is relative to that file's folder.
     loop : bool
         Past the last frame, start again from the first (else hold the last frame).
     """

@@ -104,15 +104,3 @@ def check_scenario(sc: Scenario, world: Any = None) -> Any:
     # a throwaway generator: the check must not touch any episode's stream
     prefixed("searcher", built.searcher.reset, ctx, np.random.default_rng(0))
     return world
-
-
-def check_loaded(ref: str | Path, base_dir: str | Path | None = None) -> Scenario:
-    """:func:`load_scenario` followed by :func:`check_scenario`."""
-    sc = load_scenario(ref, base_dir)
-    check_scenario(sc)
-    return sc
-
-
-def describe(ref: str | Path) -> str:
-    """How a reference reads in a message: the file name for paths, the name otherwise."""
-    return Path(str(ref)).name if is_file_ref(ref) else str(ref)
