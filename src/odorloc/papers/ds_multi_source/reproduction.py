@@ -440,12 +440,16 @@ def _flow0(df: Any, store: Any) -> dict[str, Any]:
         sc = cell_scenario({"scenario": SCENARIO})
         region = check_region(sc.task.region)
         mapper = DSMapper(DSMapParams(), region, sc.limits.control_dt)
+        row = g.iloc[0]
+        n = int(row.get("mapped_sources", 0) or 0) if "mapped_sources" in g else 0
+        mapped = [(row.get(f"mapped_x_{k}"), row.get(f"mapped_y_{k}")) for k in range(n)]
         out[label] = {
             "recording": rec,
             "final": maps[-1],
             "lower": mapper.grid.grid.lower,
             "upper": mapper.grid.grid.upper,
             "region": region,
+            "mapped": np.array([m for m in mapped if np.all(np.isfinite(m))], float),
         }
     return out
 
@@ -507,6 +511,9 @@ def _state_map_figure(recs: dict[str, Any], path: Path) -> None:
             if len(pos):
                 ax.plot(*pos[-1, :2], "o", color="tab:green", mec="k")
             ax.plot(rec.sources[:, 0], rec.sources[:, 1], "*", color="red", mec="k", ms=13)
+            mapped = entry.get("mapped", np.zeros((0, 2)))
+            if c == 2 and len(mapped):
+                ax.plot(mapped[:, 0], mapped[:, 1], "X", color="tab:orange", mec="k", ms=10)
             ax.add_patch(Rectangle((rx0, ry0), rx1 - rx0, ry1 - ry0, fill=False, ec="gold", lw=2))
             d = float(np.sum(np.linalg.norm(np.diff(pos[:, :2], axis=0), axis=1)))
             x = cell_uncertainty(ms, mn, snap["m_u"])
@@ -520,13 +527,27 @@ def _state_map_figure(recs: dict[str, Any], path: Path) -> None:
             ax.set_xlim(rx0 - 1.0, rx1 + 1.0)
             ax.set_ylim(ry0 - 1.0, ry1 + 1.0)
             ax.set_aspect("equal")
+    from matplotlib.lines import Line2D
+
+    rule = DSMapParams().source_rule
     handles = [
         Patch(color="0.6", label="unknown"),
         Patch(fc="white", ec="k", label="free"),
         Patch(color="black", label="occupied by a source"),
+        Line2D([], [], ls="", marker="*", color="red", mec="k", ms=12, label="true source"),
+        Line2D(
+            [],
+            [],
+            ls="",
+            marker="X",
+            color="tab:orange",
+            mec="k",
+            ms=9,
+            label=f"mapped source at the end ({rule} rule)",
+        ),
     ]
-    fig.legend(handles=handles, loc="lower center", ncol=3)
-    fig.suptitle("D-S state maps at three moments (cf. paper Figs. 1-2); red stars: true sources")
+    fig.legend(handles=handles, loc="lower center", ncol=5)
+    fig.suptitle("D-S state maps at three moments (cf. paper Figs. 1-2)")
     fig.savefig(path, dpi=100)
     plt.close(fig)
 
