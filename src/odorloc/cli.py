@@ -61,6 +61,11 @@ class _OneLineErrors(TyperGroup):
             sys.exit(exc.exit_code)
         except typer.Abort:
             sys.exit(1)
+        except OdorlocError as exc:  # any command: invalid input is one line, never a traceback
+            err_console.print(
+                f"error: {escape(_one_line(str(exc)))}", highlight=False, soft_wrap=True
+            )
+            sys.exit(2)
         sys.exit(rv if isinstance(rv, int) else 0)
 
 
