@@ -355,7 +355,7 @@ def check_searcher(
             compare_runs(a, b, tag)
             m = a.metrics
             _require(
-                m["termination"] in ("declared", "time_limit", "energy", "reached"),
+                m["termination"] in ("declared", "time_limit", "energy", "reached", "stuck"),
                 f"{tag}: termination {m['termination']!r}",
             )
             _require(

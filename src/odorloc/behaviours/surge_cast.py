@@ -4,6 +4,10 @@ After the odor is lost the agent *surges* straight upwind for ``surge_steps`` st
 *casts*: legs across the wind at ``cast_angle_deg`` from upwind, alternating sides, whose length
 starts at ``cast_amplitude`` metres and grows by the factor ``cast_growth`` each leg up to
 ``cast_max``. A wall ends a leg early. Casting from the start is a plume-finding behaviour.
+
+In 3-D, ``cast_elevation_deg`` tilts the cast legs out of the horizontal plane, up for two legs
+and down for the next two, so the casts also sweep heights (a 3-D plume is missed at the wrong
+height); the default 0 keeps them horizontal.
 """
 
 from __future__ import annotations
@@ -28,6 +32,7 @@ class SurgeCastParams(Params):
     cast_amplitude: Positive = 0.4
     cast_growth: float = Field(1.5, ge=1.0)
     cast_max: Positive = 3.0
+    cast_elevation_deg: float = Field(0.0, ge=0.0, lt=90.0)
 
 
 class SurgeCast:
@@ -39,6 +44,7 @@ class SurgeCast:
         self.side = 1.0
         self.leg = params.cast_amplitude
         self.done = 0.0
+        self.legs = 0
 
     @property
     def surging(self) -> bool:
@@ -61,7 +67,12 @@ class SurgeCast:
             self.side = -self.side
             self.done = 0.0
             self.leg = min(self.leg * p.cast_growth, p.cast_max)
+            self.legs += 1
         d = rotate2(up, math.radians(p.cast_angle_deg) * self.side)
+        if p.cast_elevation_deg > 0 and d.size == 3:
+            e = math.radians(p.cast_elevation_deg)
+            d = math.cos(e) * d
+            d[2] = math.sin(e) * (1.0 if (self.legs // 2) % 2 == 0 else -1.0)
         if not arena.segment_free(pos, pos + d * step)[0]:
             # A wall ends the leg early: turn to the other side next.
             self.done = self.leg

@@ -13,6 +13,11 @@ sources they find); end if the scenario's rule says so (``task.end``), or at the
 exhausted platform; otherwise deliver the messages (charging radio energy), charge the reported
 computation, move the platforms, advance the world by one control period and observe again.
 
+Platforms with a body (``radius > 0``) never pass through each other: they move one after
+another in agent order, each stopped where it would touch another body at that body's current
+position (:func:`~odorloc.platforms.base.body_contact_fraction`), as walls and obstacles stop
+it.
+
 :func:`run_episode` is the driver that lets a searcher answer: it is all that ``odorloc run``,
 sweeps and reproductions use.
 
@@ -140,9 +145,10 @@ class StepResult:
     terminated : bool
         The task ended the episode (declarations by ``task.end``, or a source reached).
     truncated : bool
-        A limit ended it (time or energy).
+        A limit ended it (time, energy or the back-and-forth rule).
     termination : str
-        ``"running"``, ``"declared"``, ``"reached"``, ``"time_limit"`` or ``"energy"``.
+        ``"running"``, ``"declared"``, ``"reached"``, ``"time_limit"``, ``"energy"`` or
+        ``"stuck"`` (``task.stuck_limit``).
     t : float
         Time of ``observations`` (or of the end), seconds.
     """
@@ -229,8 +235,17 @@ class Episode:
         self._starts = np.asarray(sc.agents.starts, float)
         for k, pl in enumerate(b.platforms):
             pl.reset(self._starts[k], sc.agents.heading)
+        radii = np.array([float(pl.radius) for pl in b.platforms])
+        self._radii: np.ndarray | None = None
+        if self.n_agents > 1 and np.any(radii > 0):
+            self._radii = radii
+            # farthest a pair of bodies can close in one period: both radii and both reaches
+            reach = np.array([float(pl.speed_limit) for pl in b.platforms]) * self._T
+            self._contact = (radii + reach)[:, None] + (radii + reach)[None, :]
         for s in (*b.gas_sensors, *b.anemometers):
             s.reset(self._rng_sense)
+        for k, gs in enumerate(b.gas_sensors):
+            gs.start(world.plume, self._starts[k])
         self.context: SearchContext = search_context(sc, b)
         self._comm = CommGraph(sc.agents.comm_radius)
         self._inbox: list[tuple[Message, ...]] = [() for _ in range(self.n_agents)]
@@ -243,6 +258,11 @@ class Episode:
         self._declared_groups: set[int] = set()
         self._found_time = np.full(len(self.sources), math.nan)
         self._reach_time = math.nan
+        self._reach_agent = -1
+        self._reach_stats: dict[str, float] = {}
+        # positions after the last two steps and the back-and-forth counters (task.stuck_limit)
+        self._recent: list[np.ndarray] = []
+        self._back_and_forth = np.zeros(self.n_agents, int)
         self._events: list[Event] = []
         self._termination = "running"
         self._world_time = 0.0
@@ -250,6 +270,7 @@ class Episode:
         self._done = False
         self._started = True
         self._obs = self._observe(self._events)
+        self._recent = [np.array([o.position for o in self._obs])]
         if self._task_done():
             self._finish("reached", self._events)
         return self._obs
@@ -315,12 +336,28 @@ class Episode:
         self._inbox, sent = self._comm.deliver(positions, action.messages)
         self._bytes += sent
         arena = self.world.arena
+        # Bodies with a footprint stop each other: each agent moves against the others' current
+        # positions (those already moved this period included), so none enters another.
+        near = self._near(positions) if self._radii is not None else None
         for k, pl in enumerate(b.platforms):
             pl.charge_comm(self._comm.bytes_sent_by(k))
             bits = action.compute_bits.get(k, 0.0)
             if bits:
                 pl.charge_compute(bits)
-            pl.apply(action.commands[k], self._T, arena)
+            if near is not None and near[k].any():
+                assert self._radii is not None
+                others = near[k]
+                pl.apply(
+                    action.commands[k],
+                    self._T,
+                    arena,
+                    bodies=(positions[others], self._radii[others]),
+                )
+                positions[k] = pl.position
+            else:
+                pl.apply(action.commands[k], self._T, arena)
+                if near is not None:
+                    positions[k] = pl.position
         tw = time.perf_counter()
         for _ in range(self._n_sub):
             self.world.step(self._wdt, self._rng_world)
@@ -333,23 +370,35 @@ class Episode:
         self._obs = self._observe(events)
         if self._task_done():
             return self._finish("reached", events, probe)
+        if self._stuck():
+            return self._finish("stuck", events, probe)
         return StepResult(self._obs, events, False, False, "running", self._t)
 
     # ------------------------------------------------------------------ internals
+    def _near(self, positions: np.ndarray) -> np.ndarray:
+        """``(N, N)`` pairs of bodies that could touch during this period (none on the
+        diagonal); the others cannot, whatever they are commanded."""
+        diff = positions[:, None, :] - positions[None, :, :]
+        near = np.einsum("ijd,ijd->ij", diff, diff) < self._contact**2
+        np.fill_diagonal(near, False)
+        return near
+
     def _observe(self, events: list[Event]) -> list[Observation]:
         b, t = self.built, self._t
         obs = []
+        # The plume and the wind are read once at every agent's position (one vectorised query
+        # each); every agent's own instruments then respond in agent order, drawing their noise
+        # from the sensor stream in the same order as one measurement after another.
+        positions = np.array([pl.position for pl in b.platforms])
+        truth = b.gas_sensors[0].sample(self.world.plume, positions)
+        air = self.world.wind.velocity(positions)
         for k, pl in enumerate(b.platforms):
-            reading = b.gas_sensors[k].measure(
-                self.world.plume, pl.position, self._T, self._rng_sense
-            )
-            wind = b.anemometers[k].measure(
-                self.world.wind, pl.position, pl.velocity, self._T, self._rng_sense
-            )
+            reading = b.gas_sensors[k].respond(float(truth[k]), self._T, self._rng_sense)
+            wind = b.anemometers[k].respond(air[k], pl.velocity, self._T, self._rng_sense)
             o = Observation(
                 agent=k,
                 t=t,
-                position=pl.position.copy(),
+                position=positions[k].copy(),
                 heading=float(pl.heading),
                 gas=float(reading.value),
                 detection=bool(reading.detection),
@@ -374,10 +423,28 @@ class Episode:
             if len(hit):
                 agent, src = (int(v) for v in hit[0])
                 self._reach_time = t
+                self._reach_agent = agent
+                # the reaching agent's own totals at this moment (e.g. a UAV's busy time)
+                self._reach_stats = dict(self.built.platforms[agent].stats)
                 ev = Event(t, "source_reached", agent=agent, source=src, position=pos[agent])
                 events.append(ev)
                 self._events.append(ev)
         return obs
+
+    def _stuck(self) -> bool:
+        """Update the back-and-forth counters; ``True`` when every agent exceeds the limit.
+
+        At the step that reaches the time limit the limit wins (the episode ends there anyway).
+        """
+        limit = self.scenario.task.stuck_limit
+        if limit is None:
+            return False
+        pos = np.array([o.position for o in self._obs])
+        if len(self._recent) == 2:
+            back = np.all(np.abs(pos - self._recent[0]) <= 1e-9, axis=1)
+            self._back_and_forth = np.where(back, self._back_and_forth + 1, 0)
+        self._recent = [*self._recent[-1:], pos]
+        return bool(np.all(self._back_and_forth > limit)) and self._step < self.n_steps
 
     def _declare(self, d: Declaration, t: float, events: list[Event]) -> None:
         pos = np.atleast_2d(np.asarray(d.positions, float))
@@ -474,6 +541,9 @@ class Episode:
             metrics["success"] = not math.isnan(self._reach_time)
         if self.scenario.task.reach_radius is not None:
             metrics["reach_time"] = float(self._reach_time)
+            metrics["reach_agent"] = int(self._reach_agent)
+            for key in b.platforms[0].stats:
+                metrics[f"reach_{key}"] = float(self._reach_stats.get(key, math.nan))
         metrics["declarations"] = len(self._declarations)
         for s, ft in enumerate(self._found_time):
             metrics[f"found_time_{s}"] = float(ft)
@@ -483,6 +553,12 @@ class Episode:
                 breakdown[key] = breakdown.get(key, 0.0) + float(v)
         for key, v in breakdown.items():
             metrics[f"energy_{key}"] = v
+        totals: dict[str, float] = {}
+        for pl in b.platforms:
+            for key, v in pl.stats.items():
+                totals[key] = totals.get(key, 0.0) + float(v)
+        for key, v in totals.items():
+            metrics[f"team_{key}"] = v
         if extra:
             metrics.update(extra)
         recording = None

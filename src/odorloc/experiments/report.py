@@ -486,7 +486,7 @@ class ReportSection:
     tables : list of (caption, headers, rows)
         Rows of already formatted cells.
     figures : list of (path, caption)
-        PNG files to embed.
+        PNG (or GIF) files to embed.
     """
 
     title: str
@@ -509,8 +509,9 @@ def _extra_section(sec: ReportSection) -> str:
         except OSError as exc:
             parts.append(f'<p class="note">figure {_e(Path(path).name)} unavailable: {_e(exc)}</p>')
             continue
+        mime = "image/gif" if Path(path).suffix.lower() == ".gif" else "image/png"
         parts.append(
-            f'<figure><img alt="{_e(caption)}" src="data:image/png;base64,{data}" '
+            f'<figure><img alt="{_e(caption)}" src="data:{mime};base64,{data}" '
             f'style="max-width:1150px"><figcaption>{_e(caption)}</figcaption></figure>'
         )
     return "".join(parts)

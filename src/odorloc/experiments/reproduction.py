@@ -113,6 +113,10 @@ class Reproduction(ABC):
         The row column that says an episode succeeded by the paper's own criterion (default
         the episode's ``success``) and what it means; the console tables and every table of
         the report count that column, so they say one thing.
+    cell_summary : bool
+        Print the harness's per-cell summary before the reproduction's own tables (off for
+        sweeps of many cells, whose compact tables say it better; never printed when the
+        reproduction counts success by a column of its own, so the console says one thing).
     """
 
     name: ClassVar[str] = ""
@@ -122,6 +126,7 @@ class Reproduction(ABC):
     paper_episodes: ClassVar[int] = 10
     success_column: ClassVar[str] = "success"
     success_label: ClassVar[str] = ""
+    cell_summary: ClassVar[bool] = True
 
     def __init__(self, params: ReproductionParams | None = None) -> None:
         self.params = params or ReproductionParams()
@@ -182,7 +187,7 @@ class Reproduction(ABC):
             scheduler=scheduler,
             progress=progress,
             group_fn=self.group_fn(),
-            summary=False,
+            summary=progress and self.cell_summary and self.success_column == "success",
         )
         wall = time.perf_counter() - t0
         df = df[df["episode"] < n] if len(df) else df

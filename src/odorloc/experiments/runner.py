@@ -144,16 +144,18 @@ def run_replay_group(
     extras: Extras | None = None,
     prepare: Callable[[Scenario, Any], Scenario] | None = None,
 ) -> list[dict[str, Any]]:
-    """Run a group of tasks that share one world (world key and episode) on one recorded flow.
+    """Run a group of tasks that share one world (flow key and episode) on one recorded flow.
 
     The flow is recorded once (:func:`~odorloc.engine.replay.record_flow`) with the group's
     world seed and replayed to every task in order, so every searcher faces exactly the same
-    plume and wind. Rows get ``replay=True`` and ``movie_wall_time`` (s).
+    plume and wind. Rows get ``replay=True``, ``movie_wall_time`` and ``movie_cpu_time`` (s,
+    the recording's wall and CPU time), ``group_size`` (tasks sharing it) and ``cpu_time`` (s,
+    the episode's CPU time: on a shared machine a better measure of cost than wall time).
 
     Parameters
     ----------
     tasks : sequence of EpisodeTask
-        Same ``world_key`` and ``episode``.
+        Same ``flow_key`` and ``episode``.
     record : bool
         Record every episode (for ``extras``); arrays are stored only for tasks that keep them.
     extras : callable, optional
@@ -164,10 +166,11 @@ def run_replay_group(
     """
     if not tasks:
         return []
-    keys = {(t.world_key, t.episode, t.world_seed) for t in tasks}
+    keys = {(t.flow_key, t.episode, t.world_seed) for t in tasks}
     if len(keys) != 1:
-        raise ValueError("a replay group must share one world key, episode and world seed")
+        raise ValueError("a replay group must share one flow key, episode and world seed")
     t0 = time.perf_counter()
+    c0 = time.process_time()
     rows: list[dict[str, Any]] = []
     by_cell: dict[str, dict[str, Any]] = {}
     try:
@@ -176,8 +179,10 @@ def run_replay_group(
     except Exception as exc:
         return [_error_row(t.cell, exc, t0) for t in tasks]
     movie_wall = time.perf_counter() - t0
+    movie_cpu = time.process_time() - c0
     for task in tasks:
         t1 = time.perf_counter()
+        c1 = time.process_time()
         try:
             sc = cell_scenario(task.cell)
             if task.keep_arrays and not record:
@@ -194,7 +199,15 @@ def run_replay_group(
             )
             row = dict(ROW_DEFAULTS)
             row.update(res.metrics)
-            row.update(status="ok", error="", replay=True, movie_wall_time=movie_wall)
+            row.update(
+                status="ok",
+                error="",
+                replay=True,
+                movie_wall_time=movie_wall,
+                movie_cpu_time=movie_cpu,
+                group_size=len(tasks),
+                cpu_time=time.process_time() - c1,
+            )
             if extras is not None:
                 row.update(extras(task, res, by_cell))
             if task.keep_arrays and res.recording is not None:

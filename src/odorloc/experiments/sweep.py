@@ -13,6 +13,7 @@ seed::
       - name: indoor-pf-entropy     # built-in name or path to a scenario file
         params: {time_limit: 600}   # fixed overrides
         grid: {start_index: [2, 4]} # swept overrides (cartesian product)
+        agent_grid: {}              # swept agent placements that share the flow (see below)
     searchers:
       - name: pf-entropy
         grid: {n_particles: [500, 1000]}
@@ -33,11 +34,19 @@ scenario faces the same world realisation (wind, plume, start pose) and differen
 searchers can be paired episode by episode. Because the seeds travel inside the task, results do not
 depend on the backend, the number of workers or the order of execution.
 
+Agent placements that share the flow
+------------------------------------
+A scenario's ``agent_grid`` sweeps settings that only place the agents (``start_set``,
+``start_index``, ``agents.*``). Its cells keep their own world key (the cell id, and the cells
+paired in comparisons), but share the *flow key* of the scenario's grid point: the world seeds
+come from the flow key, so every placement of episode ``i`` faces the same wind and plume, and
+with ``replay: true`` one recorded flow serves them all.
+
 Record once, replay many
 ------------------------
-With ``replay: true`` the flow (wind and plume) of each world key and episode is recorded once
-(:func:`~odorloc.engine.replay.record_flow`) and replayed to every searcher cell of that world
-key, in one work item (:func:`~odorloc.experiments.runner.replay_group`). Every searcher then faces
+With ``replay: true`` the flow (wind and plume) of each flow key and episode is recorded once
+(:func:`~odorloc.engine.replay.record_flow`) and replayed to every cell of that flow key, in one
+work item (:func:`~odorloc.experiments.runner.replay_group`). Every searcher then faces
 exactly the same plume frames, which a live plume gives only when it does not depend on the agents;
 for expensive plumes (filaments, Eulerian grids) it also saves simulating the flow once per
 searcher.
@@ -70,6 +79,9 @@ from odorloc.core.errors import ConfigError, format_validation_error
 from odorloc.core.loading import load_yaml_mapping
 from odorloc.core.params import Params
 from odorloc.core.seeds import episode_seeds
+
+#: Overrides that only place agents (allowed in a scenario's ``agent_grid``, with ``agents.*``).
+AGENT_KEYS = ("start_set", "start_index")
 
 EpisodeFn = Callable[["EpisodeTask"], dict]
 """An episode function: runs one task and returns one row dict (see :mod:`.store`)."""
@@ -107,6 +119,10 @@ class ComponentSpec(Params):
         Fixed parameter overrides.
     grid : dict of list
         Swept parameter overrides; the cartesian product of the lists is taken.
+    agent_grid : dict of list
+        Swept agent placements (scenarios only: ``start_set``, ``start_index``, ``agents.*``),
+        crossed with ``grid``; their cells share the flow of their ``grid`` point (module
+        docstring).
     label : str, optional
         Short display name used in cell ids and reports (defaults to ``name``).
     """
@@ -114,12 +130,24 @@ class ComponentSpec(Params):
     name: str = Field(min_length=1)
     params: dict[str, Any] = Field(default_factory=dict)
     grid: dict[str, list[Any]] = Field(default_factory=dict)
+    agent_grid: dict[str, list[Any]] = Field(default_factory=dict)
     label: str | None = None
 
     @field_validator("params")
     @classmethod
     def _params_ok(cls, v: dict[str, Any]) -> dict[str, Any]:
         return {str(k): _check_value(x, str(k)) for k, x in v.items()}
+
+    @field_validator("agent_grid")
+    @classmethod
+    def _agent_grid_ok(cls, v: dict[str, list[Any]]) -> dict[str, list[Any]]:
+        for key in v:
+            if key not in AGENT_KEYS and not key.startswith("agents."):
+                raise ValueError(
+                    f"{key!r} is not an agent placement (start_set, start_index, agents.*); "
+                    "put settings that change the world in 'grid'"
+                )
+        return cls._grid_ok(v)
 
     @field_validator("grid")
     @classmethod
@@ -135,9 +163,14 @@ class ComponentSpec(Params):
 
     @model_validator(mode="after")
     def _no_overlap(self) -> ComponentSpec:
-        both = sorted(set(self.params) & set(self.grid))
-        if both:
-            raise ConfigError(f"grid.{both[0]}", "is also a fixed parameter (params)")
+        for a, b, field, what in (
+            (self.params, self.grid, "grid", "is also a fixed parameter (params)"),
+            (self.params, self.agent_grid, "agent_grid", "is also a fixed parameter (params)"),
+            (self.grid, self.agent_grid, "agent_grid", "is both a grid and an agent_grid axis"),
+        ):
+            both = sorted(set(a) & set(b))
+            if both:
+                raise ConfigError(f"{field}.{both[0]}", what)
         return self
 
     @property
@@ -292,6 +325,8 @@ def hashed_content(spec: SweepSpec) -> dict[str, Any]:
     scen = []
     for s in spec.scenarios:
         d = s.model_dump()
+        if not d["agent_grid"]:
+            del d["agent_grid"]  # sweeps without one keep the hash they always had
         d["file_sha256"] = _scenario_file_digest(s.name, spec.base_dir)
         scen.append(d)
     out = {
@@ -324,7 +359,7 @@ class Cell:
     cell_id : str
         Readable unique id, e.g. ``"room[start=2]/pf[n=500]"``.
     world_key : str
-        Scenario part of the id; cells sharing it share world seeds (common random numbers).
+        Scenario part of the id; cells sharing it are paired (common random numbers).
     spec : dict
         ``{"scenario", "scenario_params", "searcher", "searcher_params"}`` with the fixed and
         swept overrides merged; ``scenario`` is a built-in name or an absolute file path.
@@ -332,6 +367,9 @@ class Cell:
         Only the swept overrides, keys prefixed ``scenario.`` / ``searcher.``.
     scenario_index, searcher_index : int
         Which entries of the sweep's ``scenarios`` and ``searchers`` the cell comes from.
+    flow_key : str
+        Key of the world seeds and of the recorded flow: the world key without the
+        ``agent_grid`` axes (equal to it without them).
     """
 
     index: int
@@ -341,6 +379,11 @@ class Cell:
     swept: dict[str, Any]
     scenario_index: int = 0
     searcher_index: int = 0
+    flow_key: str = ""
+
+    def __post_init__(self) -> None:
+        if not self.flow_key:
+            object.__setattr__(self, "flow_key", self.world_key)
 
 
 def _fmt_point(point: dict[str, Any]) -> str:
@@ -357,39 +400,44 @@ def _grid_points(grid: dict[str, list[Any]]) -> Iterator[dict[str, Any]]:
 
 
 def iter_cells(spec: SweepSpec) -> Iterator[Cell]:
-    """The cells one by one, in deterministic order: scenarios, their grid, searchers, their
-    grid. Scenario file paths are made absolute (relative to the sweep file's folder), so an
-    episode opens the same file whatever the current folder of the process running it."""
+    """The cells one by one, in deterministic order: scenarios, their grid, their agent grid,
+    searchers, their grid. Scenario file paths are made absolute (relative to the sweep file's
+    folder), so an episode opens the same file whatever the current folder of the process
+    running it."""
     from odorloc.scenarios.loading import resolve_ref
 
     index = 0
     for i, sc in enumerate(spec.scenarios):
         ref = resolve_ref(sc.name, spec.base_dir)
-        for sp in _grid_points(sc.grid):
-            world_key = f"{sc.display}{_fmt_point(sp)}"
-            for j, se in enumerate(spec.searchers):
-                for ep in _grid_points(se.grid):
-                    cell_id = f"{world_key}/{se.display}{_fmt_point(ep)}"
-                    swept = {f"scenario.{k}": v for k, v in sp.items()}
-                    swept.update({f"searcher.{k}": v for k, v in ep.items()})
-                    yield Cell(
-                        index=index,
-                        cell_id=cell_id,
-                        world_key=world_key,
-                        spec={
-                            "scenario": ref,
-                            "scenario_label": sc.display,
-                            "scenario_params": {**sc.params, **sp},
-                            "searcher": se.name,
-                            "searcher_label": se.display,
-                            "searcher_params": {**se.params, **ep},
-                            "swept": swept,
-                        },
-                        swept=swept,
-                        scenario_index=i,
-                        searcher_index=j,
-                    )
-                    index += 1
+        for gp in _grid_points(sc.grid):
+            flow_key = f"{sc.display}{_fmt_point(gp)}"
+            for ap in _grid_points(sc.agent_grid):
+                sp = {**gp, **ap}
+                world_key = f"{sc.display}{_fmt_point(sp)}"
+                for j, se in enumerate(spec.searchers):
+                    for ep in _grid_points(se.grid):
+                        cell_id = f"{world_key}/{se.display}{_fmt_point(ep)}"
+                        swept = {f"scenario.{k}": v for k, v in sp.items()}
+                        swept.update({f"searcher.{k}": v for k, v in ep.items()})
+                        yield Cell(
+                            index=index,
+                            cell_id=cell_id,
+                            world_key=world_key,
+                            spec={
+                                "scenario": ref,
+                                "scenario_label": sc.display,
+                                "scenario_params": {**sc.params, **sp},
+                                "searcher": se.name,
+                                "searcher_label": se.display,
+                                "searcher_params": {**se.params, **ep},
+                                "swept": swept,
+                            },
+                            swept=swept,
+                            scenario_index=i,
+                            searcher_index=j,
+                            flow_key=flow_key,
+                        )
+                        index += 1
 
 
 def expand_cells(spec: SweepSpec) -> list[Cell]:
@@ -423,6 +471,9 @@ class EpisodeTask:
         Position of the cell in the sweep's expansion order.
     world_key : str
         Scenario part of ``cell_id`` (episodes with equal ``world_key`` and index are paired).
+    flow_key : str
+        Key of the world seeds and of the recorded flow (``world_key`` unless the scenario has
+        an ``agent_grid``).
     keep_arrays : bool
         Whether the sweep stores per-episode arrays; an episode function may skip recording
         them when ``False`` (the harness drops them anyway).
@@ -438,11 +489,16 @@ class EpisodeTask:
     cell_index: int = 0
     world_key: str = ""
     keep_arrays: bool = False
+    flow_key: str = ""
+
+    def __post_init__(self) -> None:
+        if not self.flow_key:
+            object.__setattr__(self, "flow_key", self.world_key)
 
 
 def make_task(spec: SweepSpec, cell: Cell, episode: int, chash: str | None = None) -> EpisodeTask:
     """The task of episode ``episode`` of ``cell``."""
-    ws, as_ = episode_seeds(spec.seed, cell.world_key, episode)
+    ws, as_ = episode_seeds(spec.seed, cell.flow_key, episode)
     return EpisodeTask(
         cell_id=cell.cell_id,
         cell=cell.spec,
@@ -454,6 +510,7 @@ def make_task(spec: SweepSpec, cell: Cell, episode: int, chash: str | None = Non
         cell_index=cell.index,
         world_key=cell.world_key,
         keep_arrays=spec.keep_arrays or episode in spec.keep_episodes,
+        flow_key=cell.flow_key,
     )
 
 
@@ -504,11 +561,12 @@ def iter_pending_groups(
     done: set[tuple[str, int]],
     chash: str,
 ) -> Iterator[list[EpisodeTask]]:
-    """The pending tasks of a replay sweep as world groups (one world key and episode each),
-    generated one by one (ordered by world key, then episode)."""
+    """The pending tasks of a replay sweep as flow groups (one flow key and episode each: all
+    cells replaying one recorded flow), generated one by one (ordered by flow key, then
+    episode)."""
     by_world: dict[str, list[Cell]] = {}
     for c in cells:
-        by_world.setdefault(c.world_key, []).append(c)
+        by_world.setdefault(c.flow_key, []).append(c)
     for group_cells in by_world.values():
         n = max(targets[c.cell_id] for c in group_cells)
         for e in range(n):
@@ -587,7 +645,7 @@ def run_sweep(
     timeout: float = 5.0,
     chunk_size: int | None = None,
     group_fn: Callable[[list[EpisodeTask]], list[dict]] | None = None,
-    summary: bool = True,
+    summary: bool | None = None,
 ) -> Any:
     """Run (or resume) a sweep, writing every finished episode to the store at once.
 
@@ -623,12 +681,12 @@ def run_sweep(
     chunk_size : int, optional
         Episodes per work item; default chosen from the number of tasks and workers.
     group_fn : callable, optional
-        With ``replay: true``, the function running one world group (all searcher cells of a
-        world key and episode, on one recorded flow); default
+        With ``replay: true``, the function running one world group (all cells of a flow key
+        and episode, on one recorded flow); default
         :func:`odorloc.experiments.runner.replay_group`.
-    summary : bool
-        With ``progress``, print the per-cell summary table at the end (a reproduction prints
-        its own tables instead).
+    summary : bool, optional
+        Print the per-cell summary table at the end (default: with ``progress``; a
+        reproduction prints its own tables instead).
 
     Returns
     -------
@@ -705,7 +763,7 @@ def run_sweep(
                     break
                 targets.update(more)
         df = store.frame()
-    if progress and summary:
+    if progress if summary is None else summary:
         from odorloc.experiments.progress import print_summary
 
         print_summary(df)

@@ -55,6 +55,8 @@ def locate(exc: ConfigError, spec: SweepSpec, cell: Cell) -> ConfigError:
         candidates.append((key, f"scenarios[{i}].params.{key}", False))
     for key in sc.grid:
         candidates.append((key, f"scenarios[{i}].grid.{key}", True))
+    for key in sc.agent_grid:
+        candidates.append((key, f"scenarios[{i}].agent_grid.{key}", True))
     for key in se.params:
         candidates.append((f"searcher.{key}", f"searchers[{j}].params.{key}", False))
     for key in se.grid:
@@ -87,12 +89,19 @@ def check_names(spec: SweepSpec) -> None:
 
     for i, sc in enumerate(spec.scenarios):
         try:
-            load_scenario(sc.name, spec.base_dir)
+            base = load_scenario(sc.name, spec.base_dir)
         except ConfigError as exc:
             if exc.field == "scenario":
                 raise ConfigError(f"scenarios[{i}].name", exc.problem) from None
             ref = resolve_ref(sc.name, spec.base_dir)
             raise ConfigError(exc.field, f"{exc.problem} (in {ref}, scenarios[{i}])") from None
+        drawn = base.world.source_draw is not None or any(
+            k.startswith("world.source_draw") for k in (*sc.params, *sc.grid)
+        )
+        if sc.agent_grid and drawn:
+            # drawn sources keep a distance from the starts: the placements would not share
+            # one world
+            raise ConfigError(f"scenarios[{i}].agent_grid", "cannot be used with world.source_draw")
     known = registry.names("searcher")
     for j, se in enumerate(spec.searchers):
         if ":" in se.name:

@@ -152,6 +152,9 @@ class Arena:
         """
         a = as_points(start, self.dim, "start")
         b = as_points(end, self.dim, "end")
+        if self.occ is None:
+            # an empty box is convex: a segment stays inside when both its ends do
+            return self.contains(a) & self.contains(b)
         a, b = np.broadcast_arrays(a, b)
         length = np.linalg.norm(b - a, axis=1)
         n = int(np.ceil(length.max(initial=0.0) / (0.25 * self.resolution))) + 1

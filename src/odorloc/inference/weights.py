@@ -88,12 +88,14 @@ def kl_gaussian(
     (m^2) is added to both diagonals so that degenerate fits stay finite.
     """
     m0, m1 = np.asarray(mean0, float), np.asarray(mean1, float)
-    s0 = np.asarray(cov0, float) + jitter * np.eye(len(m0))
-    s1 = np.asarray(cov1, float) + jitter * np.eye(len(m0))
     d = len(m0)
-    c1 = np.linalg.cholesky(s1)
-    c0 = np.linalg.cholesky(s0)
-    inv1_s0 = np.linalg.solve(c1, c0)
-    dm = np.linalg.solve(c1, m1 - m0)
-    logdet = 2.0 * (np.log(np.diag(c1)).sum() - np.log(np.diag(c0)).sum())
-    return float(0.5 * (np.sum(inv1_s0 * inv1_s0) + dm @ dm - d + logdet))
+    both = np.stack([np.asarray(cov0, float), np.asarray(cov1, float)])
+    both += jitter * np.eye(d)
+    sign, logdet = np.linalg.slogdet(both)
+    if not (sign[0] > 0 and sign[1] > 0):
+        raise ConfigError("cov", "covariances must be positive definite")
+    dm = m1 - m0
+    # one solve for S1^-1 S0 and S1^-1 dm together (small matrices: the call dominates)
+    sol = np.linalg.solve(both[1], np.column_stack([both[0], dm]))
+    quad = float(dm @ sol[:, d])
+    return float(0.5 * (np.trace(sol[:, :d]) + quad - d + logdet[1] - logdet[0]))

@@ -21,6 +21,8 @@ from typing import Any
 
 import numpy as np
 
+from odorloc.core.errors import ConfigError
+
 __all__ = ["BoundModel", "MeasurementModel", "binary_outcomes"]
 
 
@@ -41,6 +43,24 @@ class MeasurementModel(ABC):
 
         ``-inf`` is allowed (an impossible hypothesis), NaN never.
         """
+
+    def log_likelihood_rows(
+        self, z: Any, sensor_positions: np.ndarray, hypotheses: np.ndarray, **conditions: Any
+    ) -> np.ndarray:
+        """``log p(z_q | x_i)`` of each reading ``z_q`` at its own sensor position, ``(Q, N)``.
+
+        Several sensors' readings kept apart (e.g. a team member weighing each neighbour's
+        reading on its own). Default: one :meth:`log_likelihood` call per reading.
+        """
+        zs = list(np.atleast_1d(np.asarray(z, dtype=object)))
+        sp = np.atleast_2d(np.asarray(sensor_positions, float))
+        if len(zs) != len(sp):
+            raise ConfigError("readings", f"{len(zs)} readings for {len(sp)} sensor positions")
+        rows = [
+            self.log_likelihood(zq, sq, hypotheses, **conditions)
+            for zq, sq in zip(zs, sp, strict=True)
+        ]
+        return np.array(rows, float).reshape(len(sp), -1)
 
     @abstractmethod
     def outcome_probabilities(

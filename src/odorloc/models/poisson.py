@@ -56,9 +56,48 @@ def censored_poisson(mean: ArrayLike, n_classes: int) -> np.ndarray:
     """
     if n_classes < 2:
         raise ConfigError("n_classes", "must be >= 2")
-    lam = np.asarray(mean, float)[..., None]
-    k = np.arange(n_classes - 1, dtype=float)
-    head = np.exp(xlogy(k, lam) - lam - gammaln(k + 1.0))
-    # P(d >= n - 1) is the regularised lower incomplete gamma P(n - 1, lambda)
-    tail = gammainc(n_classes - 1, lam)
-    return np.concatenate([head, tail], axis=-1)
+    lam = np.asarray(mean, float)
+    if lam.size and float(lam.max()) > 600.0:
+        # exp(-lambda) would underflow: evaluate every class in log space
+        k = np.arange(n_classes - 1, dtype=float)
+        ll = lam[..., None]
+        head = np.exp(xlogy(k, ll) - ll - gammaln(k + 1.0))
+        return np.concatenate([head, gammainc(n_classes - 1, ll)], axis=-1)
+    # classes first: every recurrence step then works on contiguous memory
+    out = np.empty((n_classes, *lam.shape))
+    # p(0) = exp(-lambda), p(k) = p(k-1) lambda / k: one exponential instead of one per class
+    np.exp(-lam, out=out[0, ...])
+    for k in range(1, n_classes - 1):
+        np.multiply(out[k - 1, ...], lam, out=out[k, ...])
+        out[k, ...] *= 1.0 / k
+    out[-1, ...] = _upper_tail(lam, n_classes - 1, out[:-1])
+    return np.moveaxis(out, 0, -1)
+
+
+def _upper_tail(lam: np.ndarray, k: int, head: np.ndarray) -> np.ndarray:
+    """``P(d >= k)`` of Poisson(``lam``) from the head ``p(0..k-1)`` (classes first), ~1e-12 rel.
+
+    Below ``lam = k / 4`` the series ``p(k) (1 + lam/(k+1) + lam^2/((k+1)(k+2)) + ...)``
+    gains a factor 4 per term; elsewhere ``1 - sum(head)`` is used where it is at least 1e-4
+    (no cancellation), and the incomplete gamma function only for the rest, where it is needed:
+    it costs ~50 exponentials.
+    """
+    tail = np.atleast_1d(1.0 - head.sum(axis=0))
+    lam = np.atleast_1d(lam)
+    head = head.reshape(head.shape[0], *tail.shape)
+    small = lam < 0.25 * k
+    if np.any(small):
+        x = lam[small]
+        term = head[-1][small] * x / k  # p(k)
+        total = term.copy()
+        for j in range(1, 26):
+            term *= x / (k + j)
+            total += term
+            # the terms fall geometrically: stop once the largest relative term is negligible
+            if j % 4 == 0 and not np.any(term > 1e-17 * total):
+                break
+        tail[small] = total
+    rest = ~small & (tail < 1e-4)
+    if np.any(rest):
+        tail[rest] = gammainc(k, lam[rest])
+    return np.maximum(tail, 0.0)

@@ -24,12 +24,13 @@ the belief of :class:`VergassolaModel`.
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
 from pydantic import Field
-from scipy.special import k0e
+from scipy.special import gammainc, k0e
 
 from odorloc.core.errors import ConfigError
 from odorloc.core.params import Params, Positive, Vector
@@ -96,18 +97,32 @@ def vergassola_rate(
         e[1] = -1.0
     else:
         e = np.asarray(direction, float)
-        n = float(np.linalg.norm(e))
-        if e.shape != (dim,) or not n > 0:
+        n = math.sqrt(float(e @ e)) if e.shape == (dim,) else 0.0
+        if not n > 0:
             raise ConfigError("wind_direction", f"needs a non-zero {dim}-vector")
         e = e / n
     lam = correlation_length(V, D, tau)
-    rel = x[:, None, :] - s[None, :, :]
-    r = np.maximum(np.sqrt((rel**2).sum(axis=2)), a)
-    along = rel @ e
-    q = np.broadcast_to(np.asarray(release, float), (len(s),))
+    if len(x) * len(s) <= 64:
+        rel = x[:, None, :] - s[None, :, :]
+        r2 = (rel * rel).sum(axis=2)
+    else:
+        # |x - s|^2 = |x|^2 + |s|^2 - 2 x.s: no (Q, N, d) array; the round-off (1e-12 m^2 at
+        # 100 m coordinates) is far below the floor a^2
+        r2 = x @ s.T
+        r2 *= -2.0
+        r2 += (x * x).sum(axis=1)[:, None]
+        r2 += (s * s).sum(axis=1)[None, :]
+    np.maximum(r2, a * a, out=r2)
+    r = np.sqrt(r2, out=r2)
+    along = (x @ e)[:, None] - (s @ e)[None, :]
+    q = np.asarray(release, float)
+    if q.ndim and q.shape != (len(s),):
+        q = np.broadcast_to(q, (len(s),))
     if dim == 3:
         # Combined exponent avoids overflow of the two factors at long range.
-        return (a * q) / r * np.exp(V * along / (2.0 * D) - r / lam)
+        expo = along * (V / (2.0 * D))
+        expo -= r * (1.0 / lam)
+        return (a * q) * np.exp(expo) / r
     if lam <= a:
         raise ConfigError("sensor_radius", f"must be below lambda = {lam:.3g} m in 2D")
     z = r / lam
@@ -205,14 +220,26 @@ class VergassolaModel(MeasurementModel):
         mu = self.rate(sp, hypotheses, conditions.get("release"), conditions.get("direction"))
         return poisson_log_pmf(k, mu * dt).sum(axis=0)
 
+    def log_likelihood_rows(
+        self, z: Any, sensor_positions: np.ndarray, hypotheses: np.ndarray, **conditions: Any
+    ) -> np.ndarray:
+        """``log Poisson(z_q | R(s_q) dt)`` of each count at its own position, ``(Q, N)``."""
+        dt = _exposure(conditions)
+        sp = np.atleast_2d(np.asarray(sensor_positions, float))
+        k = np.asarray(z, float).reshape(-1, 1)
+        if k.shape[0] != sp.shape[0]:
+            raise ConfigError("counts", f"{k.shape[0]} counts for {sp.shape[0]} sensor positions")
+        mu = self.rate(sp, hypotheses, conditions.get("release"), conditions.get("direction"))
+        return poisson_log_pmf(k, mu * dt)
+
     def n_classes(self, mean: np.ndarray) -> int:
         """Count classes needed so that the tail beyond holds < ``tail_mass`` (capped)."""
         p = self.params
         m = float(np.max(mean)) if np.size(mean) else 0.0
-        for n in range(2, p.max_classes + 1):
-            if float(censored_poisson(m, n)[-1]) < p.tail_mass:
-                return n
-        return p.max_classes
+        # tail of class n - 1 is P(d >= n - 1) = gammainc(n - 1, m), decreasing in n
+        tails = gammainc(np.arange(1, p.max_classes), m)
+        ok = np.flatnonzero(tails < p.tail_mass)
+        return int(ok[0] + 2) if ok.size else p.max_classes
 
     def outcome_probabilities(
         self, sensor_positions: np.ndarray, hypotheses: np.ndarray, **conditions: Any
@@ -226,7 +253,8 @@ class VergassolaModel(MeasurementModel):
             sensor_positions, hypotheses, conditions.get("release"), conditions.get("direction")
         )
         z = int(conditions.get("n_classes") or self.n_classes(mu))
-        return np.moveaxis(censored_poisson(mu, z), -1, 1)
+        # C order (M, Z, N): planners reduce over the last axis and reshape freely
+        return np.ascontiguousarray(np.moveaxis(censored_poisson(mu, z), -1, 1))
 
     def outcome_values(self, **conditions: Any) -> np.ndarray:
         """Count of each class (the last class stands for its lower bound)."""

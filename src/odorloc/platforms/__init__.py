@@ -1,6 +1,7 @@
 """Platforms: how agents move and what it costs (wheeled robots, UAVs) and how teams talk.
 
-Each platform is registered in the ``"platform"`` family: ``holonomic``, ``unicycle``, ``uav``.
+Each platform is registered in the ``"platform"`` family: ``holonomic``, ``unicycle``, ``uav``,
+``lattice`` (one cell per step).
 """
 
 from __future__ import annotations

@@ -29,6 +29,12 @@ With a body ``radius > 0`` the check also follows points on the body outline (a 
 horizontal plane; in 3D also the top and bottom points), spaced at most half an occupancy cell
 apart. Outline points that already start inside an obstacle (a start pose touching a wall) do not
 constrain that motion, so such a robot can drive away.
+
+Other bodies: :meth:`Platform.apply` may be given the other agents' bodies (centres and radii).
+A motion is then also cut where this body (a disc, a ball in 3-D) would first touch one of them
+(:func:`body_contact_fraction`); the episode moves its agents one after another against the
+others' current positions, so that no body ever enters another's footprint. Bodies that already
+overlap (a start pose) may move apart but not closer.
 """
 
 from __future__ import annotations
@@ -114,6 +120,50 @@ def free_fraction(arena: Arena, start: np.ndarray, end: np.ndarray, radius: floa
     return frac
 
 
+def body_contact_fraction(
+    start: np.ndarray,
+    end: np.ndarray,
+    radius: float,
+    centres: np.ndarray,
+    radii: np.ndarray,
+) -> float:
+    """Fraction in [0, 1] of the straight motion ``start -> end`` before a body of ``radius``
+    touches one of the bodies at ``centres`` ``(M, d)`` with ``radii`` ``(M,)`` (metres).
+
+    Contact is at centre distance ``radius + radii[j]``. A body already touching or overlapping
+    another may move away from it (or along it) but not towards it (fraction 0).
+    """
+    c = np.asarray(centres, float).reshape(-1, start.size)
+    if len(c) == 0:
+        return 1.0
+    d = end - start
+    a = float(d @ d)
+    if a == 0.0:
+        return 1.0
+    R = radius + np.asarray(radii, float).reshape(-1)
+    rel = start - c  # (M, d)
+    dist2 = np.einsum("md,md->m", rel, rel)
+    # only bodies within reach of the motion can be touched
+    reach = R + math.sqrt(a)
+    near = dist2 < reach * reach
+    if not near.any():
+        return 1.0
+    rel, R, dist2 = rel[near], R[near], dist2[near]
+    b = 2.0 * (rel @ d)
+    cc = dist2 - R * R
+    touching = cc <= 0.0
+    if np.any(touching & (b < 0.0)):
+        return 0.0
+    ahead = ~touching & (b < 0.0)
+    disc = b * b - 4.0 * a * cc
+    hit = ahead & (disc > 0.0)
+    if not hit.any():
+        return 1.0
+    s = (-b[hit] - np.sqrt(disc[hit])) / (2.0 * a)
+    s = s[(s >= 0.0) & (s < 1.0)]
+    return float(s.min()) if s.size else 1.0
+
+
 class Platform(ABC):
     """Base class of robot and UAV platforms (one instance per agent).
 
@@ -142,6 +192,7 @@ class Platform(ABC):
         self._command: Command | None = None
         self._target: np.ndarray | None = None
         self._checked_arena: Arena | None = None
+        self._bodies: tuple[np.ndarray, np.ndarray] | None = None
 
     # ------------------------------------------------------------------ lifecycle
     def reset(self, position: ArrayLike, heading: float = 0.0) -> None:
@@ -171,7 +222,13 @@ class Platform(ABC):
     def _reset_state(self) -> None:  # noqa: B027
         """Clear subclass state at :meth:`reset`; default nothing."""
 
-    def apply(self, command: Command | None, dt: float, arena: Arena) -> None:
+    def apply(
+        self,
+        command: Command | None,
+        dt: float,
+        arena: Arena,
+        bodies: tuple[np.ndarray, np.ndarray] | None = None,
+    ) -> None:
         """Execute ``command`` for one control period.
 
         Parameters
@@ -182,6 +239,9 @@ class Platform(ABC):
             Control period, seconds.
         arena : Arena
             The map whose walls and obstacles stop the platform.
+        bodies : ((M, d) ndarray, (M,) ndarray), optional
+            Centres (metres) and radii (metres) of other bodies that stop the platform like
+            obstacles do (held still during this period).
         """
         pos = self._require_reset()
         if not (math.isfinite(dt) and dt > 0):
@@ -201,7 +261,11 @@ class Platform(ABC):
                 self._start(cmd)
         start = pos.copy()
         self._blocked = False
-        self._advance(float(dt), arena)
+        self._bodies = bodies
+        try:
+            self._advance(float(dt), arena)
+        finally:
+            self._bodies = None
         self._vel = (self._pos - start) / dt
 
     def _check_arena(self, arena: Arena) -> None:
@@ -259,6 +323,8 @@ class Platform(ABC):
         if np.array_equal(end, pos):
             return False
         frac = free_fraction(arena, pos, end, self.radius)
+        if self._bodies is not None and frac > 0.0:
+            frac = min(frac, body_contact_fraction(pos, end, self.radius, *self._bodies))
         blocked = frac < 1.0
         if not blocked:
             new = end.copy()
@@ -334,6 +400,13 @@ class Platform(ABC):
     def exhausted(self) -> bool:
         """``True`` once the energy budget is used up (platforms without a budget: never)."""
         return False
+
+    @property
+    def stats(self) -> dict[str, float]:
+        """Time and count totals since :meth:`reset` (e.g. flying, hovering and turning time
+        of a UAV); default none. The episode reports them per team and for the agent that
+        reaches a source first."""
+        return {}
 
     def charge_comm(self, nbytes: float) -> float:
         """Charge transmitting ``nbytes`` bytes (summed over recipients); return the J charged.

@@ -1,4 +1,5 @@
-"""Plume models: filament (puff), Gaussian, Vergassola rate, Eulerian grid and replay."""
+"""Plume models: filament (puff), Gaussian, Vergassola rate, Eulerian grid, replay and the
+isotropic lattice hits of infotaxis (``lattice-isotropic``)."""
 
 from __future__ import annotations
 

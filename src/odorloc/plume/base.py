@@ -112,6 +112,16 @@ class PlumeModel(TimeStepped, ABC):
         """Default: concentration read as a rate (override where the model defines one)."""
         return self._concentration(points)
 
+    def initial_hits(self, position: np.ndarray) -> int | None:
+        """Hits an episode starts with at ``position`` (``(d,)`` metres), or ``None``.
+
+        Plumes that draw their episode from a first observation (the lattice problem of
+        infotaxis: a first hit, then the source from the posterior it leaves) return that hit
+        for the agent's start; a hit counter reports it as its first reading. Default ``None``:
+        the first reading is an ordinary one.
+        """
+        return None
+
     @abstractmethod
     def frame(self) -> dict[str, np.ndarray]:
         """A copy of the state needed to reproduce :meth:`concentration` (for recording)."""

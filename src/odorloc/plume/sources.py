@@ -15,8 +15,10 @@ class Modulation(Params):
     """Time modulation of a source's release rate.
 
     ``kind="constant"``: factor 1. ``kind="onoff"``: 1 during the first ``duty`` fraction of each
-    ``period`` (shifted by ``phase`` seconds), else 0. ``kind="sine"``:
-    ``1 + depth * sin(2 pi (t + phase) / period)``, clipped at 0.
+    period (shifted by ``phase`` seconds), else 0. ``kind="sine"``:
+    ``1 + depth * sin(2 pi (t + phase) / period)``, clipped at 0. The period in force is
+    ``period / frequency_factor`` (:attr:`effective_period`): ``frequency_factor`` 1, 2, 3 are the
+    virtual-physics paper's standard, twice and treble release frequency.
     """
 
     kind: Literal["constant", "onoff", "sine"] = "constant"
@@ -24,6 +26,7 @@ class Modulation(Params):
     duty: float = 0.5
     depth: NonNegative = 0.5
     phase: float = 0.0
+    frequency_factor: Positive = 1.0
 
     @model_validator(mode="after")
     def _check(self) -> Modulation:
@@ -31,13 +34,19 @@ class Modulation(Params):
             raise ValueError("duty must be in (0, 1]")
         return self
 
+    @property
+    def effective_period(self) -> float:
+        """The period in force, ``period / frequency_factor`` (seconds)."""
+        return self.period / self.frequency_factor
+
     def factor(self, t: float) -> float:
         """Release-rate factor at time ``t`` (seconds), dimensionless >= 0."""
         if self.kind == "constant":
             return 1.0
+        T = self.effective_period
         if self.kind == "onoff":
-            return 1.0 if ((t + self.phase) % self.period) < self.duty * self.period else 0.0
-        return max(0.0, 1.0 + self.depth * math.sin(2.0 * math.pi * (t + self.phase) / self.period))
+            return 1.0 if ((t + self.phase) % T) < self.duty * T else 0.0
+        return max(0.0, 1.0 + self.depth * math.sin(2.0 * math.pi * (t + self.phase) / T))
 
 
 class Source(Params):

@@ -126,14 +126,31 @@ def build(sc: Scenario, world: World | None = None) -> Built:
     sp = sc.searcher.params("searcher", "searcher")
     searcher = prefixed("searcher", se.build, sp)
     _check_searcher(sc, searcher)
+    platforms = [prefixed("platform", pl_cls, plp) for _ in range(n)]
+    _check_bodies(starts, np.array([float(pl.radius) for pl in platforms]))
     return Built(
         scenario=sc,
         world=world,
         gas_sensors=[prefixed("sensors.gas", gas_cls, gp) for _ in range(n)],
         anemometers=[prefixed("sensors.anemometer", an_cls, ap) for _ in range(n)],
-        platforms=[prefixed("platform", pl_cls, plp) for _ in range(n)],
+        platforms=platforms,
         searcher=searcher,
     )
+
+
+def _check_bodies(starts: np.ndarray, radii: np.ndarray) -> None:
+    """Refuse start positions where two bodies (``radius > 0``) overlap."""
+    if len(starts) < 2 or not np.any(radii > 0):
+        return
+    d = np.linalg.norm(starts[:, None, :] - starts[None, :, :], axis=2)
+    clash = np.argwhere(np.triu(d < radii[:, None] + radii[None, :], k=1))
+    if len(clash):
+        i, j = (int(v) for v in clash[0])
+        raise ConfigError(
+            f"agents.starts[{j}]",
+            f"{tuple(starts[j])} is {d[i, j]:.3g} m from agent {i}: the bodies (radius "
+            f"{radii[j]:g} m) overlap",
+        )
 
 
 def search_context(sc: Scenario, built: Built) -> SearchContext:

@@ -194,12 +194,18 @@ class TaskConfig(_Strict):
     reach_radius : float, metres, optional
         Distance at which an agent has reached a source (required by ``end: reach``; otherwise
         reaching is only recorded).
+    stuck_limit : int, optional
+        Ends the episode as ``stuck`` (a failure) once every agent has moved back and forth more
+        than this many steps in a row: an agent's counter grows at each step that brings it back
+        to where it stood two steps earlier and resets at any other step (the lattice problem of
+        infotaxis uses 8, Loisy & Eloy 2022). ``None``: no such rule.
     """
 
     region: tuple[Point, Point] | None = None
     end: Literal["first_declaration", "all_groups", "reach", "limits"] = "first_declaration"
     success_radius: Positive = 0.5
     reach_radius: Positive | None = None
+    stuck_limit: int | None = Field(None, ge=0, le=1_000_000)
 
     @model_validator(mode="after")
     def _check(self) -> TaskConfig:
@@ -242,7 +248,12 @@ class RecordingConfig(_Strict):
 
 
 class Scenario(_Strict):
-    """A complete, reproducible experiment setting."""
+    """A complete, reproducible experiment setting.
+
+    ``knobs`` name settings that move together: ``{frequency: [world.wind.frequency_factor,
+    world.sources.0.modulation.frequency_factor]}`` makes ``frequency`` one override (and one
+    sweep axis) that sets every listed path to its value (:meth:`with_overrides`).
+    """
 
     name: str = "custom"
     description: str = ""
@@ -256,6 +267,7 @@ class Scenario(_Strict):
     limits: LimitsConfig = LimitsConfig()
     seed: int = Field(0, ge=0, lt=2**63)
     recording: RecordingConfig = RecordingConfig()
+    knobs: dict[str, list[str]] = {}
 
     # ------------------------------------------------------------------ validation
     def validate_components(self) -> Scenario:
@@ -284,6 +296,7 @@ class Scenario(_Strict):
         if self.world.dt > self.limits.control_dt:
             raise ConfigError("world.dt", "must not exceed limits.control_dt")
         self._check_sizes(d)
+        self._check_knobs()
         return self
 
     def _component(self, path: str) -> ComponentRef | None:
@@ -327,6 +340,29 @@ class Scenario(_Strict):
         if d and self.recording.enabled:
             cells = [x * self.recording.plume_grid for x in size[:2]]
             check_cell_count(cells, 1.0 / self.recording.plume_grid, "recording.plume_grid")
+
+    def _check_knobs(self) -> None:
+        data = self.to_dict()
+        reserved = set(type(self).model_fields) | {"start_set", "start_index"}
+        for name, paths in self.knobs.items():
+            field = f"knobs.{name}"
+            if not name or "." in name or name in reserved:
+                raise ConfigError(field, "a knob name must be a plain word, not a setting's name")
+            if not paths:
+                raise ConfigError(field, "names no setting")
+            for path in paths:
+                if path.split(".")[0] == "knobs":
+                    raise ConfigError(field, f"{path!r}: a knob cannot set knobs")
+                try:
+                    node, last = _walk(data, path)
+                except ConfigError as exc:
+                    raise ConfigError(field, f"{path!r}: {exc.problem}") from None
+                if isinstance(node, list):
+                    if not (last.isdigit() and int(last) < len(node)):
+                        raise ConfigError(field, f"{path!r}: no such setting {last!r}")
+                elif last not in node and "type" not in node:
+                    # component parameters (a mapping with ``type``) may be left at default
+                    raise ConfigError(field, f"{path!r}: no such setting {last!r}")
 
     # ------------------------------------------------------------------ I/O
     @classmethod
@@ -402,7 +438,8 @@ class Scenario(_Strict):
 
         A path must lead through existing settings (list items by index, ``"agents.starts.0"``);
         its last key may be new only inside a component (``type`` plus free parameters), where
-        the component's own parameter model then checks it.
+        the component's own parameter model then checks it. A key naming one of :attr:`knobs`
+        sets every path of the knob to the value.
 
         Raises
         ------
@@ -410,7 +447,13 @@ class Scenario(_Strict):
             Naming the override path: an unknown setting, a bad index or an invalid value.
         """
         data = copy.deepcopy(self.to_dict())
+        expanded: dict[str, Any] = {}
         for path, value in overrides.items():
+            for p in self.knobs.get(path, [path]):
+                if p in expanded:
+                    raise ConfigError(path, f"sets {p!r}, which another override sets too")
+                expanded[p] = value
+        for path, value in expanded.items():
             node: Any = data
             keys = str(path).split(".")
             for depth, k in enumerate(keys):
@@ -442,6 +485,8 @@ class Scenario(_Strict):
 
 
 def _absolute(value: Any, base: Path) -> Any:
+    if isinstance(value, list):
+        return [_absolute(v, base) for v in value]
     if isinstance(value, str) and value and not Path(value).expanduser().is_absolute():
         return str(base / value)
     return value
@@ -470,6 +515,22 @@ def _resolve_files(data: dict[str, Any], base: Path) -> dict[str, Any]:
             if name in node and is_file_field(info):
                 node[name] = _absolute(node[name], base)
     return data
+
+
+def _walk(data: Any, path: str) -> tuple[Any, str]:
+    """The container holding the last key of a dotted ``path`` in plain ``data``, and that key."""
+    node: Any = data
+    keys = path.split(".")
+    for k in keys[:-1]:
+        if isinstance(node, list) and k.isdigit() and int(k) < len(node):
+            node = node[int(k)]
+        elif isinstance(node, dict) and k in node:
+            node = node[k]
+        else:
+            raise ConfigError(path, f"no such setting {k!r}")
+    if not isinstance(node, list | dict):
+        raise ConfigError(path, f"no such setting {keys[-1]!r}")
+    return node, keys[-1]
 
 
 def _plain(obj: Any) -> Any:

@@ -80,6 +80,7 @@ class PerAgentTeam(Searcher):
             m.reset(ctx.subset(agents), child)
             self.members.append(m)
         self._rngs = rng.spawn(len(self.units))
+        self._rows = [[ctx.index(a) for a in agents] for agents, _ in self.units]
         self._declared: list[Declaration | None] = [None] * len(self.units)
         self._team_declared = False
 
@@ -90,7 +91,7 @@ class PerAgentTeam(Searcher):
         compute: dict[int, float] = {}
         new: list[Declaration] = []
         for k, (m, (agents, group)) in enumerate(zip(self.members, self.units, strict=True)):
-            rows = [ctx.index(a) for a in agents]
+            rows = self._rows[k]
             a = m.act([observations[r] for r in rows], self._rngs[k])
             if len(a.commands) != len(agents):
                 raise RuntimeError(
@@ -141,8 +142,12 @@ class PerAgentTeam(Searcher):
         return self.members[0].belief() if self.members else None
 
     def diagnostics(self) -> dict[str, float]:
-        """The first member's diagnostics."""
-        return self.members[0].diagnostics() if self.members else {}
+        """The first member's diagnostics as they are, the others' suffixed ``_<agent>``."""
+        out: dict[str, float] = {}
+        for k, (m, (agents, _)) in enumerate(zip(self.members, self.units, strict=True)):
+            for key, v in m.diagnostics().items():
+                out[key if k == 0 else f"{key}_{agents[0]}"] = v
+        return out
 
     def final_metrics(self) -> dict[str, Any]:
         """The first member's extra columns as they are, the others' suffixed ``_<agent>``."""

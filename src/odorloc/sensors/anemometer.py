@@ -86,9 +86,21 @@ class Anemometer:
         (d,) ndarray, m/s
             World-frame air velocity, or platform-frame if ``relative``.
         """
+        air = wind.velocity(position_point(position, wind.dim))[0]
+        return self.respond(air, platform_velocity, dt, rng)
+
+    def respond(
+        self,
+        air: ArrayLike,
+        platform_velocity: ArrayLike | None,
+        dt: float,
+        rng: np.random.Generator,
+    ) -> np.ndarray:
+        """One averaged reading from the true air velocity ``air`` ``(d,)`` m/s at the
+        instrument (see :meth:`measure` for the other arguments)."""
         check_dt(dt)
-        d = wind.dim
-        air = wind.velocity(position_point(position, d))[0]
+        air = np.asarray(air, float).reshape(-1)
+        d = air.size
         if platform_velocity is None:
             vp = np.zeros(d)
         else:

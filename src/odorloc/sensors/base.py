@@ -4,6 +4,12 @@ Every gas sensor turns the plume at its position into a :class:`GasReading` once
 period and states its detection threshold with the unit its readings are in
 (:attr:`GasSensor.info`), which is what a searcher is told in
 :attr:`~odorloc.core.types.SearchContext.sensor`.
+
+A reading is two parts: :meth:`GasSensor.sample` reads the plume quantity the sensor responds to
+(the concentration, or the encounter rate) at any number of points at once and depends on the
+plume only, and :meth:`GasSensor.respond` runs one sensor's own chain (delay, lag, noise,
+threshold, counting) on its value. :meth:`GasSensor.measure` is both for one position; the
+episode samples the plume once for all its agents and lets each agent's sensor respond.
 """
 
 from __future__ import annotations
@@ -62,11 +68,32 @@ class GasSensor(ABC):
     def reset(self, rng: np.random.Generator | None = None) -> None:  # noqa: B027
         """Forget any state between episodes; default none."""
 
+    def start(self, plume: PlumeModel, position: ArrayLike) -> None:  # noqa: B027
+        """The episode starts with the sensor at ``position`` (``(d,)`` metres) in ``plume``.
+
+        Called after :meth:`reset` once the world is prepared; default nothing. A sensor whose
+        first reading the plume fixes (an initial hit) takes it here.
+        """
+
+    def sample(self, plume: PlumeModel, points: np.ndarray) -> np.ndarray:
+        """The plume quantity the sensor responds to at ``(Q, d)`` points, ``(Q,)``.
+
+        Default: the concentration. It must depend on the plume alone (not on the sensor's
+        state), so that one call serves the sensors of every agent.
+        """
+        return plume.concentration(points)
+
     @abstractmethod
+    def respond(self, value: float, dt: float, rng: np.random.Generator) -> GasReading:
+        """One call period's reading from the sampled ``value`` (:meth:`sample`) at the sensor,
+        ``dt`` seconds after the previous call."""
+
     def measure(
         self, plume: PlumeModel, position: ArrayLike, dt: float, rng: np.random.Generator
     ) -> GasReading:
         """Read the sensor at ``position`` (``(d,)`` metres) once per call period ``dt`` (s)."""
+        value = self.sample(plume, position_point(position, plume.dim))
+        return self.respond(float(value[0]), dt, rng)
 
     @property
     @abstractmethod

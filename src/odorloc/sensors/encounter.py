@@ -2,6 +2,9 @@
 
 The Vergassola rate model (muc-osl paper, eqs. 1-3) gives an expected encounter rate
 ``R(r)`` (1/s); a sensor exposed for ``dt`` seconds counts ``h ~ Poisson(gain R(r) dt)`` hits.
+The first reading after :meth:`EncounterSensor.start` is the plume's
+:meth:`~odorloc.plume.base.PlumeModel.initial_hits` when it has one (a search that starts from a
+first hit, as in the lattice problem of infotaxis).
 """
 
 from __future__ import annotations
@@ -48,29 +51,46 @@ class EncounterSensor(GasSensor):
 
     def __init__(self, params: EncounterSensorParams) -> None:
         self.params = params
+        self._first_hits: int | None = None
+
+    def reset(self, rng: np.random.Generator | None = None) -> None:
+        """Forget the pending initial hits of a previous episode."""
+        self._first_hits = None
+
+    def start(self, plume: PlumeModel, position: ArrayLike) -> None:
+        """The next reading is the plume's initial hits at the start ``position``, if it has any."""
+        self._first_hits = plume.initial_hits(position_point(position, plume.dim)[0])
 
     @property
     def info(self) -> SensorInfo:
         """Threshold in hits per call period."""
         return SensorInfo(self.kind, float(self.params.threshold), "hits", False)
 
+    def sample(self, plume: PlumeModel, points: np.ndarray) -> np.ndarray:
+        """The plume's encounter rate at ``(Q, d)`` points, ``(Q,)`` 1/s."""
+        return plume.encounter_rate(points)
+
     def expected(self, plume: PlumeModel, position: ArrayLike, dt: float) -> float:
         """Expected hits in ``dt`` seconds at ``position``."""
+        rate = float(self.sample(plume, position_point(position, plume.dim))[0])
+        return self._mean(rate, dt)
+
+    def _mean(self, rate: float, dt: float) -> float:
         dt = check_dt(dt)
-        rate = float(plume.encounter_rate(position_point(position, plume.dim))[0])
         if not (np.isfinite(rate) and rate >= 0):
             raise ConfigError("encounter_rate", f"plume returned an invalid rate {rate}")
         return self.params.gain * rate * dt
 
-    def measure(
-        self, plume: PlumeModel, position: ArrayLike, dt: float, rng: np.random.Generator
-    ) -> GasReading:
-        """Count hits at ``position`` over the period ``dt`` (seconds).
+    def respond(self, value: float, dt: float, rng: np.random.Generator) -> GasReading:
+        """Count hits over the period ``dt`` (seconds) at the encounter rate ``value`` (1/s).
 
         Returns
         -------
         GasReading
+            ``value`` = hits, ``raw`` = expected hits ``gain R dt``.
         """
-        mu = self.expected(plume, position, dt)
-        hits = int(rng.poisson(mu))
+        mu = self._mean(float(value), dt)
+        # The episode's first reading may be fixed by the plume (a search that starts from a hit).
+        first, self._first_hits = self._first_hits, None
+        hits = int(rng.poisson(mu)) if first is None else int(first)
         return GasReading(value=float(hits), raw=mu, detection=hits >= self.params.threshold)

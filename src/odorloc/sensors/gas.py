@@ -20,20 +20,16 @@ is this class with ``threshold`` set and ``binarize=True``.
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Literal
+from typing import Literal
 
 import numpy as np
-from numpy.typing import ArrayLike
 
 from odorloc.core.errors import ConfigError
 from odorloc.core.params import Finite, NonNegative, Params, Positive
 from odorloc.core.registry import register
 from odorloc.core.timestep import check_dt
 from odorloc.core.types import SensorInfo
-from odorloc.sensors.base import GasReading, GasSensor, position_point
-
-if TYPE_CHECKING:
-    from odorloc.plume.base import PlumeModel
+from odorloc.sensors.base import GasReading, GasSensor
 
 
 class ConcentrationSensorParams(Params):
@@ -131,10 +127,10 @@ class ConcentrationSensor(GasSensor):
             self._y = x
         return self._y
 
-    def respond(self, c: float, dt: float, rng: np.random.Generator) -> GasReading:
-        """Feed one true concentration value ``c`` through the chain (no plume needed)."""
+    def respond(self, value: float, dt: float, rng: np.random.Generator) -> GasReading:
+        """Feed one true concentration ``value`` through the chain (no plume needed)."""
         dt = check_dt(dt)
-        c = float(c)
+        c = float(value)
         if not math.isfinite(c):
             raise ConfigError("concentration", f"must be finite, got {c}")
         p = self.params
@@ -147,24 +143,3 @@ class ConcentrationSensor(GasSensor):
         det = y >= p.threshold
         value = (1.0 if det else 0.0) if p.binarize else y
         return GasReading(value=value, raw=c, detection=bool(det))
-
-    def measure(
-        self, plume: PlumeModel, position: ArrayLike, dt: float, rng: np.random.Generator
-    ) -> GasReading:
-        """Read the sensor at ``position`` once per call period ``dt``.
-
-        Parameters
-        ----------
-        plume : PlumeModel
-        position : (d,) array_like, metres
-        dt : float, seconds
-            Time since the previous call (constant between resets).
-        rng : numpy.random.Generator
-            Noise source.
-
-        Returns
-        -------
-        GasReading
-        """
-        c = float(plume.concentration(position_point(position, plume.dim))[0])
-        return self.respond(c, dt, rng)

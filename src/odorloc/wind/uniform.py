@@ -39,3 +39,7 @@ class UniformWind(WindModel):
 
     def _velocity(self, points: np.ndarray, t: float) -> np.ndarray:
         return np.broadcast_to(self._u, points.shape).copy()
+
+    def mean_velocity(self) -> np.ndarray:
+        """The velocity itself (no grid needed: it is the same everywhere), ``(d,)`` m/s."""
+        return self._u.copy()

@@ -1,0 +1,322 @@
+"""Our infotaxis family on OTTO's lattice problem beside OTTO's own results, and the time per
+decision beside OTTO's on the same beliefs.
+
+Part 1 (statistics): infotaxis, space-aware infotaxis, greedy and mean distance run the built-in
+scenarios ``lattice-isotropic-2d`` (lambda/dx = 1, R dt = 1, N = 19) and
+``lattice-isotropic-2d-l2`` (2, 2, N = 37) through the ordinary sweep harness (a resumable store
+under ``--out``). Mean moves of the episodes that found the source with their standard error,
+the standard deviation, median / p90 / p99 and P(not found) are printed beside OTTO's numbers
+(:mod:`odorloc.papers.infotaxis.reference`), with the ratio and the difference in combined
+standard errors. Infotaxis runs OTTO's episode counts; the other policies ``--other-episodes``
+each (OTTO's count when smaller).
+
+Part 2 (decisions): OTTO (a copy of github.com/C0PEP0D/otto that is never part of odorloc, in
+its own virtual environment: ``--otto-python`` and ``--otto-src``, or the environment variables
+``OTTO_PYTHON`` and ``OTTO_SRC``) plays infotaxis episodes of both settings and records every
+belief it decides on, its choice and the time of its decision; our planner then decides on the
+same beliefs. Both sides are timed in alternating rounds (``--rounds``) so that they share the
+machine's load; the speed-up is the ratio of the medians. Without OTTO the note's figure is used
+and the identity of choices is not checked.
+
+The last line is machine-readable::
+
+    RESULT steps_ratio_19=<ours/otto> steps_ratio_37=<ours/otto> decision_speedup_37=<otto/ours>
+
+Run: ``python benchmarks/infotaxis_vs_otto.py [--quick] [--workers 2] [--out out/otto-bench]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+SETTINGS = {19: ("2d-l1-i1", 1.0, 1.0), 37: ("2d-l2-i2", 2.0, 2.0)}
+POLICIES = {  # our searcher -> OTTO's policy index (HeuristicPolicy)
+    "infotaxis": 0,
+    "space-aware-infotaxis": 1,
+    "greedy": 6,
+    "mean-distance": 7,
+}
+
+
+# ---------------------------------------------------------------------- OTTO side
+def otto_worker(src: str, out: str, states: int, seed: int) -> None:
+    """Runs in OTTO's environment: one timed round of its infotaxis decisions on the beliefs
+    of ``out`` (recorded from its own episodes at the first call)."""
+    sys.path.insert(0, src)
+    from otto.classes.heuristicpolicy import HeuristicPolicy
+    from otto.classes.sourcetracking import SourceTracking
+
+    # OTTO draws from fresh unseeded RandomState objects: its episodes are not reproducible,
+    # which is why the beliefs are recorded once and reused by every round and by our planner.
+    del seed
+    result: dict[str, dict] = {}
+    for n, (_, length, intensity) in SETTINGS.items():
+        env = SourceTracking(2, length, intensity, draw_source=True)
+        if n != env.N:
+            raise RuntimeError(f"OTTO's grid is {env.N}, expected {n}")
+        pol = HeuristicPolicy(env, 0)
+        path = Path(out) / f"otto_{n}.npz"
+        if not path.exists():
+            beliefs, agents = [], []
+            while len(beliefs) < states:
+                beliefs.append(env.p_source.copy())
+                agents.append(list(env.agent))
+                _, _, done = env.step(pol.choose_action())
+                if done or env.agent_stuck:
+                    env.restart()
+            np.savez_compressed(path, beliefs=np.array(beliefs), agents=np.array(agents))
+        with np.load(path) as z:
+            beliefs, agents = z["beliefs"], z["agents"]
+        times, choices = [], []
+        for b, a in zip(beliefs, agents, strict=True):
+            env.p_source = b.copy()
+            env.agent = [int(v) for v in a]
+            env.entropy = env._entropy(env.p_source)
+            t0 = time.perf_counter()
+            c = pol.choose_action()
+            times.append(time.perf_counter() - t0)
+            choices.append(int(c))
+        result[str(n)] = {"times": times, "choices": choices, "states": str(path)}
+    (Path(out) / "otto.json").write_text(json.dumps(result))
+
+
+def run_otto(python: str, src: str, work: Path, states: int, seed: int) -> dict | None:
+    """One round of OTTO in its own process (``None`` if it cannot run)."""
+    cmd = [
+        python,
+        str(Path(__file__).resolve()),
+        "--otto-worker",
+        "--otto-src",
+        src,
+        "--out",
+        str(work),
+        "--states",
+        str(states),
+        "--seed",
+        str(seed),
+    ]
+    try:
+        subprocess.run(cmd, check=True, capture_output=True, text=True, timeout=3600)
+    except (OSError, subprocess.SubprocessError) as exc:
+        print(f"OTTO could not run ({exc}); using the note's decision times", file=sys.stderr)
+        return None
+    return json.loads((work / "otto.json").read_text())
+
+
+# ---------------------------------------------------------------------- our side
+def our_decisions(beliefs: np.ndarray, agents: np.ndarray, n: int) -> tuple[list[int], list[float]]:
+    """Our infotaxis choices on OTTO's beliefs and their times (one pass)."""
+    from odorloc.models.lattice import IsotropicHitModel, IsotropicHitParams, tabulate
+    from odorloc.planning.infotaxis import GridPolicyPlanner, neighbour_cells
+
+    _, length, intensity = SETTINGS[n]
+    model = IsotropicHitModel(IsotropicHitParams(length=length, intensity=intensity))
+    table = tabulate(model, 1.0, (n - 1, n - 1))
+    planner = GridPolicyPlanner("infotaxis")
+    choices, times = [], []
+    for b, a in zip(beliefs, agents, strict=True):
+        joint = b[None]
+        t0 = time.perf_counter()
+        plan = planner.plan(joint, [table], neighbour_cells(a))
+        times.append(time.perf_counter() - t0)
+        choices.append(-1 if plan.index is None else int(plan.index))
+    return choices, times
+
+
+def our_states(n: int, count: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """Beliefs of our own infotaxis episodes (when OTTO is not available)."""
+    from odorloc.core.seeds import episode_seeds
+    from odorloc.engine.episode import Episode
+    from odorloc.scenarios import get_scenario
+
+    name = "lattice-isotropic-2d" if n == 19 else "lattice-isotropic-2d-l2"
+    sc = get_scenario(name)
+    beliefs, agents = [], []
+    ep = 0
+    while len(beliefs) < count:
+        e = Episode(sc, record=False)
+        obs = e.reset(*episode_seeds(seed, name, ep))
+        s = e.built.searcher
+        s.reset(e.context, e.agent_rng)
+        while not e.done and len(beliefs) < count:
+            act = s.act(obs, e.agent_rng)
+            beliefs.append(s.filter.prob.copy())
+            agents.append(s.filter.grid.index(obs[0].position)[0])
+            obs = e.step(act, s).observations
+        ep += 1
+    return np.array(beliefs), np.array(agents)
+
+
+# ---------------------------------------------------------------------- statistics
+def run_statistics(out: Path, workers: int, other: int, scale: float, seed: int) -> dict:
+    from odorloc.experiments.sweep import run_sweep
+    from odorloc.papers.infotaxis.reference import OTTO
+    from odorloc.papers.infotaxis.reference import SETTINGS as REF
+
+    rows = {}
+    for n, (key, length, intensity) in SETTINGS.items():
+        scenario = REF[key]["scenario"]
+        model = {"type": "lattice-isotropic", "length": length, "intensity": intensity}
+        for pol in POLICIES:
+            ref = OTTO[(key, pol)]
+            eps = ref["episodes"] if pol == "infotaxis" else min(ref["episodes"], other)
+            eps = max(round(eps * scale), 20)
+            spec = {
+                "name": f"otto check {key} {pol}",
+                "seed": seed,
+                "episodes": eps,
+                "scenarios": [{"name": scenario}],
+                "searchers": [{"name": pol, "params": {"model": model}}],
+            }
+            t0 = time.perf_counter()
+            df = run_sweep(spec, out / f"{key}-{pol}.sqlite", workers=workers, progress=False)
+            wall = time.perf_counter() - t0
+            df = df[df["episode"] < eps]
+            errors = int((df["status"] == "error").sum())
+            ok = df[df["status"] != "error"]
+            found = ok[ok["success"].astype(bool)]
+            steps = found["steps"].to_numpy(float)
+            m = float(steps.mean())
+            se = float(steps.std(ddof=1) / math.sqrt(len(steps)))
+            rows[(n, pol)] = {
+                "episodes": len(ok),
+                "errors": errors,
+                "mean": m,
+                "sem": se,
+                "std": float(steps.std(ddof=1)),
+                "median": float(np.median(steps)),
+                "p90": float(np.quantile(steps, 0.9)),
+                "p99": float(np.quantile(steps, 0.99)),
+                "not_found": int(len(ok) - len(found)),
+                "stuck": int((ok["termination"] == "stuck").sum()),
+                "capped": int((ok["termination"] == "time_limit").sum()),
+                "wall": wall,
+            }
+            print(f"  {key} {pol}: {len(ok)} episodes in {wall:.0f} s", file=sys.stderr)
+    return rows
+
+
+def print_statistics(rows: dict) -> None:
+    from odorloc.experiments.stats import wilson_interval
+    from odorloc.papers.infotaxis.reference import OTTO
+
+    print("\nMean moves to the source (episodes that found it) and P(not found)")
+    head = (
+        f"{'N':>3} {'policy':<22} {'eps':>6} {'ours mean±SEM':>15} {'OTTO':>15} {'ratio':>6} "
+        f"{'Δ/SE':>5} {'std':>6} {'med/p90/p99':>12} {'P(nf) ours [95% CI]':>26} {'OTTO':>8}"
+    )
+    print(head)
+    print("-" * len(head))
+    for (n, pol), r in rows.items():
+        key = SETTINGS[n][0]
+        ref = OTTO[(key, pol)]
+        ratio = r["mean"] / ref["mean"]
+        z = (r["mean"] - ref["mean"]) / math.hypot(r["sem"], ref["sem"])
+        lo, hi = wilson_interval(r["not_found"], r["episodes"])
+        pnf = r["not_found"] / r["episodes"]
+        print(
+            f"{n:>3} {pol:<22} {r['episodes']:>6} {r['mean']:>8.3f}±{r['sem']:<6.3f}"
+            f"{ref['mean']:>8.3f}±{ref['sem']:<6.3f} {ratio:>6.3f} {z:>+5.1f} {r['std']:>6.1f} "
+            f"{r['median']:>3.0f}/{r['p90']:>3.0f}/{r['p99']:>4.0f} "
+            f"{pnf:>9.2e} [{lo:.1e}, {hi:.1e}] {ref['p_not_found']:>8.1e}"
+        )
+    print("(Δ/SE: ours minus OTTO in combined standard errors; P(nf) of ours: stuck + step cap)")
+
+
+# ---------------------------------------------------------------------- main
+def main(argv: list[str] | None = None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--out", type=Path, default=Path("out/otto-bench"))
+    ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--other-episodes", type=int, default=2000)
+    ap.add_argument("--quick", action="store_true", help="a tenth of the episodes, 200 states")
+    ap.add_argument("--no-statistics", action="store_true", help="decision timing only")
+    ap.add_argument("--states", type=int, default=1000, help="beliefs timed per setting")
+    ap.add_argument("--rounds", type=int, default=3)
+    ap.add_argument("--seed", type=int, default=2024)
+    ap.add_argument("--otto-python", default=os.environ.get("OTTO_PYTHON"))
+    ap.add_argument("--otto-src", default=os.environ.get("OTTO_SRC"))
+    ap.add_argument("--otto-worker", action="store_true", help=argparse.SUPPRESS)
+    args = ap.parse_args(argv)
+    if args.otto_worker:
+        otto_worker(args.otto_src, str(args.out), args.states, args.seed)
+        return
+    from odorloc.papers.infotaxis.reference import OTTO, OTTO_DECISION_MS
+
+    args.out.mkdir(parents=True, exist_ok=True)
+    states = 200 if args.quick else args.states
+    scale = 0.1 if args.quick else 1.0
+
+    ratios = {}
+    if not args.no_statistics:
+        rows = run_statistics(args.out, args.workers, args.other_episodes, scale, args.seed)
+        print_statistics(rows)
+        for n in SETTINGS:
+            ratios[n] = rows[(n, "infotaxis")]["mean"] / OTTO[(SETTINGS[n][0], "infotaxis")]["mean"]
+
+    print("\nTime per infotaxis decision (median over the beliefs of a round; best round)")
+    print(
+        f"{'N':>3} {'OTTO ms':>9} {'ours ms':>9} {'speed-up':>9} {'identical':>12} {'source':>24}"
+    )
+    use_otto = bool(args.otto_python and args.otto_src)
+    rounds: dict[int, dict[str, list]] = {n: {"otto": [], "ours": [], "same": []} for n in SETTINGS}
+    with tempfile.TemporaryDirectory(dir=args.out) as tmp:
+        data: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+        if not use_otto:
+            data = {n: our_states(n, states, args.seed) for n in SETTINGS}
+        for _ in range(args.rounds):
+            # OTTO and ours alternate so that both meet the same load
+            otto = (
+                run_otto(args.otto_python, args.otto_src, Path(tmp), states, args.seed)
+                if (use_otto)
+                else None
+            )
+            if use_otto and otto is None:
+                use_otto = False
+                data = {n: our_states(n, states, args.seed) for n in SETTINGS}
+            for n in SETTINGS:
+                if otto is not None:
+                    with np.load(otto[str(n)]["states"]) as z:
+                        data[n] = (z["beliefs"], z["agents"])
+                    rounds[n]["otto"].append(float(np.median(otto[str(n)]["times"])))
+                choices, t = our_decisions(*data[n], n)
+                rounds[n]["ours"].append(float(np.median(t)))
+                if otto is not None:
+                    same = int(np.sum(np.array(choices) == np.array(otto[str(n)]["choices"])))
+                    rounds[n]["same"].append((same, len(choices)))
+    speedup = {}
+    for n in SETTINGS:
+        key = SETTINGS[n][0]
+        ours = min(rounds[n]["ours"]) * 1e3
+        if rounds[n]["otto"]:
+            o = min(rounds[n]["otto"]) * 1e3
+            same, total = rounds[n]["same"][-1]
+            ident = f"{same}/{total}"
+            source = "OTTO run side by side"
+        else:
+            o = OTTO_DECISION_MS[key]
+            ident = "not checked"
+            source = "note (OTTO not run)"
+        speedup[n] = o / ours
+        print(f"{n:>3} {o:>9.3f} {ours:>9.3f} {o / ours:>9.1f} {ident:>12} {source:>24}")
+    print("(timings on a shared 2-core machine; ratios measured side by side hold better)")
+    r19 = ratios.get(19, math.nan)
+    r37 = ratios.get(37, math.nan)
+    print(
+        f"RESULT steps_ratio_19={r19:.4f} steps_ratio_37={r37:.4f} "
+        f"decision_speedup_37={speedup[37]:.2f}"
+    )
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,337 @@
+"""Speed of MUC-OSL's parts and of whole team episodes (multi-UAV paper).
+
+1. One Col-PF update of one UAV (N = 160 particles, two neighbour messages): confidence factors
+   (eq. 10), weights (eqs. 13-14), low-variance resampling, PUGL (eqs. 15-17), the count of
+   eq. 18 and the Gaussian fit (eqs. 19-20);
+2. one Adap-PP decision of one UAV at N = 160: 26 directions x the Poisson outcome classes
+   (eqs. 21-25), then the step length (eqs. 26-28);
+
+both as the vectorised NumPy code of odorloc and as a straightforward per-particle Python loop
+of the same maths, with a check that they agree (the deterministic parts: the weights of
+eqs. 13-14, and the direction rewards and the chosen hover point); then
+3. the mean wall time of whole episodes of each algorithm on ``muc-osl-3d`` (3 UAVs,
+   100 x 60 x 30 m), run one after another in this process.
+
+Targets: decision <= 2 ms, mean MUC-OSL episode <= 0.3 s. The last line is machine-readable::
+
+    RESULT colpf_update_ms=<x> adap_pp_decision_ms=<y> episode_s_mucosl=<z> episode_s_colinf=<w>
+
+Run: ``python benchmarks/muc_osl_speed.py [--repeat 200] [--episodes 6]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import time
+from collections.abc import Callable
+
+import numpy as np
+
+from odorloc.core.seeds import episode_seeds
+from odorloc.core.types import SearchContext
+from odorloc.engine.episode import run_episode
+from odorloc.geometry.arena import Arena
+from odorloc.inference.belief import ParticleBelief
+from odorloc.inference.particles.collaborative import fit_payload
+from odorloc.inference.particles.team_estimators import ColPFEstimator, ColPFParams, Measurement
+from odorloc.models.vergassola import VergassolaModel, correlation_length
+from odorloc.planning.adaptive import AdaptivePathPlanner, AdaptivePlannerParams
+from odorloc.planning.steps import lattice_offsets
+from odorloc.scenarios import get_scenario
+
+N = 160
+WIND = np.array([0.0, -1.0, 0.0])
+Q, V, D, TAU, A = 5.0, 1.0, 1.0, 100.0, 1.0
+ALGORITHMS = ("muc-osl", "col-inf", "col-pf", "adap-pp")
+
+
+def _case(seed: int = 0) -> dict:
+    """A mid-search state: particles spread around the source, the UAV 8 m downwind."""
+    rng = np.random.default_rng(seed)
+    src = np.array([10.0, 30.0, 25.0])
+    x = np.clip(src + rng.normal(0, [6.0, 10.0, 4.0], (N, 3)), [0, 0, 0], [100, 60, 30])
+    lw = rng.normal(0, 0.5, N)
+    lw -= np.log(np.exp(lw).sum())
+    pos = np.array([10.0, 22.0, 23.0])
+    hist = pos + rng.normal(0, 6.0, (40, 3))
+    w = np.exp(lw)
+    mean = w @ x
+    cov = ((x - mean) * w[:, None]).T @ (x - mean)
+    inbox = {
+        1: fit_payload(mean + 1.0, cov * 1.2, 1.0, [16.0, 18.0, 25.0], True),
+        2: fit_payload(mean - 2.0, cov * 0.8, 0.0, [4.0, 14.0, 21.0], False),
+    }
+    return {"x": x, "lw": lw, "pos": pos, "hist": hist, "inbox": inbox, "count": 1.0}
+
+
+def _ctx() -> SearchContext:
+    return SearchContext(
+        arena=Arena.box((0.0, 0.0, 0.0), (100.0, 60.0, 30.0), 2.0),
+        dt=1.0,
+        agent_ids=(0,),
+        start=[[10.0, 10.0, 5.0]],
+        speed_limits=[1.0],
+    )
+
+
+# ---------------------------------------------------------------------- reference maths
+def _rate(u: list[float], o: list[float]) -> float:
+    """Eq. 1 for one sensor position and one source hypothesis (wind towards -y)."""
+    lam = correlation_length(V, D, TAU)
+    r = max(math.dist(u, o), A)
+    return A * Q / r * math.exp(-(u[1] - o[1]) * V / (2 * D) - r / lam)
+
+
+def _log_poisson(d: float, mu: float) -> float:
+    """Eq. 3 in log form."""
+    if mu == 0.0:
+        return 0.0 if d == 0 else -math.inf
+    return d * math.log(mu) - mu - math.lgamma(d + 1.0)
+
+
+def _kl(m0: np.ndarray, s0: np.ndarray, m1: np.ndarray, s1: np.ndarray) -> float:
+    inv = np.linalg.inv(s1)
+    dm = m1 - m0
+    return 0.5 * float(
+        np.trace(inv @ s0) + dm @ inv @ dm - 3 + math.log(np.linalg.det(s1) / np.linalg.det(s0))
+    )
+
+
+def colpf_weights_loop(case: dict, fit: tuple[np.ndarray, np.ndarray]) -> list[float]:
+    """Eqs. 10, 13, 14 particle by particle."""
+    pos = case["pos"].tolist()
+    betas, meas = [], []
+    for s in sorted(case["inbox"]):
+        f = case["inbox"][s]["fit"]
+        betas.append(math.exp(-_kl(fit[0], fit[1], f[:3], f[3:].reshape(3, 3))))
+        m = case["inbox"][s]["measurement"]
+        meas.append((float(m[0]), m[1:4].tolist()))
+    new = []
+    for o, lw in zip(case["x"].tolist(), case["lw"].tolist(), strict=True):
+        v = lw + _log_poisson(case["count"], _rate(pos, o))
+        for b, (d, u) in zip(betas, meas, strict=True):
+            v += b * _log_poisson(d, _rate(u, o))
+        new.append(v)
+    top = max(new)
+    z = top + math.log(sum(math.exp(v - top) for v in new))
+    return [math.exp(v - z) for v in new]
+
+
+def colpf_update_loop(case: dict, fit: tuple, rng: np.random.Generator) -> list[list[float]]:
+    """The whole Col-PF iteration with per-particle loops (the random draws differ)."""
+    w = colpf_weights_loop(case, fit)
+    n = len(w)
+    ess = 1.0 / sum(v * v for v in w)
+    x = case["x"].tolist()
+    if ess < 0.5 * n:
+        u0 = rng.random()
+        out, c, i = [], w[0], 0
+        for k in range(n):
+            p = (u0 + k) / n
+            while p > c and i < n - 1:
+                i += 1
+                c += w[i]
+            out.append([v + rng.normal(0.0, 1.0) for v in x[i]])
+        x, w = out, [1.0 / n] * n
+    n_s = round(n * (1 - (5 / 800) ** 1.8) ** 4)
+    for k in rng.choice(n, n_s, replace=False).tolist():
+        x[k][1] = min(x[k][1] + rng.random() * 2.0, 60.0)
+    mean = [sum(wi * p[a] for wi, p in zip(w, x, strict=True)) for a in range(3)]
+    cov = [
+        [
+            sum(wi * (p[a] - mean[a]) * (p[b] - mean[b]) for wi, p in zip(w, x, strict=True))
+            for b in range(3)
+        ]
+        for a in range(3)
+    ]
+    return [mean, *cov]
+
+
+def adap_pp_loop(case: dict, h1_scale: float, h2_scale: float, l_max: int, z_classes: int):
+    """Eqs. 21-28 with loops over directions, count classes and particles."""
+    x = case["x"].tolist()
+    w = [math.exp(v) for v in case["lw"].tolist()]
+    pos = case["pos"]
+    est = [sum(wi * p[a] for wi, p in zip(w, x, strict=True)) for a in range(3)]
+    var = sum(sum(wi * (p[a] - est[a]) ** 2 for wi, p in zip(w, x, strict=True)) for a in range(3))
+    h1 = h1_scale * var
+    h_now = -sum(wi * math.log(wi) for wi in w if wi > 0)
+    w_now = math.dist(pos.tolist(), est) + h1 * h_now
+    steps = 2.0 * lattice_offsets(3)
+    rewards = []
+    for s in steps:
+        t = (pos + s).tolist()
+        if not all(0 <= c <= hi for c, hi in zip(t, (100, 60, 30), strict=True)):
+            rewards.append(-math.inf)
+            continue
+        mus = [_rate(t, o) for o in x]
+        ew = 0.0
+        for z in range(z_classes):
+            joint = []
+            for wi, mu in zip(w, mus, strict=True):
+                if z < z_classes - 1:
+                    q = math.exp(_log_poisson(z, mu))
+                else:  # the tail class d >= Z - 1
+                    q = 1.0 - sum(math.exp(_log_poisson(j, mu)) for j in range(z_classes - 1))
+                joint.append(wi * max(q, 0.0))
+            pz = sum(joint)
+            if pz <= 1e-300:
+                continue
+            mean = [sum(j * p[a] for j, p in zip(joint, x, strict=True)) / pz for a in range(3)]
+            hz = -sum(j / pz * math.log(j / pz) for j in joint if j > 0)
+            ew += pz * (math.dist(t, mean) + h1 * hz)
+        rewards.append(w_now - ew)
+    k = int(np.argmax(rewards))
+    d_now = math.dist(pos.tolist(), est)
+    best, best_r = 1, math.inf
+    for ell in range(1, l_max + 1):
+        t = pos + ell * steps[k]
+        if not all(0 <= c <= hi for c, hi in zip(t, (100, 60, 30), strict=True)):
+            break
+        c = pos + 0.5 * ell * steps[k]
+        r = 0.5 * ell * float(np.linalg.norm(steps[k]))
+        z_new = 0
+        for p in case["hist"].tolist():
+            if math.dist(p, pos.tolist()) <= 1e-9:
+                continue
+            inside = math.dist(p, c.tolist()) <= r + 1e-9
+            c_prev = pos + 0.5 * (ell - 1) * steps[k]
+            r_prev = 0.5 * (ell - 1) * float(np.linalg.norm(steps[k]))
+            inside_prev = ell > 1 and math.dist(p, c_prev.tolist()) <= r_prev + 1e-9
+            z_new += int(inside and not inside_prev)
+        val = math.dist(t.tolist(), est) + h2_scale * d_now * z_new
+        if val < best_r:
+            best, best_r = ell, val
+    return k, best, np.array(rewards)
+
+
+# ---------------------------------------------------------------------- odorloc's code
+def _time(fn: Callable[[], object], repeat: int) -> float:
+    """Best-of-3 mean wall time per call, milliseconds."""
+    fn()
+    best = math.inf
+    for _ in range(3):
+        t0 = time.perf_counter()
+        for _ in range(repeat):
+            fn()
+        best = min(best, (time.perf_counter() - t0) / repeat)
+    return best * 1e3
+
+
+def main(argv: list[str] | None = None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--repeat", type=int, default=200, help="calls per timing of the vector code")
+    ap.add_argument("--episodes", type=int, default=6, help="episodes per algorithm")
+    args = ap.parse_args(argv)
+
+    case = _case()
+    ctx = _ctx()
+    model = VergassolaModel()
+    rng = np.random.default_rng(1)
+
+    # ---- Col-PF update
+    est = ColPFEstimator(ColPFParams(n_particles=N, n_max=N))
+    est.reset(ctx, model, rng, n=N)
+    w0 = np.exp(case["lw"])
+    mean0 = w0 @ case["x"]
+    cov0 = ((case["x"] - mean0) * w0[:, None]).T @ (case["x"] - mean0)
+    meas = Measurement(case["count"], case["pos"], 1.0, 5, WIND)
+
+    def colpf() -> None:
+        est.pf.replace(case["x"], case["lw"])
+        est.fit = (mean0, cov0)
+        est.target_n = N
+        est.cue_iterations = []
+        est.update(meas, case["inbox"], rng)
+
+    # the deterministic part (eqs. 10-14) against the loop: no resampling, no PUGL
+    check = ColPFEstimator(
+        ColPFParams(
+            n_particles=N, resample_threshold=0.0, env_pu="off", adaptive_count=False, col_pu=False
+        )
+    )
+    check.reset(ctx, model, rng, n=N)
+    check.pf.replace(case["x"], case["lw"])
+    check.fit = (mean0, cov0)
+    check.update(Measurement(case["count"], case["pos"], 1.0, 1000, WIND), case["inbox"], rng)
+    ref_w = colpf_weights_loop(case, (mean0, cov0))
+    colpf_ok = bool(np.allclose(check.pf.weights, ref_w, rtol=1e-9, atol=1e-15))
+    t_colpf = _time(colpf, args.repeat)
+    t_colpf_ref = _time(lambda: colpf_update_loop(case, (mean0, cov0), rng), 1)
+
+    # ---- Adap-PP decision
+    params = AdaptivePlannerParams(l_max=4, tail_mass=1e-300)
+    planner = AdaptivePathPlanner(params)
+    planner.reset(ctx)
+    belief = ParticleBelief(case["x"], case["lw"])
+    bound = model.bind(dt=1.0, direction=WIND)
+
+    def decide() -> object:
+        return planner.plan(belief, case["pos"], bound, case["hist"], rng)
+
+    plan = decide()
+    z = bound.outcome_probabilities(case["pos"] + planner.steps, case["x"]).shape[1]
+    t_ref0 = time.perf_counter()
+    k_ref, l_ref, r_ref = adap_pp_loop(case, params.h1_scale, params.h2_scale, 4, z)
+    t_dec_ref = (time.perf_counter() - t_ref0) * 1e3
+    finite = np.isfinite(r_ref)
+    dec_ok = (
+        plan.direction == k_ref
+        and plan.length == l_ref
+        and bool(np.allclose(plan.scores[finite], r_ref[finite], rtol=1e-8, atol=1e-8))
+    )
+    # the timed decision merges the count classes beyond the predicted tail (the default)
+    planner_fast = AdaptivePathPlanner(AdaptivePlannerParams(l_max=4))
+    planner_fast.reset(ctx)
+    t_dec = _time(
+        lambda: planner_fast.plan(belief, case["pos"], bound, case["hist"], rng), args.repeat
+    )
+
+    print(f"N = {N} particles, 26 directions, l_max = 4, two neighbours (shared machine)")
+    print(
+        f"{'operation':<22} {'vector ms':>10} {'loop ms':>10} {'speed-up':>9} "
+        f"{'target ms':>10} {'agree':>6}"
+    )
+    for name, tv, tl, target, ok in (
+        ("Col-PF update", t_colpf, t_colpf_ref, math.nan, colpf_ok),
+        ("Adap-PP decision", t_dec, t_dec_ref, 2.0, dec_ok),
+    ):
+        tgt = "-" if math.isnan(target) else f"{target:.1f}"
+        flag = "" if math.isnan(target) or tv <= target else "  (over target)"
+        print(
+            f"{name:<22} {tv:10.3f} {tl:10.1f} {tl / tv:8.0f}x {tgt:>10} "
+            f"{'yes' if ok else 'NO':>6}{flag}"
+        )
+
+    # ---- whole episodes
+    sc0 = get_scenario("muc-osl-3d")
+    print(f"\nepisodes of muc-osl-3d (3 UAVs), {args.episodes} per algorithm, one process")
+    print(f"{'algorithm':<10} {'mean s':>8} {'per step ms':>12} {'sim time s':>11} {'reached':>8}")
+    means = {}
+    for name in ALGORITHMS:
+        sc = sc0.with_overrides({"searcher": {"type": name}})
+        walls, steps, reached, sim = [], [], 0, []
+        for e in range(args.episodes):
+            t0 = time.perf_counter()
+            res = run_episode(sc, *episode_seeds(2024, "muc-osl-3d", e), record=False)
+            walls.append(time.perf_counter() - t0)
+            steps.append(res.metrics["steps"])
+            sim.append(res.metrics["search_time"])
+            reached += int(res.metrics["success"])
+        means[name] = float(np.mean(walls))
+        per_step = 1e3 * sum(walls) / max(sum(steps), 1)
+        print(
+            f"{name:<10} {means[name]:8.3f} {per_step:12.3f} {np.mean(sim):11.0f} "
+            f"{reached:>4}/{args.episodes}"
+        )
+    target = "  (over the 0.3 s target)" if means["muc-osl"] > 0.3 else ""
+    print(f"mean MUC-OSL episode {means['muc-osl']:.3f} s{target}")
+    print(
+        f"RESULT colpf_update_ms={t_colpf:.3f} adap_pp_decision_ms={t_dec:.3f} "
+        f"episode_s_mucosl={means['muc-osl']:.3f} episode_s_colinf={means['col-inf']:.3f}"
+    )
+
+
+if __name__ == "__main__":
+    main()

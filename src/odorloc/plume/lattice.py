@@ -1,0 +1,182 @@
+"""The isotropic hit field of the lattice problem of infotaxis, as simulated truth.
+
+:class:`LatticeIsotropicPlume` is the Vergassola rate in still air on the arena's cell lattice
+(:func:`~odorloc.models.lattice.isotropic_mean_hits`): a source of rate ``R`` (the source's
+``rate``, 1/s) gives an agent of radius ``a = dx / 2`` (``dx`` the arena's resolution) the
+encounter rate ``R K0(d / lambda) / ln(lambda / a)`` (2-D) or ``R a exp(-d / lambda) / d``
+(3-D); a hit counter (the ``encounter`` sensor) exposed ``dt`` seconds counts
+``Poisson(rate dt)`` hits, so ``I = R dt``.
+
+With ``start: initial-hit`` the plume draws each episode as OTTO does (Loisy & Eloy 2022): a first
+hit ``h0 >= 1`` from its law on an unbounded domain
+(:func:`~odorloc.models.lattice.initial_hit_probabilities`, with ``I = R exposure``), then the
+source from the posterior ``b0 ∝ P(h0 | cell)`` over the free cells other than the start cell
+(:func:`~odorloc.models.lattice.initial_belief`), both from the world's random stream. The hit
+counter then reports ``h0`` as its first reading at the start (:meth:`initial_hits`). With
+``start: fixed`` the configured source is used and the first reading is an ordinary one.
+
+Concentration is the Vergassola plume's (:meth:`~odorloc.plume.vergassola.VergassolaPlume.
+frame_concentration`), so frames replay like that plume's.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Literal
+
+import numpy as np
+from pydantic import Field
+
+from odorloc.core.errors import ConfigError
+from odorloc.core.params import Params, Positive, Vector
+from odorloc.core.registry import register
+from odorloc.geometry.arena import Arena
+from odorloc.models.lattice import (
+    auto_n_hits,
+    initial_belief,
+    initial_hit_probabilities,
+    isotropic_mean_hits,
+)
+from odorloc.models.poisson import censored_poisson
+from odorloc.models.vergassola import vergassola_rate
+from odorloc.plume.base import PlumeModel
+from odorloc.plume.sources import Source
+from odorloc.plume.vergassola import VergassolaPlume
+from odorloc.wind.base import WindModel
+
+__all__ = ["LatticeIsotropicPlume", "LatticePlumeParams"]
+
+
+class LatticePlumeParams(Params):
+    """Parameters of :class:`LatticeIsotropicPlume`.
+
+    Attributes
+    ----------
+    length : float, metres
+        Dispersion length ``lambda`` (at least one cell).
+    start : {"fixed", "initial-hit"}
+        ``initial-hit``: draw the first hit and then the source per episode (module docstring);
+        ``fixed``: the configured source (``world.source_draw`` may still move it).
+    origin : (d,) tuple of float, optional, metres
+        Where the search starts, for ``initial-hit`` (default: the centre of the arena's central
+        cell, OTTO's start; the agent must start there).
+    exposure : float, seconds
+        Duration of one reading (the control period), for the law of the first hit.
+    n_hits : int, optional
+        Hit classes of the first-hit law (the last holds ``n_hits - 1`` or more); default OTTO's
+        rule ``ceil(mu(dx) + sqrt(mu(dx))) + 1``.
+    """
+
+    length: Positive = 1.0
+    start: Literal["fixed", "initial-hit"] = "fixed"
+    origin: Vector | None = None
+    exposure: Positive = 1.0
+    n_hits: int | None = Field(None, ge=2, le=256)
+
+
+@register("plume", "lattice-isotropic", LatticePlumeParams, "still-air hits on a lattice (OTTO)")
+class LatticeIsotropicPlume(PlumeModel):
+    """Isotropic hits of the lattice problem, optionally with OTTO's episode start."""
+
+    def __init__(
+        self,
+        params: LatticePlumeParams,
+        arena: Arena,
+        wind: WindModel,
+        sources: Sequence[Source],
+    ) -> None:
+        super().__init__(arena, wind, sources)
+        self.params = params
+        self.cell = float(arena.resolution)
+        if params.length < self.cell:
+            raise ConfigError(
+                "plume.length", f"must be at least one cell ({self.cell:g} m), got {params.length}"
+            )
+        grid = arena.grid
+        if params.origin is None:
+            self.origin = grid.center(np.asarray(grid.shape) // 2)[0]
+        else:
+            o = np.asarray(params.origin, float)
+            if o.shape != (self.dim,) or not arena.is_free(o)[0]:
+                raise ConfigError("plume.origin", f"needs {self.dim} components in free space")
+            self.origin = grid.center(grid.index(o))[0]
+        if params.start == "initial-hit" and len(sources) != 1:
+            raise ConfigError("plume.start", "initial-hit draws one source; configure exactly one")
+        self._initial: int | None = None
+        self._src = self.source_positions
+        self._sync()
+
+    def _sources_changed(self) -> None:
+        self._src = self.source_positions
+        self._sync()
+
+    def _sync(self) -> None:
+        self._q = self.source_rates()
+
+    # ------------------------------------------------------------------ episode start
+    @property
+    def initial_hit(self) -> int | None:
+        """The first hit drawn at the last reset (``None`` with ``start: fixed``)."""
+        return self._initial
+
+    def reset(self, rng: np.random.Generator) -> None:
+        """Restart; with ``start: initial-hit`` draw the first hit, then the source."""
+        if self.params.start == "initial-hit":
+            self._draw_start(rng)
+        super().reset(rng)
+
+    def _draw_start(self, rng: np.random.Generator) -> None:
+        p, dim, cell = self.params, self.dim, self.cell
+        src = self.sources[0]
+        intensity = src.rate_at(0.0) * p.exposure
+        if not intensity > 0:
+            raise ConfigError("world.sources[0].rate", "initial-hit needs a positive rate")
+        z = p.n_hits if p.n_hits is not None else auto_n_hits(p.length, intensity, cell, dim)
+        ph = initial_hit_probabilities(p.length, intensity, cell, dim, z)
+        h0 = int(rng.choice(z, p=ph))
+        grid = self.arena.grid
+        centres = grid.flat_centers()
+        d = np.linalg.norm(centres - self.origin, axis=1)
+        mu = isotropic_mean_hits(d, p.length, intensity, cell, dim)
+        like = censored_poisson(mu, z)[:, h0].reshape(grid.shape)
+        free = self.arena.is_free(centres).reshape(grid.shape)
+        start = tuple(int(v) for v in grid.index(self.origin)[0])
+        b0 = initial_belief(like, start, free).reshape(-1)
+        k = int(rng.choice(b0.size, p=b0))
+        pos = tuple(float(v) for v in centres[k])
+        self.set_sources([src.model_copy(update={"position": pos})])
+        self._initial = h0
+
+    def initial_hits(self, position: np.ndarray) -> int | None:
+        """The first hit at the start (``initial-hit``), ``None`` elsewhere or with ``fixed``."""
+        if self._initial is None:
+            return None
+        if np.max(np.abs(np.asarray(position, float) - self.origin)) > 1e-9 * max(self.cell, 1):
+            return None
+        return self._initial
+
+    # ------------------------------------------------------------------ fields
+    def _encounter_rate(self, points: np.ndarray) -> np.ndarray:
+        L = self.params.length
+        rate = vergassola_rate(
+            points, self._src, self._q, V=0.0, D=1.0, tau=L * L, a=0.5 * self.cell
+        )
+        return rate.sum(axis=1)
+
+    def _concentration(self, points: np.ndarray) -> np.ndarray:
+        return VergassolaPlume.frame_concentration(self.frame(), points)
+
+    def frame(self) -> dict[str, np.ndarray]:
+        L = self.params.length
+        e = np.zeros(self.dim)
+        e[1] = -1.0  # unused at zero wind
+        return {
+            "model": np.array("vergassola"),
+            "src": self._src.copy(),
+            "q": self._q.copy(),
+            "V": np.array(0.0),
+            "D": np.array(1.0),
+            "tau": np.array(L * L),
+            "a": np.array(0.5 * self.cell),
+            "direction": e,
+        }

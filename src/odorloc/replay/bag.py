@@ -1,0 +1,453 @@
+"""Recorded robot logs from ROS 1 and ROS 2 bags (pure Python, ``rosbags``; extra ``odorloc[ros]``).
+
+A small YAML maps the bag's topics and message fields onto what odorloc reads::
+
+    period: 0.5                  # control period of the recording, seconds
+    dim: 2                       # 2 or 3 (a 2-D log uses x, y of poses and winds)
+    gas:
+      topic: /gas_sensor
+      field: raw                 # dotted path to a number in the message
+      threshold: 2.0             # detection threshold, reading units
+      reduce: max                # readings within a period: last, mean or max
+    anemometer:
+      topic: /anemometer
+      field: vector              # a vector (x, y, z) in the message ...
+      # speed: wind_speed        # ... or a speed and a direction (rad) field
+      # direction: wind_direction
+      # direction_is: towards    # the direction the air moves to (or "from")
+      frame: world               # world, or body (rotated by the robot's heading)
+    pose:
+      topic: /odom
+      field: pose.pose           # a Pose (position + orientation) or a Point
+    arena: {lower: [0, 0], upper: [10, 6]}   # optional; default: the path's extent + 1 m
+    sources: [[1.5, 3.0]]        # optional true sources (scored and drawn)
+
+:class:`BagLog` checks the topics, their message types and fields when opened (one clear line
+naming the mapping field on a missing topic, a wrong message type or a missing field) and then
+streams the bag: :meth:`BagLog.observations` yields one
+:class:`~odorloc.core.types.Observation` per period, holding the latest pose and wind and the
+period's gas readings reduced by ``gas.reduce``; the bag is never loaded whole.
+:func:`write_bag` writes an odorloc recording as such a bag (ROS 1 or ROS 2), so data moves both
+ways.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+import pydantic
+from pydantic import Field
+
+from odorloc.core.errors import ConfigError, format_validation_error
+from odorloc.core.loading import load_yaml_mapping
+from odorloc.core.params import Params, Positive
+from odorloc.core.types import Observation, SearchContext, SensorInfo
+from odorloc.geometry.arena import Arena
+
+__all__ = ["BagLog", "BagMapping", "load_mapping", "write_bag"]
+
+
+class GasTopic(Params):
+    """The gas-sensor topic: a numeric ``field``, the detection ``threshold`` and how readings
+    within one period are reduced."""
+
+    topic: str
+    field: str = "data"
+    msgtype: str | None = None
+    threshold: float = 0.0
+    reduce: Literal["last", "mean", "max"] = "last"
+
+
+class WindTopic(Params):
+    """The anemometer topic: a vector ``field`` or ``speed`` + ``direction`` fields."""
+
+    topic: str
+    field: str | None = "vector"
+    speed: str | None = None
+    direction: str | None = None
+    direction_is: Literal["towards", "from"] = "towards"
+    frame: Literal["world", "body"] = "world"
+    msgtype: str | None = None
+
+
+class PoseTopic(Params):
+    """The pose topic: ``field`` leads to a Pose (``position``, ``orientation``) or a Point."""
+
+    topic: str
+    field: str = "pose"
+    msgtype: str | None = None
+
+
+class ArenaBox(Params):
+    """Bounds of the map, metres."""
+
+    lower: tuple[float, ...]
+    upper: tuple[float, ...]
+    resolution: Positive = 0.1
+
+
+class BagMapping(Params):
+    """How a bag's topics become odorloc observations (see the module docstring)."""
+
+    period: Positive = 0.5
+    dim: Literal[2, 3] = 2
+    gas: GasTopic
+    anemometer: WindTopic
+    pose: PoseTopic
+    arena: ArenaBox | None = None
+    sources: list[tuple[float, ...]] = Field(default_factory=list)
+    max_speed: Positive = 1.0
+
+
+def load_mapping(source: str | Path | dict[str, Any] | BagMapping) -> BagMapping:
+    """A :class:`BagMapping` from a YAML file, a dict or itself; :class:`ConfigError` if bad."""
+    if isinstance(source, BagMapping):
+        return source
+    data: Any = source
+    if not isinstance(source, dict):
+        # the same guarded reader as scenarios and sweeps (encoding, size, aliases, depth)
+        data = load_yaml_mapping(Path(source), "topics")
+    if not isinstance(data, dict):
+        raise ConfigError("topics", "the topic mapping must be a mapping")
+    try:
+        return BagMapping.model_validate(data)
+    except pydantic.ValidationError as err:
+        fld, _, problem = format_validation_error(err).partition(": ")
+        raise ConfigError(fld, problem) from None
+
+
+def _resolve(msg: Any, path: str) -> Any:
+    obj = msg
+    for part in path.split("."):
+        if not part:
+            continue
+        obj = getattr(obj, part)
+    return obj
+
+
+def _number(v: Any) -> bool:
+    return isinstance(v, int | float | np.number) and not isinstance(v, bool)
+
+
+def _vector(v: Any) -> np.ndarray:
+    return np.array([float(v.x), float(v.y), float(v.z)])
+
+
+def _yaw(q: Any) -> float:
+    """Heading (rad) of a quaternion (ZYX yaw)."""
+    return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
+
+
+class BagLog:
+    """A ROS 1 (``.bag``) or ROS 2 (folder) bag read as a stream of observations.
+
+    Parameters
+    ----------
+    path : str or Path
+        The bag.
+    mapping : path, dict or BagMapping
+        Topic mapping (see the module docstring).
+    """
+
+    def __init__(self, path: str | Path, mapping: str | Path | dict[str, Any] | BagMapping):
+        from rosbags.highlevel import AnyReader
+        from rosbags.typesys import Stores, get_typestore
+
+        self.path = Path(path)
+        self.mapping = m = load_mapping(mapping)
+        if not self.path.exists():
+            raise ConfigError("bag", f"{self.path} does not exist")
+        self._typestore = get_typestore(Stores.ROS2_HUMBLE)
+        self._reader_cls = AnyReader
+        with self._open() as reader:
+            topics = {c.topic: c for c in reader.connections}
+            self.connections = {}
+            for key, spec in (("gas", m.gas), ("anemometer", m.anemometer), ("pose", m.pose)):
+                conn = topics.get(spec.topic)
+                if conn is None:
+                    known = ", ".join(sorted(topics)) or "none"
+                    raise ConfigError(
+                        f"{key}.topic", f"topic {spec.topic!r} is not in the bag (topics: {known})"
+                    )
+                if spec.msgtype is not None and conn.msgtype != spec.msgtype:
+                    raise ConfigError(
+                        f"{key}.msgtype",
+                        f"{spec.topic} carries {conn.msgtype}, expected {spec.msgtype}",
+                    )
+                self.connections[key] = conn
+            # check the fields on the first message of each topic
+            for key, conn in self.connections.items():
+                first = next(reader.messages(connections=[conn]), None)
+                if first is None:
+                    raise ConfigError(f"{key}.topic", f"{conn.topic} has no messages")
+                self._extract(key, reader.deserialize(first[2], conn.msgtype), conn.msgtype)
+            self.start_time = reader.start_time
+            self.end_time = reader.end_time
+
+    def _open(self) -> Any:
+        """An opened reader (use it as a context manager to close it)."""
+        r = self._reader_cls([self.path], default_typestore=self._typestore)
+        try:
+            r.open()
+        except Exception as exc:  # rosbags raises its own error types per format
+            raise ConfigError("bag", f"{self.path} is not a readable ROS bag ({exc})") from None
+        return _Closing(r)
+
+    # ------------------------------------------------------------------ fields
+    def _extract(self, key: str, msg: Any, msgtype: str) -> Any:
+        """The value a topic contributes; :class:`ConfigError` naming the mapping field."""
+        m = self.mapping
+        try:
+            if key == "gas":
+                v = _resolve(msg, m.gas.field)
+                if not _number(v):
+                    raise ConfigError("gas.field", f"{msgtype}.{m.gas.field} is not a number")
+                return float(v)
+            if key == "anemometer":
+                w = m.anemometer
+                if w.speed is not None or w.direction is not None:
+                    if w.speed is None or w.direction is None:
+                        raise ConfigError("anemometer.speed", "speed and direction go together")
+                    s, a = _resolve(msg, w.speed), _resolve(msg, w.direction)
+                    if not (_number(s) and _number(a)):
+                        raise ConfigError(
+                            "anemometer.speed", f"{msgtype}: speed and direction must be numbers"
+                        )
+                    a = float(a) + (math.pi if w.direction_is == "from" else 0.0)
+                    return np.array([float(s) * math.cos(a), float(s) * math.sin(a), 0.0])
+                if w.field is None:
+                    raise ConfigError("anemometer.field", "give a vector field or speed/direction")
+                return _vector(_resolve(msg, w.field))
+            p = _resolve(msg, m.pose.field)
+            if hasattr(p, "position") and hasattr(p, "orientation"):
+                return _vector(p.position), _yaw(p.orientation)
+            return _vector(p), math.nan
+        except AttributeError as exc:
+            spec = getattr(m, key)
+            fld = "field" if key != "anemometer" or spec.speed is None else "speed"
+            raise ConfigError(
+                f"{key}.{fld}", f"message type {msgtype} has no such field ({exc})"
+            ) from None
+
+    # ------------------------------------------------------------------ streaming
+    def observations(self) -> Iterator[Observation]:
+        """One observation per ``period``, streamed from the bag (time 0 = first full period
+        after every topic has spoken)."""
+        T = self.mapping.period
+        names = {c.topic: k for k, c in self.connections.items()}
+        pose: tuple[np.ndarray, float] | None = None
+        wind: np.ndarray | None = None
+        heading = 0.0
+        readings: list[float] = []
+        last_gas: float | None = None
+        t0: float | None = None
+        k = 0
+        with self._open() as reader:
+            # connections belong to the reader that opened them: select this one's by topic
+            conns = [c for c in reader.connections if c.topic in names]
+            for conn, stamp, raw in reader.messages(connections=conns):
+                t = stamp * 1e-9
+                if t0 is not None:
+                    while t >= t0 + k * T - 1e-9 and pose is not None and wind is not None:
+                        yield self._observation(
+                            k, pose[0], heading, readings if readings else [last_gas], wind
+                        )
+                        readings = []
+                        k += 1
+                key = names[conn.topic]
+                value = self._extract(key, reader.deserialize(raw, conn.msgtype), conn.msgtype)
+                if key == "gas":
+                    readings.append(value)
+                    last_gas = value
+                elif key == "anemometer":
+                    wind = value
+                else:
+                    pose = value
+                    if math.isfinite(value[1]):
+                        heading = value[1]
+                if t0 is None and pose is not None and wind is not None and last_gas is not None:
+                    t0 = t + T  # the first period starts once every topic has spoken
+                    readings = [last_gas]
+        if t0 is not None and readings and pose is not None and wind is not None:
+            yield self._observation(k, pose[0], heading, readings, wind)
+
+    def _observation(
+        self, k: int, position: np.ndarray, heading: float, readings: list[Any], wind: np.ndarray
+    ) -> Observation:
+        m = self.mapping
+        d = m.dim
+        g = _reduce(readings, m.gas.reduce)
+        w = wind.copy()
+        if m.anemometer.frame == "body":
+            c, s = math.cos(heading), math.sin(heading)
+            w[:2] = [c * w[0] - s * w[1], s * w[0] + c * w[1]]
+        return Observation(
+            agent=0,
+            t=k * m.period,
+            position=position[:d].copy(),
+            heading=heading,
+            gas=g,
+            detection=bool(g >= m.gas.threshold),
+            wind=w[:d],
+        )
+
+    def context(self) -> SearchContext:
+        """What an estimator may know: the arena (the mapping's, else the path's extent plus
+        1 m, streamed once), the period, the speed limit and the gas threshold."""
+        m = self.mapping
+        d = m.dim
+        if m.arena is not None:
+            if len(m.arena.lower) != d or len(m.arena.upper) != d:
+                raise ConfigError("arena.lower", f"needs {d} components")
+            arena = Arena(tuple(m.arena.lower), tuple(m.arena.upper), m.arena.resolution)
+        else:
+            lo = np.full(d, np.inf)
+            hi = np.full(d, -np.inf)
+            start = None
+            for o in self.observations():
+                lo = np.minimum(lo, o.position)
+                hi = np.maximum(hi, o.position)
+                start = o.position if start is None else start
+            if start is None:
+                raise ConfigError("bag", f"{self.path}: not one full period of data")
+            arena = Arena(tuple(lo - 1.0), tuple(hi + 1.0), 0.1)
+        first = next(self.observations(), None)
+        if first is None:
+            raise ConfigError("bag", f"{self.path}: not one full period of data")
+        return SearchContext(
+            arena=arena,
+            dt=m.period,
+            agent_ids=(0,),
+            start=first.position[None, :],
+            speed_limits=np.array([m.max_speed]),
+            sensor=SensorInfo("concentration", m.gas.threshold, "reading", False),
+            search_region=(tuple(arena.lower[:2]), tuple(arena.upper[:2])),
+        )
+
+
+class _Closing:
+    """Closes an opened rosbags reader on exit (its own ``__enter__`` would open it again)."""
+
+    def __init__(self, reader: Any) -> None:
+        self.reader = reader
+
+    def __enter__(self) -> Any:
+        return self.reader
+
+    def __exit__(self, *exc: object) -> None:
+        self.reader.close()
+
+
+def _reduce(vals: list[Any], how: str) -> float:
+    v = [float(x) for x in vals if x is not None]
+    if not v:
+        return 0.0
+    if how == "mean":
+        return float(np.mean(v))
+    if how == "max":
+        return float(np.max(v))
+    return v[-1]
+
+
+def write_bag(
+    path: str | Path,
+    recording: Any,
+    mapping: str | Path | dict[str, Any] | BagMapping,
+    *,
+    version: Literal[1, 2] = 2,
+    gas_rate: int = 1,
+    agent: int = 0,
+) -> Path:
+    """Write one agent of an odorloc :class:`~odorloc.engine.recorder.Recording` as a bag.
+
+    Topics and fields follow ``mapping`` with standard messages: the gas reading as
+    ``std_msgs/Float32`` (its ``field`` must be ``data``), the wind as
+    ``geometry_msgs/Vector3Stamped`` (``field: vector``, world frame), the pose as
+    ``geometry_msgs/PoseStamped`` (``field: pose``, heading as yaw).
+
+    Parameters
+    ----------
+    path : str or Path
+        ROS 2: a new folder; ROS 1: a ``.bag`` file.
+    recording : Recording
+    mapping : path, dict or BagMapping
+    version : {1, 2}
+        ROS 1 or ROS 2 (sqlite3) bag.
+    gas_rate : int
+        Gas messages per recorded step (the same reading repeated at evenly spread times, as a
+        sensor sampling faster than the control period).
+    agent : int
+        Which agent of the recording.
+    """
+    from rosbags.typesys import Stores, get_typestore
+
+    m = load_mapping(mapping)
+    if m.gas.field != "data" or m.anemometer.field != "vector" or m.pose.field != "pose":
+        raise ConfigError("topics", "write_bag writes gas.data, anemometer.vector and pose.pose")
+    p = Path(path)
+    if version == 1:
+        from rosbags.rosbag1 import Writer as W1
+
+        ts = get_typestore(Stores.ROS1_NOETIC)
+        writer: Any = W1(p)
+        ser = ts.serialize_ros1
+    else:
+        from rosbags.rosbag2 import Writer as W2
+
+        ts = get_typestore(Stores.ROS2_HUMBLE)
+        writer = W2(p, version=9)
+        ser = ts.serialize_cdr
+    T = ts.types
+    Header, Time = T["std_msgs/msg/Header"], T["builtin_interfaces/msg/Time"]
+    Float32, Vector3 = T["std_msgs/msg/Float32"], T["geometry_msgs/msg/Vector3"]
+    V3S, PS = T["geometry_msgs/msg/Vector3Stamped"], T["geometry_msgs/msg/PoseStamped"]
+    Pose, Point, Quat = (
+        T["geometry_msgs/msg/Pose"],
+        T["geometry_msgs/msg/Point"],
+        T["geometry_msgs/msg/Quaternion"],
+    )
+
+    def header(ns: int) -> Any:
+        stamp = Time(sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000)
+        return (
+            Header(seq=0, stamp=stamp, frame_id="map")
+            if version == 1
+            else Header(stamp=stamp, frame_id="map")
+        )
+
+    base = 1_000_000_000_000  # 1000 s after the epoch: bag times must be positive
+    dt = float(np.median(np.diff(recording.t))) if len(recording.t) > 1 else m.period
+    with writer:
+        cg = writer.add_connection(m.gas.topic, "std_msgs/msg/Float32", typestore=ts)
+        cw = writer.add_connection(
+            m.anemometer.topic, "geometry_msgs/msg/Vector3Stamped", typestore=ts
+        )
+        cp = writer.add_connection(m.pose.topic, "geometry_msgs/msg/PoseStamped", typestore=ts)
+        for k, t in enumerate(recording.t):
+            ns = base + round(float(t) * 1e9)
+            pos = np.zeros(3)
+            pos[: recording.positions.shape[2]] = recording.positions[k, agent]
+            w = np.zeros(3)
+            w[: recording.wind.shape[2]] = recording.wind[k, agent]
+            yaw = 0.0
+            if k + 1 < len(recording.t):
+                step = recording.positions[k + 1, agent, :2] - recording.positions[k, agent, :2]
+                if np.hypot(*step) > 1e-12:
+                    yaw = math.atan2(step[1], step[0])
+            q = Quat(x=0.0, y=0.0, z=math.sin(yaw / 2), w=math.cos(yaw / 2))
+            pose = PS(
+                header=header(ns),
+                pose=Pose(position=Point(x=pos[0], y=pos[1], z=pos[2]), orientation=q),
+            )
+            writer.write(cp, ns, ser(pose, "geometry_msgs/msg/PoseStamped"))
+            wmsg = V3S(header=header(ns), vector=Vector3(x=w[0], y=w[1], z=w[2]))
+            writer.write(cw, ns, ser(wmsg, "geometry_msgs/msg/Vector3Stamped"))
+            for j in range(gas_rate):
+                gns = ns + round(j * dt / gas_rate * 1e9)
+                msg = Float32(data=float(recording.gas[k, agent]))
+                writer.write(cg, gns, ser(msg, "std_msgs/msg/Float32"))
+    return p

@@ -1,0 +1,356 @@
+"""Reactive single-robot strategies: moth-inspired surge-cast and surge-spiral, and the
+chemotaxis, anemotaxis and fluxotaxis rules on the robot's own recent samples.
+
+Each is a short recipe over the behaviours of :mod:`odorloc.behaviours`; all move one control
+period at a time (``step_length``, default the platform's speed times the period), turn to the
+nearest free direction when blocked (0, +-45, +-90, +-135, 180 degrees), never declare (they suit
+tasks that end when the source is reached, ``task.end: reach``) and search for the plume by
+casting (:class:`~odorloc.behaviours.surge_cast.SurgeCast`: crosswind legs that grow from
+``cast_amplitude`` by ``cast_growth`` up to ``cast_max``; in 3-D tilted by
+``cast_elevation_deg`` to sweep heights) whenever their rule has nothing to say.
+
+- ``surge-cast`` (Kennedy & Marsh 1974; Li, Farrell & Cardé 2001; MAPIRlab's GSL package): every
+  detection (re)starts a surge of ``surge_steps`` periods straight upwind of the averaged wind;
+  when it runs out without a detection the robot casts.
+- ``surge-spiral`` (MAPIRlab's GSL package): the same surge, but the plume is searched for by a
+  square spiral (:class:`~odorloc.behaviours.spiral.Spiral`, legs of ``spiral_step`` growing by
+  ``spiral_increment`` every second leg; the package's defaults 1 m and 0.4 m) started where the
+  surge ended (and from the start position before the first detection).
+- ``chemotaxis``: the virtual-physics paper's chemotaxis rule (eq. 3,
+  :func:`~odorloc.behaviours.taxis.chemotaxis`) applied to the last ``memory`` (position,
+  reading) samples of the robot around their centroid: it heads from the centroid towards the
+  sample with the highest reading, so it keeps going while readings rise and turns back towards
+  the best point when they fall (a gradient climb by memory). It applies once a sample detects.
+- ``anemotaxis`` (eq. 4, :func:`~odorloc.behaviours.taxis.anemotaxis`): upwind of the mean of
+  the last ``memory`` winds while all of the last ``memory`` readings exceed the threshold.
+- ``fluxotaxis`` (eqs. 5-6, :func:`~odorloc.behaviours.taxis.fluxotaxis`): towards the sample
+  with the most negative mass flux ``rho v . n`` through the ring of the last ``memory``
+  samples around their centroid (odor flowing in through that side) while all readings exceed
+  the threshold.
+
+The threshold ``rho_T`` is ``threshold`` (default: the gas sensor's detection threshold).
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+from pydantic import Field
+
+from odorloc.behaviours.escape import first_free
+from odorloc.behaviours.spiral import Spiral, SpiralParams
+from odorloc.behaviours.surge_cast import SurgeCast, SurgeCastParams
+from odorloc.behaviours.taxis import anemotaxis, chemotaxis, fluxotaxis
+from odorloc.behaviours.wind import WindAverage
+from odorloc.core.params import Params, Positive
+from odorloc.core.registry import register
+from odorloc.core.types import Action, Command, Observation, SearchContext
+from odorloc.geometry.vectors import fan, ring
+from odorloc.searchers.base import Searcher
+
+__all__ = [
+    "AnemotaxisParams",
+    "AnemotaxisSearcher",
+    "ChemotaxisParams",
+    "ChemotaxisSearcher",
+    "FluxotaxisSearcher",
+    "ReactiveParams",
+    "ReactiveSearcher",
+    "SurgeCastSearchParams",
+    "SurgeCastSearcher",
+    "SurgeSpiralParams",
+    "SurgeSpiralSearcher",
+]
+
+_TURNS = (0, 45, -45, 90, -90, 135, -135, 180)
+
+
+class ReactiveParams(Params):
+    """Settings shared by the reactive strategies (see the module docstring).
+
+    Attributes
+    ----------
+    step_length : float, metres, optional
+        Length of one move (default: one control period at the platform's speed limit).
+    wind_average : int
+        Anemometer readings averaged for the upwind direction.
+    threshold : float, optional
+        ``rho_T`` of the taxis rules, in the sensor's units (default: its detection threshold).
+    cast_angle_deg, cast_amplitude, cast_growth, cast_max, cast_elevation_deg
+        The casting of :class:`~odorloc.behaviours.surge_cast.SurgeCastParams` (metres, degrees).
+    """
+
+    step_length: Positive | None = None
+    wind_average: int = Field(4, ge=1, le=10_000)
+    threshold: float | None = None
+    cast_angle_deg: float = Field(80.0, ge=0.0, le=90.0)
+    cast_amplitude: Positive = 0.4
+    cast_growth: float = Field(1.5, ge=1.0)
+    cast_max: Positive = 3.0
+    cast_elevation_deg: float = Field(0.0, ge=0.0, lt=90.0)
+
+    def surge_cast(self, surge_steps: int = 0) -> SurgeCastParams:
+        """The casting part of these parameters."""
+        return SurgeCastParams(
+            surge_steps=surge_steps,
+            cast_angle_deg=self.cast_angle_deg,
+            cast_amplitude=self.cast_amplitude,
+            cast_growth=self.cast_growth,
+            cast_max=self.cast_max,
+            cast_elevation_deg=self.cast_elevation_deg,
+        )
+
+
+class ReactiveSearcher(Searcher):
+    """Common part of the reactive strategies: step, wind average, casting, free moves."""
+
+    params: ReactiveParams
+    max_agents = 1
+
+    def reset(self, ctx: SearchContext, rng: np.random.Generator) -> None:
+        """Start casting with empty memories."""
+        super().reset(ctx, rng)
+        p = self.params
+        self.step = p.step_length if p.step_length is not None else ctx.max_speed * ctx.dt
+        self.threshold = p.threshold if p.threshold is not None else ctx.gas_threshold
+        self.wind = WindAverage(p.wind_average)
+        self.caster = SurgeCast(p.surge_cast())
+        self.mode = "cast"
+        self.detections = 0
+
+    def _detected(self, o: Observation) -> bool:
+        return bool(o.detection)
+
+    def free_move(
+        self, pos: np.ndarray, direction: np.ndarray, rng: np.random.Generator
+    ) -> Command:
+        """A move of ``step`` along ``direction`` or its nearest free rotation, else any free
+        direction of 16, else hold."""
+        arena = self.ctx.arena
+        cand = [
+            d / max(float(np.linalg.norm(d)), 1e-12) * self.step for d in fan(direction, _TURNS)
+        ]
+        k = first_free(arena, pos, np.array(cand))
+        if k is not None:
+            return Command.move(cand[k])
+        moves = ring(16, arena.dim)[rng.permutation(16)] * self.step
+        k = first_free(arena, pos, moves)
+        return Command.hold() if k is None else Command.move(moves[k])
+
+    def cast(self, pos: np.ndarray, up: np.ndarray, rng: np.random.Generator) -> Command:
+        """One step of the casting search."""
+        self.mode = "cast"
+        return self.free_move(pos, self.caster.direction(self.ctx.arena, pos, up, self.step), rng)
+
+    def diagnostics(self) -> dict[str, float]:
+        """``phase``: 0 casting, 1 following the rule (surge, taxis), 2 spiral."""
+        return {"phase": {"cast": 0.0, "track": 1.0, "spiral": 2.0}[self.mode]}
+
+    def final_metrics(self) -> dict[str, Any]:
+        """Number of detections."""
+        return {"detections": float(self.detections)}
+
+
+# ---------------------------------------------------------------------- surge-cast
+class SurgeCastSearchParams(ReactiveParams):
+    """:class:`ReactiveParams` and ``surge_steps``: periods of upwind surge per detection."""
+
+    surge_steps: int = Field(4, ge=1, le=1_000_000)
+
+
+@register("searcher", "surge-cast", SurgeCastSearchParams, "moth-inspired upwind surge + casts")
+class SurgeCastSearcher(ReactiveSearcher):
+    """Upwind surge after every detection, widening crosswind casts when the odor is lost."""
+
+    params: SurgeCastSearchParams
+
+    def reset(self, ctx: SearchContext, rng: np.random.Generator) -> None:
+        super().reset(ctx, rng)
+        self.caster = SurgeCast(self.params.surge_cast(self.params.surge_steps))
+
+    def act(self, observations: Sequence[Observation], rng: np.random.Generator) -> Action:
+        o = observations[0]
+        pos = np.asarray(o.position, float)
+        self.wind.add(o.wind)
+        if self._detected(o):
+            self.detections += 1
+            self.caster.start_surge()
+        if not o.ready:
+            return Action([None])
+        up = self.wind.upwind(o.heading)
+        surging = self.caster.surging
+        cmd = self.cast(pos, up, rng)
+        self.mode = "track" if surging else "cast"
+        return Action([cmd])
+
+
+# ---------------------------------------------------------------------- surge-spiral
+class SurgeSpiralParams(ReactiveParams):
+    """:class:`ReactiveParams` and the surge and spiral settings.
+
+    Attributes
+    ----------
+    surge_steps : int
+        Periods of upwind surge per detection.
+    spiral_step, spiral_increment : float, metres
+        First spiral leg and its growth every second leg (MAPIRlab's GSL defaults 1.0, 0.4).
+    max_skips : int
+        Blocked spiral legs skipped before the spiral restarts.
+    """
+
+    surge_steps: int = Field(4, ge=1, le=1_000_000)
+    spiral_step: Positive = 1.0
+    spiral_increment: float = Field(0.4, ge=0.0)
+    max_skips: int = Field(3, ge=0, le=10_000)
+
+
+@register("searcher", "surge-spiral", SurgeSpiralParams, "upwind surge + square spiral (GSL)")
+class SurgeSpiralSearcher(ReactiveSearcher):
+    """Upwind surge after every detection; a square spiral where the odor was lost."""
+
+    params: SurgeSpiralParams
+
+    def reset(self, ctx: SearchContext, rng: np.random.Generator) -> None:
+        super().reset(ctx, rng)
+        p = self.params
+        self.spiral = Spiral(
+            SpiralParams(initial_step=p.spiral_step, step_increment=p.spiral_increment)
+        )
+        self.surge_left = 0
+        self.on_leg = False
+        self.spiral_started = False
+
+    def act(self, observations: Sequence[Observation], rng: np.random.Generator) -> Action:
+        o = observations[0]
+        pos = np.asarray(o.position, float)
+        self.wind.add(o.wind)
+        up = self.wind.upwind(o.heading)
+        if self._detected(o):
+            self.detections += 1
+            self.surge_left = self.params.surge_steps
+            self.spiral_started = False
+            if self.on_leg:
+                # a detection ends the spiral leg at once: surge from here
+                self.on_leg = False
+                return Action([self._surge(pos, up, rng)])
+        if self.on_leg and not o.ready:
+            return Action([None])
+        self.on_leg = False
+        if not o.ready:
+            return Action([None])
+        if self.surge_left > 0:
+            return Action([self._surge(pos, up, rng)])
+        if not self.spiral_started:
+            self.spiral.restart(math.atan2(up[1], up[0]))
+            self.spiral_started = True
+        return Action([self._leg(pos, rng)])
+
+    def _surge(self, pos: np.ndarray, up: np.ndarray, rng: np.random.Generator) -> Command:
+        self.surge_left = max(self.surge_left - 1, 0)
+        self.mode = "track"
+        return self.free_move(pos, up, rng)
+
+    def _leg(self, pos: np.ndarray, rng: np.random.Generator) -> Command:
+        self.mode = "spiral"
+        arena = self.ctx.arena
+        for attempt in range(2):
+            for _ in range(self.params.max_skips + 1):
+                target = pos.copy()
+                target[:2] += self.spiral.next_offset()
+                if arena.segment_free(pos, target)[0]:
+                    self.on_leg = True
+                    return Command.move(target - pos)
+            if attempt == 0:
+                self.spiral.restart(self.spiral.heading)
+        return self.free_move(pos, ring(1, arena.dim, rng.uniform(0, 2 * math.pi))[0], rng)
+
+
+# ---------------------------------------------------------------------- taxis rules
+class ChemotaxisParams(ReactiveParams):
+    """:class:`ReactiveParams` and ``memory``: recent samples the rule compares."""
+
+    memory: int = Field(6, ge=2, le=10_000)
+
+
+class _TaxisSearcher(ReactiveSearcher):
+    """Samples of the last ``memory`` periods: positions, readings, winds."""
+
+    params: ChemotaxisParams
+
+    def reset(self, ctx: SearchContext, rng: np.random.Generator) -> None:
+        super().reset(ctx, rng)
+        m = self.params.memory
+        self.positions: deque[np.ndarray] = deque(maxlen=m)
+        self.readings: deque[float] = deque(maxlen=m)
+        self.winds: deque[np.ndarray] = deque(maxlen=m)
+
+    def rule(self) -> np.ndarray | None:
+        """The rule's direction from the samples, or ``None``."""
+        raise NotImplementedError
+
+    def act(self, observations: Sequence[Observation], rng: np.random.Generator) -> Action:
+        o = observations[0]
+        pos = np.asarray(o.position, float)
+        self.wind.add(o.wind)
+        if self._detected(o):
+            self.detections += 1
+        self.positions.append(pos.copy())
+        self.readings.append(float(o.gas))
+        self.winds.append(np.asarray(o.wind, float).copy())
+        if not o.ready:
+            return Action([None])
+        d = self.rule() if len(self.readings) == self.params.memory else None
+        if d is None:
+            return Action([self.cast(pos, self.wind.upwind(o.heading), rng)])
+        self.mode = "track"
+        return Action([self.free_move(pos, d, rng)])
+
+
+@register("searcher", "chemotaxis", ChemotaxisParams, "towards the best recent reading")
+class ChemotaxisSearcher(_TaxisSearcher):
+    """Chemotaxis on the robot's recent samples (virtual-physics paper eq. 3)."""
+
+    def rule(self) -> np.ndarray | None:
+        r = np.array(self.readings)
+        if not np.any(r >= self.threshold):
+            return None
+        x = np.array(self.positions)
+        return chemotaxis(x.mean(axis=0), x, r)
+
+
+class AnemotaxisParams(ReactiveParams):
+    """:class:`ReactiveParams` and ``memory``: recent readings that must all exceed the
+    threshold (and winds averaged)."""
+
+    memory: int = Field(2, ge=1, le=10_000)
+
+
+@register("searcher", "anemotaxis", AnemotaxisParams, "upwind while the odor holds, else cast")
+class AnemotaxisSearcher(_TaxisSearcher):
+    """Anemotaxis on the robot's recent samples (virtual-physics paper eq. 4)."""
+
+    params: AnemotaxisParams  # type: ignore[assignment]
+
+    def rule(self) -> np.ndarray | None:
+        d = anemotaxis(np.array(self.winds), np.array(self.readings), self.threshold)
+        if d is not None and d.size == 3:
+            d = d.copy()
+            d[2] = 0.0  # upwind in the horizontal plane
+            n = float(np.linalg.norm(d))
+            return None if n < 1e-12 else d / n
+        return d
+
+
+@register("searcher", "fluxotaxis", ChemotaxisParams, "towards the strongest odor inflow")
+class FluxotaxisSearcher(_TaxisSearcher):
+    """Fluxotaxis on the robot's recent samples (virtual-physics paper eqs. 5-6)."""
+
+    def rule(self) -> np.ndarray | None:
+        x = np.array(self.positions)
+        return fluxotaxis(
+            x.mean(axis=0), x, np.array(self.readings), np.array(self.winds), self.threshold
+        )

@@ -1,0 +1,204 @@
+"""The multi-UAV paper in odorloc: scenario, the four team compositions, accounting, episodes."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from odorloc.core.errors import ConfigError
+from odorloc.core.seeds import episode_seeds
+from odorloc.engine.episode import Episode, run_episode
+from odorloc.inference.particles.regularised import RegularisedResampler, silverman_bandwidth
+from odorloc.papers.muc_osl.placement import PAPER_STARTS, uav_starts
+from odorloc.papers.muc_osl.reproduction import add_uav_search_time
+from odorloc.scenarios import Scenario, get_scenario
+from odorloc.scenarios.build import build
+from odorloc.searchers.uav_team import UAVPlannerMember
+
+ALGORITHMS = ("muc-osl", "col-inf", "col-pf", "adap-pp")
+
+
+def _scenario(searcher: dict, **overrides: object) -> Scenario:
+    return get_scenario("muc-osl-3d").with_overrides({"searcher": searcher, **overrides})
+
+
+def test_the_start_corner_is_downwind_of_the_source() -> None:
+    sc = get_scenario("muc-osl-3d")
+    b = build(sc)
+    src = np.asarray(sc.world.sources[0].position)
+    wind = np.asarray(sc.world.wind.params("wind").velocity)
+    np.testing.assert_allclose(src, [10.0, 30.0, 25.0])
+    assert wind[1] < 0 and wind[0] == wind[2] == 0  # towards -y, as eq. 1 has it
+    for start in sc.agents.starts:
+        assert float(np.dot(np.asarray(start) - src, wind)) > 0  # on the side it blows to
+    # eq. 1: the rate 20 m downwind of the source is far above the rate 20 m upwind
+    plume = b.world.plume
+    b.world.reset(np.random.default_rng(0))
+    down, up = plume.encounter_rate(np.array([[10.0, 10.0, 25.0], [10.0, 50.0, 25.0]]))
+    assert down > 1e3 * up
+    assert down == pytest.approx(5.0 / 20.0 * math.exp(10.0 - 20.0 / plume.length), rel=1e-9)
+
+
+def test_uav_placement_rule() -> None:
+    assert [tuple(p) for p in uav_starts(3)] == list(PAPER_STARTS)
+    assert get_scenario("muc-osl-3d").agents.starts == [tuple(p) for p in uav_starts(3)]
+    eight = uav_starts(8)
+    assert [p[0] for p in eight] == [10.0, 30.0, 60.0, 20.0, 40.0, 50.0, 70.0, 80.0]
+    assert all(p[1:] == [10.0, 5.0] for p in eight)
+    for n in range(1, 9):
+        assert uav_starts(n) == eight[:n]
+    with pytest.raises(ConfigError, match="n_uavs"):
+        uav_starts(0)
+    with pytest.raises(ConfigError, match="n_uavs"):
+        uav_starts(20, width=60.0)
+
+
+def test_presets_are_compositions_of_the_same_member() -> None:
+    """``muc-osl`` is the per-agent team of ``uav-pf`` members with Col-PF x Adap-PP."""
+    limits = {"limits.time": 60.0}
+    preset = run_episode(_scenario({"type": "muc-osl"}, **limits), 11, 12, record=True)
+    member = {
+        "type": "uav-pf",
+        "estimator": {"type": "col-pf"},
+        "planner": {"type": "adap-pp"},
+    }
+    team = run_episode(
+        _scenario({"type": "per-agent", "member": member}, **limits), 11, 12, record=True
+    )
+    np.testing.assert_array_equal(preset.recording.positions, team.recording.positions)
+    assert preset.metrics["bytes"] == team.metrics["bytes"]
+    # and col-pf with the adaptive planner is MUC-OSL again
+    again = run_episode(
+        _scenario({"type": "col-pf", "planner": {"type": "adap-pp"}}, **limits),
+        11,
+        12,
+        record=True,
+    )
+    np.testing.assert_array_equal(preset.recording.positions, again.recording.positions)
+
+
+@pytest.mark.parametrize("name", ALGORITHMS)
+def test_each_preset_names_its_parts(name: str) -> None:
+    b = build(_scenario({"type": name}))
+    ep = Episode(_scenario({"type": name}), built=b, record=False)
+    ep.reset(1, 2)
+    b.searcher.reset(ep.context, ep.agent_rng)
+    members = b.searcher.members
+    assert len(members) == 3 and all(isinstance(m, UAVPlannerMember) for m in members)
+    est = {
+        "muc-osl": "col-pf",
+        "col-inf": "standard-pf",
+        "col-pf": "col-pf",
+        "adap-pp": "standard-pf",
+    }[name]
+    plan = {
+        "muc-osl": "adap-pp",
+        "col-inf": "fixed-step-infotaxis",
+        "col-pf": "fixed-step-infotaxis",
+        "adap-pp": "adap-pp",
+    }[name]
+    assert members[0].params.estimator.type == est
+    assert members[0].params.planner.type == plan
+
+
+def test_bytes_counted_equal_payload_sizes_times_recipients() -> None:
+    for name, per_message in (("muc-osl", 17 * 8), ("col-inf", 4 * 100 * 8)):
+        sc = _scenario({"type": name}, **{"limits.time": 80.0, "agents.comm_radius": 25.0})
+        ep = Episode(sc, record=False)
+        obs = ep.reset(3, 4)
+        s = ep.built.searcher
+        s.reset(ep.context, ep.agent_rng)
+        expected = 0
+        sizes = set()
+        while not ep.done:
+            action = s.act(obs, ep.agent_rng)
+            pos = np.array([p.position for p in ep.platforms])
+            res = ep.step(action, s)
+            delivered = not res.done or res.termination == "reached"
+            if not delivered:
+                continue
+            for sender, payload in action.messages.items():
+                size = sum(np.asarray(v).nbytes for v in payload.values())
+                sizes.add(size)
+                d = np.linalg.norm(pos - pos[sender], axis=1)
+                expected += size * int(np.sum((d <= 25.0) & (np.arange(len(pos)) != sender)))
+            obs = res.observations
+        m = ep.result(s.final_metrics()).metrics
+        assert m["bytes"] == expected > 0
+        assert sizes == {per_message}
+        assert m["numbers_per_message"] == per_message / 8
+        assert m["energy_comm"] > 0 and m["energy_compute"] > 0
+
+
+#: Starts inside the plume, 14-18 m downwind of the source.
+IN_PLUME = [[10.0, 16.0, 25.0], [14.0, 12.0, 23.0], [6.0, 12.0, 27.0]]
+
+
+@pytest.mark.parametrize("name", ALGORITHMS)
+def test_a_seeded_episode_of_each_algorithm_finds_the_source(name: str) -> None:
+    """End to end: estimator, planner, messages, UAV timing and the reach rule together.
+
+    One fixed episode (root seed 0, episode 1) from starts inside the plume; the success
+    rates over many episodes from the paper's starts are the reproduction's business.
+    """
+    sc = _scenario({"type": name}, **{"agents.starts": IN_PLUME, "limits.time": 400.0})
+    res = run_episode(sc, *episode_seeds(0, "muc-osl-3d", 1))
+    m = res.metrics
+    assert m["termination"] == "reached" and m["success"]
+    src = np.asarray(sc.world.sources[0].position)
+    reached = [e for e in res.events if e.kind == "source_reached"]
+    assert len(reached) == 1 and np.linalg.norm(reached[0].position - src) <= 2.0
+    assert m["reach_agent"] == reached[0].agent
+
+
+def test_search_time_is_the_busy_time_of_the_first_uav_to_reach() -> None:
+    sc = _scenario({"type": "muc-osl"}, **{"agents.starts": IN_PLUME, "limits.time": 400.0})
+    res = run_episode(sc, *episode_seeds(0, "muc-osl-3d", 1))
+    m = res.metrics
+    assert m["termination"] == "reached" and m["success"]
+    busy = m["reach_fly_time"] + m["reach_hover_time"] + m["reach_turn_time"]
+    assert 0 < busy <= m["search_time"] + 1e-9
+    assert m["search_time"] - busy == pytest.approx(m["reach_idle_time"], abs=1e-6)
+    assert m["team_hover_time"] >= m["reach_hover_time"]
+    row = add_uav_search_time(__import__("pandas").DataFrame([m]))
+    assert row["uav_search_time"].iloc[0] == pytest.approx(busy)
+    move = (m["energy_fly"] + m["energy_hover"] + m["energy_turn"]) / 1e3
+    assert row["movement_kj"].iloc[0] == pytest.approx(move)
+    # eqs. 4-6 with the paper's powers: E_M from the team's time totals
+    expected = 0.663 * m["team_fly_time"] + 0.47 * m["team_hover_time"] + 3.415 * m["team_n_turns"]
+    assert move == pytest.approx(expected, rel=1e-9)
+
+
+def test_a_uav_team_episode_is_deterministic_per_seed() -> None:
+    sc = _scenario({"type": "muc-osl"}, **{"limits.time": 120.0})
+    a = run_episode(sc, 5, 6, record=True)
+    b = run_episode(sc, 5, 6, record=True)
+    np.testing.assert_array_equal(a.recording.positions, b.recording.positions)
+    for k in ("bytes", "energy", "cues", "iterations", "particles_mean"):
+        assert a.metrics[k] == b.metrics[k]
+
+
+def test_bad_parts_are_named() -> None:
+    with pytest.raises(ConfigError) as e:
+        _scenario({"type": "muc-osl", "estimator": {"type": "kalman"}})
+    assert e.value.field == "searcher.estimator.type"
+    with pytest.raises(ConfigError) as e:
+        _scenario({"type": "muc-osl", "planner": {"type": "adap-pp", "h1_scale": -1.0}})
+    assert e.value.field == "searcher.planner.h1_scale"
+    with pytest.raises(ConfigError) as e:
+        _scenario({"type": "col-inf", "estimator": {"type": "col-pf", "n_min": 200}})
+    assert e.value.field.startswith("searcher.estimator")
+
+
+def test_regularised_resampler_moves_copies_by_the_cloud_spread() -> None:
+    rng = np.random.default_rng(0)
+    x = rng.normal(0.0, [10.0, 1.0, 0.1], (4000, 3))
+    lw = np.full(4000, -math.log(4000))
+    out, _ = RegularisedResampler().resample(x, lw, np.random.default_rng(1), n=4000)
+    h = silverman_bandwidth(4000, 3)
+    # copies of the cloud plus kernel noise: variance (1 + h^2) per axis, floored at 0.1 m
+    got = out.std(axis=0)
+    np.testing.assert_allclose(got[:2], np.array([10.0, 1.0]) * math.sqrt(1 + h * h), rtol=0.06)
+    assert got[2] == pytest.approx(math.sqrt(0.1**2 + 0.1**2), rel=0.1)

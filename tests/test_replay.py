@@ -1,0 +1,322 @@
+"""Recorded data: ROS bags (written with rosbags itself from one of our plumes, read back),
+GADEN simulations (round trip, the line-of-sight rule, bad files), estimators replayed offline."""
+
+from __future__ import annotations
+
+import shutil
+import zlib
+
+import numpy as np
+import pytest
+
+from odorloc import checks
+from odorloc.core.errors import ConfigError
+from odorloc.engine.episode import prepare_world, run_episode
+from odorloc.geometry.arena import Arena
+from odorloc.replay.gaden import (
+    GadenSimulation,
+    GadenWriter,
+    read_occupancy,
+    record_gaden,
+    write_occupancy,
+)
+from odorloc.replay.offline import replay_estimator
+from odorloc.scenarios import Scenario
+from odorloc.viz.episode import plot_belief_map
+
+MAPPING = {
+    "period": 0.5,
+    "gas": {"topic": "/gas", "threshold": 0.5, "reduce": "max"},
+    "anemometer": {"topic": "/wind"},
+    "pose": {"topic": "/pose"},
+    "arena": {"lower": [0.0, 0.0], "upper": [10.0, 6.0]},
+    "sources": [[1.5, 3.0]],
+}
+
+
+@pytest.fixture(scope="module")
+def episode():
+    sc = checks.small_scenario({"type": "zigzag"}, 2, 1, 30.0)
+    return run_episode(sc, 1, 2, record=True)
+
+
+# ---------------------------------------------------------------------- bags
+@pytest.mark.parametrize("version", [1, 2])
+def test_bag_round_trip(tmp_path, episode, version: int) -> None:
+    pytest.importorskip("rosbags")
+    from odorloc.replay.bag import BagLog, write_bag
+
+    rec = episode.recording
+    path = tmp_path / ("run.bag" if version == 1 else "run")
+    write_bag(path, rec, MAPPING, version=version, gas_rate=3)
+    log = BagLog(path, MAPPING)
+    obs = list(log.observations())
+    assert len(obs) == len(rec.t)
+    np.testing.assert_array_equal([o.position for o in obs], rec.positions[:, 0])
+    np.testing.assert_array_equal([o.wind for o in obs], rec.wind[:, 0])
+    # std_msgs/Float32 carries the reading: float32 rounding only
+    np.testing.assert_allclose([o.gas for o in obs], rec.gas[:, 0], rtol=1e-6, atol=1e-6)
+    np.testing.assert_array_equal([o.t for o in obs], rec.t)
+    assert [o.detection for o in obs] == list(rec.gas[:, 0].astype(np.float32) >= 0.5)
+    ctx = log.context()
+    assert ctx.arena.lower == (0.0, 0.0) and ctx.dt == 0.5 and ctx.gas_threshold == 0.5
+
+
+def test_bag_gas_reduction_and_body_frame(tmp_path, episode) -> None:
+    pytest.importorskip("rosbags")
+    from odorloc.replay.bag import BagLog, write_bag
+
+    rec = episode.recording
+    write_bag(tmp_path / "b", rec, MAPPING, gas_rate=2)
+    mean = {**MAPPING, "gas": {**MAPPING["gas"], "reduce": "mean"}}
+    g = [o.gas for o in BagLog(tmp_path / "b", mean).observations()]
+    np.testing.assert_allclose(g, rec.gas[:, 0], rtol=1e-6, atol=1e-6)
+    body = {**MAPPING, "anemometer": {"topic": "/wind", "frame": "body"}}
+    obs = list(BagLog(tmp_path / "b", body).observations())
+    for o, w in zip(obs[:10], rec.wind[:10, 0], strict=True):
+        c, s = np.cos(o.heading), np.sin(o.heading)
+        np.testing.assert_allclose(o.wind, [c * w[0] - s * w[1], s * w[0] + c * w[1]])
+
+
+def test_bag_errors_name_the_field(tmp_path, episode) -> None:
+    pytest.importorskip("rosbags")
+    from odorloc.replay.bag import BagLog, write_bag
+
+    write_bag(tmp_path / "b", episode.recording, MAPPING)
+    with pytest.raises(ConfigError) as ei:
+        BagLog(tmp_path / "b", {**MAPPING, "gas": {"topic": "/odor"}})
+    assert ei.value.field == "gas.topic" and "/gas" in ei.value.problem
+    with pytest.raises(ConfigError) as ei:
+        BagLog(
+            tmp_path / "b",
+            {**MAPPING, "pose": {"topic": "/pose", "msgtype": "nav_msgs/msg/Odometry"}},
+        )
+    assert ei.value.field == "pose.msgtype" and "PoseStamped" in ei.value.problem
+    with pytest.raises(ConfigError) as ei:
+        BagLog(tmp_path / "b", {**MAPPING, "gas": {"topic": "/gas", "field": "raw"}})
+    assert ei.value.field == "gas.field" and "Float32" in ei.value.problem
+    with pytest.raises(ConfigError) as ei:  # a pose topic read as a gas reading
+        BagLog(tmp_path / "b", {**MAPPING, "gas": {"topic": "/pose", "field": "header"}})
+    assert ei.value.field == "gas.field" and "not a number" in ei.value.problem
+    with pytest.raises(ConfigError) as ei:
+        BagLog(tmp_path / "b", {**MAPPING, "period": -1})
+    assert ei.value.field == "period"
+    with pytest.raises(ConfigError, match="does not exist"):
+        BagLog(tmp_path / "nothing", MAPPING)
+    (tmp_path / "junk.bag").write_bytes(b"not a bag at all")
+    with pytest.raises(ConfigError, match="not a readable ROS bag"):
+        BagLog(tmp_path / "junk.bag", MAPPING)
+
+
+@pytest.mark.parametrize("estimator", ["pf-entropy", "ds-rectangular-wave", "odor-path"])
+def test_estimators_replay_over_a_bag(tmp_path, episode, estimator: str) -> None:
+    pytest.importorskip("rosbags")
+    from odorloc.replay.bag import BagLog, write_bag
+
+    write_bag(tmp_path / "b", episode.recording, MAPPING)
+    log = BagLog(tmp_path / "b", MAPPING)
+    rec = replay_estimator(
+        log.observations(), log.context(), estimator, sources=np.array([[1.5, 3.0]])
+    )
+    assert rec.beliefs and rec.positions.shape == episode.recording.positions.shape
+    # every estimator localises the source of this log to within a metre
+    assert rec.meta["loc_error"] < 1.0, rec.meta
+    fig_path = tmp_path / "belief.png"
+    plot_belief_map(rec, fig_path)
+    assert fig_path.stat().st_size > 10_000
+
+
+def test_offline_replay_is_deterministic_per_seed(episode) -> None:
+    from odorloc.core.types import Observation
+
+    rec = episode.recording
+    obs = [
+        Observation(0, float(t), p, 0.0, float(g), bool(d), w)
+        for t, p, g, d, w in zip(
+            rec.t,
+            rec.positions[:, 0],
+            rec.gas[:, 0],
+            rec.detection[:, 0],
+            rec.wind[:, 0],
+            strict=True,
+        )
+    ]
+    from odorloc.scenarios.build import build, search_context
+
+    sc = checks.small_scenario({"type": "zigzag"}, 2, 1, 30.0)
+    ctx = search_context(sc, build(sc))
+    a = replay_estimator(obs, ctx, "pf-entropy", seed=4)
+    b = replay_estimator(obs, ctx, "pf-entropy", seed=4)
+    np.testing.assert_array_equal(a.beliefs[-1][1]["positions"], b.beliefs[-1][1]["positions"])
+    with pytest.raises(ConfigError, match="no observations"):
+        replay_estimator([], ctx)
+
+
+# ---------------------------------------------------------------------- GADEN
+def _gaden_scenario() -> Scenario:
+    sc = checks.small_scenario({"type": "zigzag"}, 3, 1, 20.0)
+    return sc.with_overrides(
+        {
+            "world.plume.cutoff": 5.0,  # GADEN's player counts filaments up to 5 sigma
+            "world.arena.obstacles.boxes": [[[4.0, 0.0, 0.0], [4.5, 3.0, 4.0]]],
+        }
+    )
+
+
+@pytest.fixture(scope="module")
+def gaden_dir(tmp_path_factory):
+    d = tmp_path_factory.mktemp("gaden") / "sim"
+    record_gaden(_gaden_scenario(), 5, d, 5.0, 0.5)
+    return d
+
+
+def test_gaden_round_trip_of_our_filament_plume(gaden_dir) -> None:
+    sc = _gaden_scenario()
+    sim = GadenSimulation(gaden_dir)
+    assert sim.n_frames == 11 and sim.header.version == (2, 4)
+    assert sim.shape == (40, 24, 16) and sim.cell == 0.25
+    world, rng, _ = prepare_world(sc, 5)
+    pts = np.random.default_rng(0).uniform([0, 0, 0], [10, 6, 4], (400, 3))
+    for k in range(sim.n_frames):
+        if k:
+            for _ in range(5):
+                world.step(0.1, rng)
+        fr = sim.frame(k)
+        np.testing.assert_array_equal(fr.positions, world.plume.positions)
+        np.testing.assert_allclose(fr.sigma_cm / 100, np.sqrt(world.plume.sigma2), rtol=1e-15)
+        q = np.vstack([pts, world.plume.positions[:50] + 0.03])
+        # without the occupancy grid GADEN's rule is our kernel sum (5-sigma cutoff)
+        np.testing.assert_allclose(
+            sim.concentration(k, q), world.plume.concentration(q), rtol=1e-9, atol=1e-12
+        )
+        np.testing.assert_array_equal(sim.wind_at(k, pts), world.wind.velocity(pts))
+
+
+def test_gaden_line_of_sight_rule(tmp_path) -> None:
+    arena = Arena((0.0, 0.0, 0.0), (6.0, 4.0, 3.0), 0.2).with_boxes(
+        [((2.8, 0.0, 0.0), (3.2, 4.0, 3.0))]
+    )
+    w = GadenWriter(tmp_path / "s", arena, (1.0, 2.0, 1.5), amount=2.0)
+
+    class Calm:
+        def velocity(self, p):
+            return np.zeros((len(p), 3))
+
+    wi = w.write_wind(Calm())
+    w.write_frame(np.array([[2.5, 2.0, 1.5]]), np.array([0.4]), wi)
+    occ = tmp_path / "s" / "OccupancyGrid3D.csv"
+    blind = GadenSimulation(tmp_path / "s")
+    seeing = GadenSimulation(tmp_path / "s", occupancy=occ)
+    here, behind = np.array([[2.1, 2.0, 1.5]]), np.array([[3.5, 2.0, 1.5]])
+    expected = 2.0 * (2 * np.pi * 0.16) ** -1.5 * np.exp(-0.5 * 0.16 / 0.16)
+    assert blind.concentration(0, here)[0] == pytest.approx(expected, rel=1e-12)
+    assert seeing.concentration(0, here)[0] == pytest.approx(expected, rel=1e-12)
+    assert blind.concentration(0, behind)[0] > 0
+    assert seeing.concentration(0, behind)[0] == 0.0  # the wall hides the filament
+    assert seeing.concentration(0, np.array([[3.0, 2.0, 1.5]]))[0] == 0.0  # inside the wall
+    assert blind.concentration(0, np.array([[7.0, 2.0, 1.5]]))[0] == 0.0  # outside
+
+
+def test_occupancy_grid_round_trip(tmp_path) -> None:
+    g = np.random.default_rng(1).integers(0, 3, (5, 4, 3)).astype(np.uint8)
+    p = write_occupancy(tmp_path / "o.csv", g, (1.0, -2.0, 0.0), 0.5)
+    back, lo, cell = read_occupancy(p)
+    np.testing.assert_array_equal(back, g)
+    assert lo.tolist() == [1.0, -2.0, 0.0] and cell == 0.5
+    text = p.read_text().splitlines()
+    assert text[2] == "#num_cells 5 4 3" and text[4].split() == [str(v) for v in g[0, :, 0]]
+    p.write_text("\n".join(text[:-3]) + "\n")
+    with pytest.raises(ConfigError, match="truncated"):
+        read_occupancy(p)
+
+
+def test_gaden_scenario_runs_an_episode(gaden_dir) -> None:
+    sc = checks.small_scenario({"type": "zigzag"}, 3, 1, 8.0)
+    data = sc.to_dict()
+    occ = str(gaden_dir / "OccupancyGrid3D.csv")
+    data["world"]["wind"] = {"type": "odorloc.replay.gaden:GadenWind", "path": str(gaden_dir)}
+    data["world"]["plume"] = {
+        "type": "odorloc.replay.gaden:GadenPlume",
+        "path": str(gaden_dir),
+        "occupancy": occ,
+        "verify": True,
+    }
+    data["world"]["warmup"] = 0.0
+    res = run_episode(Scenario.from_dict(data), 1, 2, record=True)
+    assert res.metrics["termination"] == "time_limit"
+    assert res.recording.plume_frames.max() > 0
+    data["world"]["plume"]["path"] = str(gaden_dir.parent / "missing")
+    from odorloc.scenarios.build import build
+
+    with pytest.raises(ConfigError) as ei:
+        build(Scenario.from_dict(data))
+    assert ei.value.field == "world.plume.path" and "does not exist" in ei.value.problem
+
+
+def _copy(src, dst):
+    shutil.copytree(src, dst)
+    return dst
+
+
+def test_gaden_bad_files_give_one_line_errors(gaden_dir, tmp_path) -> None:
+    d = _copy(gaden_dir, tmp_path / "bad")
+    raw = (d / "iteration_3").read_bytes()
+    (d / "iteration_3").write_bytes(raw[: len(raw) // 2])
+    sim = GadenSimulation(d)  # frame 0 is fine; frame 3 is read when reached
+    with pytest.raises(ConfigError, match="iteration_3: truncated frame file"):
+        sim.frame(3)
+    with pytest.raises(ConfigError, match="truncated"):
+        sim.verify()
+    (d / "iteration_3").write_bytes(b"\x00garbage" + raw[8:])
+    with pytest.raises(ConfigError, match="iteration_3: corrupted frame file"):
+        GadenSimulation(d).frame(3)
+    body = zlib.decompress(raw) + b"\x01\x02\x03"
+    (d / "iteration_3").write_bytes(zlib.compress(body))
+    with pytest.raises(ConfigError, match="not a multiple of 36"):
+        GadenSimulation(d).frame(3)
+    (d / "iteration_0").write_bytes(zlib.compress(b"\x07\x00\x00\x00" + body[4:]))
+    with pytest.raises(ConfigError, match="unknown log version 7"):
+        GadenSimulation(d)
+    d2 = _copy(gaden_dir, tmp_path / "nowind")
+    (d2 / "wind" / "wind_iteration_0").unlink()
+    with pytest.raises(ConfigError, match="wind file is missing"):
+        GadenSimulation(d2)
+    (d2 / "wind" / "wind_iteration_0").write_bytes(b"\x00" * 80)
+    with pytest.raises(ConfigError, match="expected 3 x"):
+        GadenSimulation(d2).wind(0)
+    with pytest.raises(ConfigError, match="does not match"):
+        other = tmp_path / "occ.csv"
+        write_occupancy(other, np.zeros((3, 3, 3), np.uint8), (0, 0, 0), 0.25)
+        GadenSimulation(gaden_dir, occupancy=other)
+
+
+def test_gaden_frames_are_decoded_lazily(gaden_dir) -> None:
+    sim = GadenSimulation(gaden_dir)
+    seen = [len(fr.sigma_cm) for fr in sim.frames()]
+    assert len(seen) == sim.n_frames and seen == sorted(seen)  # the plume grows
+    # only the last decoded frame is kept
+    assert sim.frame(sim.n_frames - 1) is sim.frame(sim.n_frames - 1)
+
+
+def test_cli_replay_log(tmp_path, episode) -> None:
+    pytest.importorskip("rosbags")
+    import yaml
+    from typer.testing import CliRunner
+
+    from odorloc.cli import app
+    from odorloc.replay.bag import write_bag
+
+    write_bag(tmp_path / "b", episode.recording, MAPPING)
+    topics = tmp_path / "topics.yaml"
+    topics.write_text(yaml.safe_dump(MAPPING))
+    out = tmp_path / "out"
+    r = CliRunner().invoke(
+        app, ["replay-log", str(tmp_path / "b"), "--topics", str(topics), "--out", str(out)]
+    )
+    assert r.exit_code == 0, r.output
+    assert (out / "belief.png").stat().st_size > 0 and (out / "recording.npz").stat().st_size > 0
+    bad = {**MAPPING, "anemometer": {"topic": "/anemo"}}
+    topics.write_text(yaml.safe_dump(bad))
+    r = CliRunner().invoke(app, ["replay-log", str(tmp_path / "b"), "--topics", str(topics)])
+    assert r.exit_code == 2
+    assert "anemometer.topic" in r.output and "Traceback" not in r.output

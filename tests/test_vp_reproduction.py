@@ -1,0 +1,66 @@
+"""The virtual-physics reproduction's machinery on a short run: one recorded flow replayed to
+every rule and start, the extra columns, the tables and the figures."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from odorloc.experiments.reproduction import get
+from odorloc.experiments.store import ResultStore
+from odorloc.experiments.sweep import expand_cells, load_sweep, run_sweep
+from odorloc.papers.virtual_physics.calibration import calibrated_rate, steady_report
+from odorloc.papers.virtual_physics.reproduction import VARIANTS, vp_group
+from odorloc.scenarios import get_scenario
+
+
+def test_the_sweep_crosses_rules_frequencies_and_starts_on_shared_flows() -> None:
+    r = get("virtual-physics")
+    spec = load_sweep(r.sweep(2, 2024))
+    cells = expand_cells(spec)
+    assert len(cells) == 3 * 6 * len(VARIANTS)
+    assert spec.replay and {c.flow_key for c in cells} == {
+        "vp[frequency=1]",
+        "vp[frequency=2]",
+        "vp[frequency=3]",
+    }
+
+
+def test_a_short_run_gives_rows_tables_and_figures(tmp_path) -> None:
+    r = get("virtual-physics")
+    spec = r.sweep(1, 7)
+    spec["scenarios"][0]["params"] = {"limits.time": 40.0}
+    spec["scenarios"][0]["grid"] = {"frequency": [3]}
+    spec["scenarios"][0]["agent_grid"] = {"start_set": ["P1", "P3"]}
+    spec["searchers"] = [s for s in spec["searchers"] if s["label"] in ("chemotaxis", "fluxotaxis")]
+    store = tmp_path / "r.sqlite"
+    df = run_sweep(spec, store, workers=1, progress=False, group_fn=vp_group)
+    assert len(df) == 4 and (df["status"] == "ok").all()
+    assert (df["group_size"] == 4).all()  # one flow for both rules and both starts
+    assert df["movie_wall_time"].nunique() == 1
+    for col in ("same_source", "reached_both", "closest_A_0", "closest_B_1", "source_A"):
+        assert col in df
+    assert np.isfinite(df["closest_A_0"]).all()
+    tables = r.tables(df, 7)
+    assert [t.name for t in tables] == ["rules", "starts_treble", "cells", "ablations"]
+    with ResultStore(store, readonly=True) as st:
+        assert st.arrays(str(df.cell_id.iloc[0]), 0) is not None  # treble episode 0 is kept
+        figs = r.figures(df, st, tmp_path, 7)
+        names = {f.name for f in figs}
+        assert {"paths_chemotaxis.png", "search_time_fluxotaxis.png", "episode.gif"} <= names
+        for f in figs:
+            if f.name in ("paths_fluxotaxis.png", "search_time_chemotaxis.png", "episode.gif"):
+                f.draw(tmp_path / f.name)
+                assert (tmp_path / f.name).stat().st_size > 10_000
+
+
+def test_the_release_rate_is_calibrated_to_the_paper_thresholds() -> None:
+    sc = get_scenario("virtual-physics-two-groups")
+    rate = sc.world.sources[0].rate
+    # the scenario's rate is the calibration's (two significant digits)
+    assert abs(rate / calibrated_rate(sc) - 1.0) < 0.02
+    rep = steady_report(sc)
+    for i in (0, 1):
+        assert 4.5 < rep[f"flux_{i}"] / rep["phi_T"] < 5.5  # the criterion
+        assert 2.0 < rep[f"peak_{i}"] / rep["rho_T"] < 20.0  # concentrations of order rho_T
+    assert rep["flux_downwind_max"] < 0.0  # no emitter-like outflow inside the plume
+    assert rep["core_start"] > rep["rho_T"]  # the plume core at the start line is detectable
