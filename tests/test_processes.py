@@ -118,6 +118,7 @@ _KERNEL_STATS = """
 import json, sys
 from odorloc.plume import filament
 from odorloc.inference.odor_path import kernel
+from odorloc.planning import infotaxis
 if sys.argv[1] == "warm":
     from odorloc.core.jit import warm
     warm()
@@ -135,8 +136,15 @@ else:
     for i in range(30):
         est.update(0.5 * i, np.array([8.0, 5.0]), np.array([1.0, 0.1]), 1.0)
     est.path_patch()
+    cells = np.zeros((1, 2), np.int64)
+    infotaxis.correlate(np.ones((2, 3, 3)), np.ones((1, 1)), cells, (1, 1), backend="numba")
+kernels = (
+    ("filament", filament._cell_kernel),
+    ("odor_path", kernel.dw_kernel_fast),
+    ("infotaxis", infotaxis._corr2),
+)
 stats = {}
-for name, k in (("filament", filament._cell_kernel), ("odor_path", kernel.dw_kernel_fast)):
+for name, k in kernels:
     stats[name] = [sum(k.stats.cache_hits.values()), sum(k.stats.cache_misses.values())]
 print(json.dumps(stats))
 """
@@ -149,8 +157,8 @@ def _kernel_files(root: Path) -> list[Path]:
 @pytest.mark.skipif(not HAVE_NUMBA, reason="needs the 'fast' extra")
 def test_compiled_kernels_hit_the_cache_in_a_new_process(tmp_path) -> None:
     """The first process compiles into the user cache folder; a second one running a filament
-    episode and an odor-path update loads every kernel from it (no cache miss), and nothing is
-    ever written under the package's source tree."""
+    episode, an odor-path update and an infotaxis correlation loads every kernel from it (no
+    cache miss), and nothing is ever written under the package's source tree."""
     before = _kernel_files(PACKAGE)
     env = {k: v for k, v in os.environ.items() if k != "NUMBA_CACHE_DIR"}
     env["ODORLOC_CACHE_DIR"] = str(tmp_path / "cache")
@@ -175,6 +183,7 @@ def test_compiled_kernels_hit_the_cache_in_a_new_process(tmp_path) -> None:
     second = run("episode")
     assert second["filament"] == [second["filament"][0], 0] and second["filament"][0] >= 1
     assert second["odor_path"][1] == 0 and second["odor_path"][0] >= 1
+    assert second["infotaxis"][1] == 0 and second["infotaxis"][0] >= 1
     assert _kernel_files(PACKAGE) == before == []
 
 
