@@ -103,6 +103,8 @@ def _make(name: str, path: Path) -> bytes:
         return (_dump({k: v for k, v in sc.items() if k != "searcher"})).encode() + (
             f"searcher:\n  type: zigzag\n{body}\n"
         ).encode()
+    if name == "topics_bomb":
+        return _bomb(9).encode()
     if name == "many_aliases":
         anchors = "\n".join(f"  k{i}: &k{i} 1" for i in range(40))
         uses = "\n".join(f"  u{i}: *k{i}" for i in range(40))
