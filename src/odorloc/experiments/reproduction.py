@@ -188,6 +188,7 @@ class Reproduction(ABC):
             progress=progress,
             group_fn=self.group_fn(),
             summary=progress and self.cell_summary and self.success_column == "success",
+            success=self.success_column,
         )
         wall = time.perf_counter() - t0
         df = df[df["episode"] < n] if len(df) else df

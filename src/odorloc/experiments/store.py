@@ -376,10 +376,17 @@ class ResultStore:
         """``{(cell_id, episode)}`` of every stored episode."""
         return {(c, int(e)) for c, e in self._con.execute("SELECT cell_id, episode FROM episodes")}
 
-    def cell_counts(self) -> dict[str, tuple[int, int, int]]:
-        """Per cell: ``(episodes, successes, errors)`` stored so far."""
+    def cell_counts(self, success: str = "success") -> dict[str, tuple[int, int, int]]:
+        """Per cell: ``(episodes, successes, errors)`` stored so far; ``success`` names the
+        column counted (a standard column or a numeric metric kept in ``extra``)."""
+        if success == "success":
+            hit = "success"
+        elif success.isidentifier():
+            hit = f"CAST(json_extract(extra, '$.{success}') AS INTEGER)"
+        else:
+            raise ConfigError("success", f"{success!r} is not a column name")
         q = (
-            "SELECT cell_id, COUNT(*), COALESCE(SUM(success), 0), "
+            f"SELECT cell_id, COUNT(*), COALESCE(SUM({hit}), 0), "
             "SUM(CASE WHEN status = 'error' THEN 1 ELSE 0 END) FROM episodes GROUP BY cell_id"
         )
         return {c: (int(n), int(s), int(e)) for c, n, s, e in self._con.execute(q)}

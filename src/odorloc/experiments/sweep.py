@@ -646,6 +646,7 @@ def run_sweep(
     chunk_size: int | None = None,
     group_fn: Callable[[list[EpisodeTask]], list[dict]] | None = None,
     summary: bool | None = None,
+    success: str = "success",
 ) -> Any:
     """Run (or resume) a sweep, writing every finished episode to the store at once.
 
@@ -687,6 +688,8 @@ def run_sweep(
     summary : bool, optional
         Print the per-cell summary table at the end (default: with ``progress``; a
         reproduction prints its own tables instead).
+    success : str
+        Row column the progress bars count as a success (a reproduction's own criterion).
 
     Returns
     -------
@@ -727,7 +730,7 @@ def run_sweep(
     runner = make_backend(backend, workers=workers, scheduler=scheduler, timeout=timeout)
     with ResultStore(store_path) as store:
         store.check(chash)
-        with runner, SweepProgress(enabled=progress) as prog:
+        with runner, SweepProgress(enabled=progress, success=success) as prog:
             store.bind(chash, spec)
             if retry_errors:
                 store.delete_errors()
@@ -735,7 +738,7 @@ def run_sweep(
             while True:
                 done = store.done_keys()
                 n_pending = count_pending(targets, done)
-                prog.begin_round(cells, targets, store.cell_counts())
+                prog.begin_round(cells, targets, store.cell_counts(success))
                 keep = spec.keep_arrays or bool(spec.keep_episodes)
                 if n_pending and spec.replay:
                     assert group_fn is not None
