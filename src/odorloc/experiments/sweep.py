@@ -712,7 +712,7 @@ def run_sweep(
         # every cell, before the store is opened or a worker started
         from odorloc.experiments.sweep_check import check_sweep
 
-        check_sweep(spec)
+        check_sweep(spec, iter_cells(spec))
     if episode_fn is None:
         episode_fn = default_episode_fn()
     if spec.replay and group_fn is None:

@@ -17,10 +17,13 @@ reset per cell.
 from __future__ import annotations
 
 import re
-from typing import Any
+from collections.abc import Iterable
+from typing import TYPE_CHECKING, Any
 
 from odorloc.core.errors import ConfigError
-from odorloc.experiments.sweep import Cell, SweepSpec, iter_cells
+
+if TYPE_CHECKING:  # the sweep module calls this one: no import at run time (no cycle)
+    from odorloc.experiments.sweep import Cell, SweepSpec
 
 __all__ = ["check_names", "check_sweep", "locate"]
 
@@ -113,8 +116,15 @@ def check_names(spec: SweepSpec) -> None:
             )
 
 
-def check_sweep(spec: SweepSpec) -> int:
+def check_sweep(spec: SweepSpec, cells: Iterable[Cell]) -> int:
     """Validate every cell of ``spec`` (see the module docstring).
+
+    Parameters
+    ----------
+    spec : SweepSpec
+    cells : iterable of Cell
+        The sweep's cells in order (:func:`odorloc.experiments.sweep.iter_cells`), generated
+        lazily.
 
     Returns
     -------
@@ -133,7 +143,7 @@ def check_sweep(spec: SweepSpec) -> int:
     world_key: str | None = None
     world: Any = None
     n = 0
-    for cell in iter_cells(spec):
+    for cell in cells:
         if cell.world_key != world_key:
             world_key, world = cell.world_key, None
         try:

@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from odorloc.scenarios import builtin_names, builtin_path
+from odorloc.scenarios.catalog import builtin_names, builtin_path
 from odorloc.scenarios.config import Scenario
 
 __all__ = ["SCENARIO_SUFFIXES", "check_scenario", "is_file_ref", "load_scenario", "resolve_ref"]
