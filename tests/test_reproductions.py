@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 import re
+from html import escape as html_escape
 from pathlib import Path
 from typing import Any
 
@@ -132,7 +133,7 @@ def test_every_reproduction_completes_with_one_episode(name, tmp_path) -> None:
     assert html.count("data:image/png;base64,") >= len(out.figures)
     for tab in out.tables:
         assert (tmp_path / f"{tab.name}.csv").is_file()
-        assert tab.title.split(" (")[0].replace("&", "&amp;") in html
+        assert html_escape(tab.title.split(" (")[0]) in html
     df = out.results
     assert len(df) and (df["status"] == "ok").all()
     if r.success_column != "success":
