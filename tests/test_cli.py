@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 
@@ -39,9 +40,13 @@ def test_run_small_scenario_writes_figures(tmp_path) -> None:
         assert (out / name).stat().st_size > 0
 
 
-def _cli(*args: str) -> subprocess.CompletedProcess:
+def _cli(*args: str, env: dict[str, str] | None = None) -> subprocess.CompletedProcess:
     return subprocess.run(
-        [sys.executable, "-m", "odorloc.cli", *args], capture_output=True, text=True, timeout=120
+        [sys.executable, "-m", "odorloc.cli", *args],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        env=env,
     )
 
 
@@ -69,8 +74,35 @@ def test_unknown_scenario_exit_2() -> None:
     assert r.returncode == 2 and "unknown scenario" in r.stderr
 
 
+_FAILING_SEARCHER = """
+import numpy as np
+from odorloc.core.params import Params
+from odorloc.core.types import Action, Command
+from odorloc.searchers.base import Searcher
+
+
+class FailLaterParams(Params):
+    after: int = 3
+
+
+class FailLater(Searcher):
+    Params = FailLaterParams
+
+    def reset(self, ctx, rng):
+        super().reset(ctx, rng)
+        self.k = 0
+
+    def act(self, observations, rng):
+        self.k += 1
+        if self.k > self.params.after:
+            raise RuntimeError("this searcher fails on purpose")
+        return Action([Command.hold() for _ in observations])
+"""
+
+
 def test_batch_records_failing_episode_and_goes_on(tmp_path) -> None:
-    """A searcher parameter that makes one cell fail is stored as an error; others complete."""
+    """An episode that fails while running is stored as an error; the other cells complete."""
+    (tmp_path / "failmod.py").write_text(_FAILING_SEARCHER)
     sweep = {
         "name": "t",
         "seed": 1,
@@ -78,23 +110,38 @@ def test_batch_records_failing_episode_and_goes_on(tmp_path) -> None:
         "scenarios": [
             {"name": "indoor-ventilated", "params": {"limits.time": 5.0, "world.warmup": 1.0}}
         ],
-        "searchers": [
-            {"name": "zigzag"},
-            # A rectangular wave whose margin leaves no area raises inside the episode.
-            {"name": "rectangular-wave", "params": {"margin": 10.0}},
-        ],
+        "searchers": [{"name": "zigzag"}, {"name": "failmod:FailLater"}],
     }
     f = tmp_path / "sweep.yaml"
     f.write_text(yaml.safe_dump(sweep))
     out = tmp_path / "out"
-    r = _cli("batch", str(f), "--out", str(out), "--workers", "1", "--no-progress")
+    env = {**os.environ, "PYTHONPATH": str(tmp_path)}
+    r = _cli("batch", str(f), "--out", str(out), "--workers", "1", "--no-progress", env=env)
     assert r.returncode == 0, r.stderr
     import pandas as pd
 
     df = pd.read_csv(out / "results.csv")
     assert len(df) == 4
     bad = df[df["status"] == "error"]
-    assert len(bad) == 2 and bad["error"].str.contains("margin").all()
+    assert len(bad) == 2 and bad["error"].str.contains("fails on purpose").all()
     assert (df[df["status"] == "ok"]["searcher"] == "zigzag").all()
     assert (out / "results.parquet").exists()
     assert "Traceback" in (out / "errors.log").read_text()
+
+
+def test_batch_with_an_invalid_searcher_parameter_runs_nothing(tmp_path) -> None:
+    """A parameter that stops a cell from running (a wave margin that leaves no area) is found
+    by the validation pass: exit 2 naming the sweep field, no store written."""
+    sweep = {
+        "name": "t",
+        "seed": 1,
+        "episodes": 2,
+        "scenarios": [{"name": "indoor-ventilated", "params": {"limits.time": 5.0}}],
+        "searchers": [{"name": "zigzag"}, {"name": "rectangular-wave", "params": {"margin": 10.0}}],
+    }
+    f = tmp_path / "sweep.yaml"
+    f.write_text(yaml.safe_dump(sweep))
+    r = runner.invoke(app, ["batch", str(f), "--out", str(tmp_path / "out"), "--no-progress"])
+    assert r.exit_code == 2
+    assert r.stderr.strip() == "error: searchers[1].params.margin: leaves no area to cover"
+    assert not (tmp_path / "out").exists()

@@ -81,3 +81,25 @@ def test_source_inside_obstacle_rejected() -> None:
 def test_unknown_builtin() -> None:
     with pytest.raises(ConfigError, match="unknown scenario"):
         get_scenario("nope")
+
+
+def test_relative_files_in_a_scenario_file_are_relative_to_it(tmp_path, monkeypatch) -> None:
+    """An obstacle file named relative to the scenario file is found from any current folder;
+    the loaded scenario holds its absolute path (so a written copy still finds it)."""
+    import yaml
+
+    from odorloc.scenarios.build import build
+
+    d = small_scenario_dict()
+    d["world"]["arena"]["obstacles"] = {"file": "room.csv"}
+    folder = tmp_path / "study"
+    folder.mkdir()
+    grid = [["0"] * 100 for _ in range(50)]
+    grid[10][20] = "1"  # row 10 from the top: y in [3.9, 4.0), x in [2.0, 2.1)
+    (folder / "room.csv").write_text("\n".join(",".join(r) for r in grid) + "\n")
+    (folder / "s.yaml").write_text(yaml.safe_dump(d))
+    monkeypatch.chdir(tmp_path)
+    sc = Scenario.from_yaml(folder / "s.yaml")
+    assert sc.world.arena.obstacles.file == str(folder / "room.csv")
+    arena = build(sc).world.arena
+    assert arena.in_obstacle([[2.05, 3.95]])[0] and not arena.in_obstacle([[5.0, 2.5]])[0]

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 import pydantic
@@ -18,7 +19,7 @@ from odorloc.engine.replay import on_replay, record_flow
 from odorloc.geometry.arena import Arena
 from odorloc.inference.evidence.dempster_shafer import DSParams
 from odorloc.inference.evidence.mapper import DSMapParams as DSMapperParams
-from odorloc.inference.evidence.mapper import DSMapper
+from odorloc.inference.evidence.mapper import DSMapper, ReadingLog
 from odorloc.papers.ds_multi_source.reproduction import map_errors
 from odorloc.planning.coverage import wave_waypoints
 from odorloc.scenarios import Scenario, get_scenario
@@ -159,9 +160,104 @@ def test_peak_rule_takes_the_strongest_cell_of_each_region() -> None:
     assert (m["peak_x_1"], m["peak_y_1"]) == (8.5, 2.5) and m["mapped_sources"] == 2.0
     w = np.array([0.9, 0.97, 0.9, 0.9])
     assert m["centroid_x_0"] == pytest.approx(w @ [2.5, 3.5, 4.5, 5.5] / w.sum())
-    assert DSMapperParams().source_rule == "peak"
     empty = DSMapper(p, ((0.0, 0.0), (10.0, 10.0)), 0.5)
     assert empty.peaks().shape == (0, 2)
+
+
+def _line_readings(sources: list[tuple[int, int]], reach: int = 10) -> tuple[ReadingLog, Any]:
+    """Readings of a robot at every cell of a 20 x 10 grid (1 m cells), wind towards +x: each
+    reading's path map is its own row from ``reach`` cells upwind to the robot (pi = 1); it
+    detects every other time when that stretch holds a source (intermittency 0.5)."""
+    from odorloc.geometry.grid import CellGrid
+    from odorloc.inference.odor_path.estimator import PathPatch
+
+    grid = CellGrid((0.0, 0.0), 1.0, (20, 10))
+    log = ReadingLog(grid.shape)
+    k = 0
+    for rep in range(2):
+        for y in range(10):
+            for x in range(20):
+                x0 = max(0, x - reach)
+                values = np.ones((x - x0 + 1, 1))
+                covered = any(sy == y and x0 <= sx <= x for sx, sy in sources)
+                k += 1
+                det = covered and (k + rep) % 2 == 0
+                log.add(PathPatch(x0, y, values, grid, np.array([x, y])), det)
+    return log, grid
+
+
+@pytest.mark.parametrize(
+    "sources",
+    [[(5, 3)], [(5, 3), (8, 6)], [(5, 3), (8, 4)]],
+    ids=["one", "apart", "side-by-side"],
+)
+def test_likelihood_rule_finds_the_sources_not_their_footprints(sources) -> None:
+    """A source's detections also cover every cell between it and the robots downwind (its
+    footprint); the likelihood rule places one estimate on each source cell, even when two
+    footprints touch across the wind, and nothing on the footprints."""
+    log, grid = _line_readings(sources)
+    cand = np.ones(grid.shape, bool)
+    cells, gains = log.greedy_sources(
+        cand,
+        grid.centers().reshape(-1, 2),
+        alpha=0.8,
+        eps=0.02,
+        min_gain=0.15,
+        exclusion=(3.0, 0.5),
+        wind=np.array([1.0, 0.0]),
+        max_sources=8,
+    )
+    found = sorted((int(c) // 10, int(c) % 10) for c in cells)
+    assert found == sorted(sources)
+    assert np.all(gains > 0) and np.all(np.diff(gains) <= 0)
+
+
+def test_likelihood_rule_closed_form_gain() -> None:
+    """One cell passed by one detection and one non-detection (pi = 0.5 each): the first gain
+    is log(P(D | c) / P(D | none)) + log(P(notD | c) / P(notD | none)) with the noisy-OR
+    P(D | c) = 1 - (1 - eps)(1 - alpha pi)."""
+    from odorloc.geometry.grid import CellGrid
+    from odorloc.inference.odor_path.estimator import PathPatch
+
+    grid = CellGrid((0.0, 0.0), 1.0, (3, 3))
+    log = ReadingLog(grid.shape)
+    half = np.full((1, 1), 0.5)
+    log.add(PathPatch(1, 1, half, grid, np.array([1, 1])), True)
+    log.add(PathPatch(1, 1, half, grid, np.array([1, 1])), False)
+    cells, gains = log.greedy_sources(
+        np.ones(grid.shape, bool),
+        grid.centers().reshape(-1, 2),
+        alpha=0.6,
+        eps=0.1,
+        min_gain=0.5,
+        exclusion=(0.0, 0.0),
+        wind=np.array([1.0, 0.0]),
+        max_sources=3,
+    )
+    assert list(cells) == [4]
+    p_det = 1.0 - 0.9 * 0.7
+    assert gains[0] == pytest.approx(math.log(p_det / 0.1) + math.log(0.9 * 0.7 / 0.9))
+
+
+def test_likelihood_is_the_default_rule_and_leaves_the_map_alone() -> None:
+    """The default rule reads the map without changing it: the same readings give the same
+    masses under every rule."""
+    assert DSMapperParams().source_rule == "likelihood"
+    region = ((0.0, 0.0), (10.0, 6.0))
+    maps = {}
+    rng = np.random.default_rng(3)
+    readings = [
+        (0.5 * k, np.array([8.0 - 0.05 * k, 3.0]), np.array([1.0, 0.1 * rng.standard_normal()]))
+        for k in range(60)
+    ]
+    for rule in ("likelihood", "peak"):
+        mp = DSMapper(DSMapperParams(cell_size=0.5, source_rule=rule), region, 0.5)
+        for t, pos, wind in readings:
+            mp.update(t, pos, wind, bool(pos[0] < 6.0))
+        mp.final_metrics()
+        maps[rule] = (mp.grid.m_s.copy(), mp.grid.m_n.copy(), mp.grid.m_u.copy())
+    for a, b in zip(maps["likelihood"], maps["peak"], strict=True):
+        np.testing.assert_array_equal(a, b)
 
 
 def test_peak_rule_ranks_saturated_cells_by_their_doubt() -> None:

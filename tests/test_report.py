@@ -157,3 +157,33 @@ def test_page_renders_in_headless_chromium(store_path, tmp_path):
     assert im.shape == (2000, 1280)
     # not blank: plenty of non-white pixels and real contrast (text, tables, plots)
     assert (im < 200).mean() > 0.02 and im.std() > 20
+
+
+def test_unreadable_blob_is_reported_in_the_page(store_path, tmp_path) -> None:
+    """One stored array blob that cannot be read is named in the viewer; the rest of the page
+    (tables, figures, the other episodes) is still written."""
+    import sqlite3
+
+    broken = tmp_path / "broken.sqlite"
+    shutil.copy(store_path, broken)
+    con = sqlite3.connect(broken)
+    cid, ep = con.execute("SELECT cell_id, episode FROM arrays ORDER BY rowid LIMIT 1").fetchone()
+    con.execute(
+        "UPDATE arrays SET npz = ? WHERE cell_id = ? AND episode = ?", (b"not an npz", cid, ep)
+    )
+    con.commit()
+    con.close()
+    out = report_main(broken, tmp_path / "r.html", renderer=None)
+    html = out.read_text()
+    assert "stored arrays unreadable" in html and cid in html
+    assert "Summary per cell" in html and html.count("data:image/png;base64,") >= 2
+
+
+def test_report_of_a_store_leaves_its_folder_alone(store_path, tmp_path) -> None:
+    """Reading a cleanly closed store creates no -wal/-shm files next to it."""
+    src = tmp_path / "s"
+    src.mkdir()
+    shutil.copy(store_path, src / "results.sqlite")
+    before = sorted(p.name for p in src.iterdir())
+    report_main(src / "results.sqlite", tmp_path / "r.html", renderer=None)
+    assert sorted(p.name for p in src.iterdir()) == before

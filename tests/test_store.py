@@ -156,3 +156,21 @@ def test_reader_sees_committed_rows_while_writer_open(filled):
     st, tasks = filled
     df = pd.read_sql_query("select count(*) n from episodes", sqlite3.connect(st.path))
     assert int(df["n"].iloc[0]) == len(tasks)
+
+
+def test_cell_counts_count_a_named_success_column(tmp_path):
+    """Progress counts (and so the live bars) can count a reproduction's own success column,
+    kept among the extra metrics, and agree with the stored rows."""
+    spec = load_sweep(SPEC)
+    tasks = expand_tasks(spec)
+    with ResultStore(tmp_path / "m.sqlite") as st:
+        st.bind(config_hash(spec), spec)
+        for i, t in enumerate(tasks):
+            st.add(t, {**stub_episode(t), "map_ok": i % 3 == 0})
+        df = st.frame()
+        counts = st.cell_counts("map_ok")
+        for cid, g in df.groupby("cell_id"):
+            assert counts[cid][:2] == (len(g), int(g["map_ok"].sum()))
+        assert st.cell_counts()[cid][1] == int(g["success"].fillna(False).astype(bool).sum())
+        with pytest.raises(ConfigError):
+            st.cell_counts("x'); DROP TABLE episodes; --")

@@ -97,14 +97,17 @@ def test_yaml_file_expands_deterministically(tmp_path):
         ({"episodes": 0}, "episodes"),
         ({"episode": 3}, "episode"),  # typo of a key
         ({"searchers": []}, "searchers"),
-        ({"searchers": [{"name": "a", "grid": {"skill": []}}]}, "searchers[0].grid"),
-        ({"searchers": [{"name": "a", "grid": {"skill": [1, 1]}}]}, "searchers[0].grid"),
-        ({"scenarios": [{"name": "toy", "params": {"x": float("nan")}}]}, "scenarios[0].params"),
-        ({"searchers": [{"name": "a"}, {"name": "a"}]}, "<root>"),
+        ({"searchers": [{"name": "a", "grid": {"skill": []}}]}, "searchers[0].grid.skill"),
+        ({"searchers": [{"name": "a", "grid": {"skill": [1, 1]}}]}, "searchers[0].grid.skill"),
+        (
+            {"scenarios": [{"name": "toy", "params": {"x": float("nan")}}]},
+            "scenarios[0].params.x",
+        ),
+        ({"searchers": [{"name": "a"}, {"name": "a"}]}, "searchers[1].label"),
         ({"adaptive": {"target_width": -1}}, "adaptive.target_width"),
         (
             {"searchers": [{"name": "a", "params": {"k": 1}, "grid": {"k": [1, 2]}}]},
-            "searchers[0]",
+            "searchers[0].grid.k",
         ),
     ],
 )
@@ -412,3 +415,88 @@ def test_name_validation_hook(tmp_path):
     with pytest.raises(ConfigError):
         run_sweep(bad, tmp_path / "v.sqlite", progress=False)
     assert not (tmp_path / "v.sqlite").exists()
+
+
+def test_tasks_are_generated_lazily() -> None:
+    """A sweep of a million episodes per cell yields its first tasks at once and counts its
+    pending episodes without building the task list."""
+    from odorloc.experiments.sweep import count_pending, iter_pending
+
+    spec = load_sweep(_spec(episodes=1_000_000))
+    cells = expand_cells(spec)
+    targets = {c.cell_id: spec.episodes for c in cells}
+    t0 = time.perf_counter()
+    it = iter_pending(spec, cells, targets, {(cells[0].cell_id, 0)}, config_hash(spec))
+    first = [next(it) for _ in range(3)]
+    assert time.perf_counter() - t0 < 1.0
+    assert [t.episode for t in first] == [1, 2, 3]
+    assert count_pending(targets, {(cells[0].cell_id, 0)}) == 2 * 1_000_000 - 1
+
+
+def test_relative_scenario_path_is_relative_to_the_sweep_file(tmp_path, monkeypatch) -> None:
+    """A sweep naming its scenario file relative to the sweep's folder runs from any current
+    folder: every episode opens that file (no error rows)."""
+    import yaml
+
+    from conftest import small_scenario_dict
+
+    d = tmp_path / "study"
+    d.mkdir()
+    sc = small_scenario_dict("zigzag")
+    sc["limits"]["time"] = 5.0
+    (d / "room.yaml").write_text(yaml.safe_dump(sc))
+    sweep = {
+        "name": "rel",
+        "seed": 1,
+        "episodes": 2,
+        "scenarios": [{"name": "room.yaml"}],
+        "searchers": [{"name": "zigzag"}],
+    }
+    (d / "sweep.yaml").write_text(yaml.safe_dump(sweep))
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    monkeypatch.chdir(elsewhere)
+    df = run_sweep(d / "sweep.yaml", tmp_path / "out.sqlite", workers=2, progress=False)
+    assert len(df) == 2 and (df["status"] == "ok").all(), df["error"].tolist()
+    assert (df["scenario"] == "room.yaml").all()
+
+
+def test_invalid_grid_cell_runs_nothing_and_leaves_the_store_identical(tmp_path) -> None:
+    """One invalid value in a grid is found before the first episode: ConfigError naming the
+    sweep field, the store byte-identical (no -wal or -shm file either)."""
+    import yaml
+
+    from conftest import small_scenario_dict
+
+    (tmp_path / "room.yaml").write_text(yaml.safe_dump(small_scenario_dict("zigzag")))
+    sweep = {
+        "name": "grid",
+        "seed": 1,
+        "episodes": 1,
+        "scenarios": [{"name": "room.yaml"}],
+        "searchers": [{"name": "zigzag"}],
+    }
+    (tmp_path / "sweep.yaml").write_text(yaml.safe_dump(sweep))
+    store = tmp_path / "out" / "results.sqlite"
+    run_sweep(tmp_path / "sweep.yaml", store, workers=1, progress=False)
+    files = {p.name: p.read_bytes() for p in store.parent.iterdir()}
+    sweep["scenarios"][0]["grid"] = {"limits.time": [10.0, -1.0]}
+    (tmp_path / "sweep.yaml").write_text(yaml.safe_dump(sweep))
+    calls = []
+
+    def never(task):  # pragma: no cover - must not be called
+        calls.append(task)
+        return {}
+
+    with pytest.raises(ConfigError) as ei:
+        run_sweep(
+            tmp_path / "sweep.yaml",
+            store,
+            workers=1,
+            progress=False,
+            validate=True,
+            episode_fn=never,
+        )
+    assert ei.value.field == "scenarios[0].grid.limits.time"
+    assert {p.name: p.read_bytes() for p in store.parent.iterdir()} == files
+    assert calls == []

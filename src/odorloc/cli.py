@@ -1,7 +1,9 @@
 """The ``odorloc`` command line.
 
-Every command validates its input first; invalid input prints one line naming the field and
-exits with code 2 (no traceback).
+Every command validates all of its input first (options, files, every cell of a sweep, and where
+its outputs go) and only then starts work; invalid input prints one line naming the field or
+file and the problem and exits with code 2 (no traceback), leaving every stored file as it was.
+Command-line usage errors (an unknown option, a value of the wrong type) are one line too.
 """
 
 from __future__ import annotations
@@ -13,12 +15,62 @@ from typing import Annotated, Any
 
 import typer
 from rich.console import Console
+from rich.markup import escape
 from rich.table import Table
+from typer.core import TyperGroup
 
 from odorloc.core.errors import ConfigError, OdorlocError
+from odorloc.core.loading import check_output_dir, check_output_file
 from odorloc.core.seeds import check_seed
 
+try:  # typer vendors its own click in recent versions
+    from typer._click import exceptions as _click_errors
+except ImportError:  # pragma: no cover - older typer on the click package
+    from click import exceptions as _click_errors
+
+MAX_FRAMES = 10_000
+"""Most animation frames of ``odorloc run``."""
+
+
+def _one_line(msg: str) -> str:
+    return " ".join(str(msg).split())
+
+
+class _OneLineErrors(TyperGroup):
+    """Usage errors (unknown option, bad value type, missing argument) as one ``error:`` line
+    with exit code 2, like every other invalid input."""
+
+    def main(self, *args: Any, standalone_mode: bool = True, **kwargs: Any) -> Any:
+        if not standalone_mode:
+            return super().main(*args, standalone_mode=False, **kwargs)
+        try:
+            rv = super().main(*args, standalone_mode=False, **kwargs)
+        except _click_errors.UsageError as exc:
+            err_console.print(
+                f"error: {escape(_one_line(exc.format_message()))}",
+                highlight=False,
+                soft_wrap=True,
+            )
+            sys.exit(2)
+        except _click_errors.ClickException as exc:
+            err_console.print(
+                f"error: {escape(_one_line(exc.format_message()))}",
+                highlight=False,
+                soft_wrap=True,
+            )
+            sys.exit(exc.exit_code)
+        except typer.Abort:
+            sys.exit(1)
+        except OdorlocError as exc:  # any command: invalid input is one line, never a traceback
+            err_console.print(
+                f"error: {escape(_one_line(str(exc)))}", highlight=False, soft_wrap=True
+            )
+            sys.exit(2)
+        sys.exit(rv if isinstance(rv, int) else 0)
+
+
 app = typer.Typer(
+    cls=_OneLineErrors,
     help="odorloc: simulate odor plumes and robots, run and compare odor source localization.",
     no_args_is_help=False,
     add_completion=False,
@@ -29,8 +81,29 @@ err_console = Console(stderr=True)
 
 
 def _fail(msg: str) -> None:
-    err_console.print(f"[bold red]error:[/] {msg}", highlight=False, soft_wrap=True)
+    err_console.print(
+        f"[bold red]error:[/] {escape(_one_line(msg))}", highlight=False, soft_wrap=True
+    )
     raise typer.Exit(code=2)
+
+
+def _check_count(value: int, field: str, low: int = 1, high: int | None = None) -> int:
+    if value < low or (high is not None and value > high):
+        upper = f" and <= {high}" if high is not None else ""
+        raise ConfigError(field, f"must be >= {low}{upper}, got {value}")
+    return value
+
+
+def _check_backend(backend: str, scheduler: str | None) -> str:
+    if scheduler is not None:
+        if "://" not in scheduler:
+            raise ConfigError(
+                "--scheduler", f"expected an address like tcp://host:8786, got {scheduler!r}"
+            )
+        return "dask"
+    if backend not in ("local", "dask"):
+        raise ConfigError("--backend", f"unknown backend {backend!r} (known: local, dask)")
+    return backend
 
 
 def _fmt(v: Any) -> str:
@@ -71,25 +144,40 @@ def run(
     Episode I of root seed R is exactly episode I of ``odorloc batch`` with ``--seed R`` and the
     same scenario (given the same way, name or file path).
     """
-    from odorloc.core.seeds import episode_seeds
-    from odorloc.engine.episode import run_episode
-    from odorloc.scenarios import DEFAULT_SCENARIO, get_scenario
-    from odorloc.viz.episode import animate, ffmpeg_available, plot_traces, plot_trajectory
+    from odorloc.experiments.sweep import MAX_EPISODES
 
     try:
-        sc = get_scenario(scenario or DEFAULT_SCENARIO)
+        # the options first, before the heavy imports and any file is read
+        _check_count(episode, "--episode", 0, MAX_EPISODES - 1)
+        _check_count(frames, "--frames", 1, MAX_FRAMES)
+        if seed is not None:
+            check_seed(seed, "--seed")
+        check_output_dir(out, "--out")
+    except OdorlocError as exc:
+        _fail(str(exc))
+        return
+    from odorloc.core.seeds import episode_seeds
+    from odorloc.engine.episode import run_episode
+    from odorloc.scenarios import DEFAULT_SCENARIO
+    from odorloc.scenarios.loading import check_scenario, load_scenario
+    from odorloc.viz.episode import animate, ffmpeg_available, plot_traces, plot_trajectory
+
+    ref = scenario or DEFAULT_SCENARIO
+    try:
+        sc = load_scenario(ref)
         if searcher:
+            from odorloc.core import registry
             from odorloc.experiments.runner import cell_scenario
 
-            sc = cell_scenario({"scenario": scenario or DEFAULT_SCENARIO, "searcher": searcher})
+            registry.entry("searcher", searcher, field="--searcher")
+            sc = cell_scenario({"scenario": ref, "searcher": searcher})
         if seed is not None:
-            sc = sc.model_copy(update={"seed": check_seed(seed, "--seed")})
-        if episode < 0:
-            raise ConfigError("--episode", f"must be >= 0, got {episode}")
-        world_seed, agent_seed = episode_seeds(sc.seed, scenario or DEFAULT_SCENARIO, episode)
+            sc = sc.model_copy(update={"seed": seed})
+        check_scenario(sc)
+        world_seed, agent_seed = episode_seeds(sc.seed, ref, episode)
         console.print(
-            f"running [bold]{sc.name}[/] with searcher [bold]{sc.searcher.type}[/], "
-            f"root seed {sc.seed}, episode {episode}"
+            f"running [bold]{escape(sc.name)}[/] with searcher "
+            f"[bold]{escape(sc.searcher.type)}[/], root seed {sc.seed}, episode {episode}"
         )
         res = run_episode(sc, world_seed, agent_seed, record=True)
     except OdorlocError as exc:
@@ -98,7 +186,6 @@ def run(
     rec = res.recording
     assert rec is not None
     rec.meta.update(searcher=sc.searcher.type, seed=sc.seed, episode=episode)
-    out.mkdir(parents=True, exist_ok=True)
     table = Table(title=f"{sc.name} — {sc.searcher.type} — seed {sc.seed}, episode {episode}")
     table.add_column("metric")
     table.add_column("value", justify="right")
@@ -118,22 +205,27 @@ def run(
     ):
         table.add_row(k, _fmt(res.metrics.get(k)))
     console.print(table)
-    written = [
-        plot_trajectory(rec, out / "trajectory.png") and out / "trajectory.png",
-        plot_traces(rec, out / "traces.png") and out / "traces.png",
-        rec.save(out / "recording.npz"),
-    ]
-    if rec.positions.shape[2] == 3:
-        from odorloc.viz.team3d import plot_team_3d
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        written = [
+            plot_trajectory(rec, out / "trajectory.png") and out / "trajectory.png",
+            plot_traces(rec, out / "traces.png") and out / "traces.png",
+            rec.save(out / "recording.npz"),
+        ]
+        if rec.positions.shape[2] == 3:
+            from odorloc.viz.team3d import plot_team_3d
 
-        plot_team_3d(rec, out / "view_3d.png")
-        written.append(out / "view_3d.png")
-    sc.to_yaml(out / "scenario.yaml")
-    written.append(out / "scenario.yaml")
-    if animation:
-        written.append(animate(rec, out / "episode.gif", max_frames=frames))
-        if ffmpeg_available():
-            written.append(animate(rec, out / "episode.mp4", max_frames=frames))
+            plot_team_3d(rec, out / "view_3d.png")
+            written.append(out / "view_3d.png")
+        sc.to_yaml(out / "scenario.yaml")
+        written.append(out / "scenario.yaml")
+        if animation:
+            written.append(animate(rec, out / "episode.gif", max_frames=frames))
+            if ffmpeg_available():
+                written.append(animate(rec, out / "episode.mp4", max_frames=frames))
+    except OSError as exc:
+        _fail(f"--out: cannot write into {out}: {exc.strerror or exc}")
+        return
     for p in written:
         console.print(f"wrote {p}")
 
@@ -192,31 +284,36 @@ def batch(
     ``results.sqlite``, ``results.csv`` and ``results.parquet`` into ``--out``.
     """
     from odorloc.experiments.store import ResultStore
-    from odorloc.experiments.sweep import run_sweep
+    from odorloc.experiments.sweep import MAX_EPISODES, load_sweep, run_sweep
 
-    if sweep is None:
-        if not scenario:
-            _fail("batch: give a sweep file or at least one --scenario")
-        spec: Any = {
-            "name": "cli-batch",
-            "seed": seed,
-            "episodes": episodes,
-            "scenarios": [{"name": s} for s in scenario or []],
-            "searchers": [{"name": a} for a in (searcher or [])] or None,
-        }
-        if spec["searchers"] is None:
-            from odorloc.scenarios import get_scenario
-
-            try:
-                names = sorted({get_scenario(s).searcher.type for s in scenario or []})
-            except OdorlocError as exc:
-                _fail(str(exc))
-            spec["searchers"] = [{"name": n} for n in names]
-    else:
-        spec = sweep
-    out.mkdir(parents=True, exist_ok=True)
-    store_path = out / "results.sqlite"
     try:
+        _check_count(workers, "--workers", 1, 1024)
+        backend = _check_backend(backend, scheduler)
+        check_output_dir(out, "--out")
+        if sweep is not None and (scenario or searcher):
+            raise ConfigError("--scenario", "give a sweep file or --scenario/--searcher, not both")
+        if sweep is None:
+            if not scenario:
+                raise ConfigError("batch", "give a sweep file or at least one --scenario")
+            _check_count(episodes, "--episodes", 1, MAX_EPISODES)
+            check_seed(seed, "--seed")
+            spec: Any = {
+                "name": "cli-batch",
+                "seed": seed,
+                "episodes": episodes,
+                "scenarios": [{"name": s} for s in scenario],
+                "searchers": [{"name": a} for a in (searcher or [])] or None,
+            }
+            if spec["searchers"] is None:
+                from odorloc.scenarios.loading import load_scenario
+
+                names = sorted({load_scenario(s).searcher.type for s in scenario})
+                spec["searchers"] = [{"name": n} for n in names]
+            spec = load_sweep(spec)
+        else:
+            spec = load_sweep(sweep)
+        store_path = out / "results.sqlite"
+        check_output_file(store_path, "--out")
         df = run_sweep(
             spec,
             store_path,
@@ -251,6 +348,7 @@ def report(
 
     target = out or results.with_suffix(".html")
     try:
+        check_output_file(target, "--out")
         path = report_main(results, target)
     except OdorlocError as exc:
         _fail(str(exc))
@@ -295,16 +393,22 @@ def reproduce(
             )
         return
     try:
+        from odorloc.experiments.sweep import MAX_EPISODES
+
         r = rp.get(paper)
         check_seed(seed, "--seed")
-        if episodes is not None and episodes < 1:
-            raise ConfigError("--episodes", "must be >= 1")
+        _check_count(workers, "--workers", 1, 1024)
+        if episodes is not None:
+            _check_count(episodes, "--episodes", 1, MAX_EPISODES)
+        backend = _check_backend(backend, scheduler)
+        target = out or Path("odorloc-reproduce") / paper
+        check_output_dir(target, "--out")
         r.run(
-            out or Path("odorloc-reproduce") / paper,
+            target,
             episodes=episodes,
             workers=workers,
             seed=seed,
-            backend="dask" if scheduler else backend,
+            backend=backend,
             scheduler=scheduler,
             only=[w.strip() for o in only for w in o.split(",") if w.strip()] if only else None,
         )
@@ -332,6 +436,7 @@ def replay_log(
     """
     try:
         check_seed(seed, "--seed")
+        check_output_dir(out, "--out")
         try:
             from odorloc.replay.bag import BagLog
         except ImportError:
@@ -351,9 +456,13 @@ def replay_log(
     except OdorlocError as exc:
         _fail(str(exc))
         return
-    out.mkdir(parents=True, exist_ok=True)
-    plot_belief_map(rec, out / "belief.png")
-    rec.save(out / "recording.npz")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        plot_belief_map(rec, out / "belief.png")
+        rec.save(out / "recording.npz")
+    except OSError as exc:
+        _fail(f"--out: cannot write into {out}: {exc.strerror or exc}")
+        return
     m = rec.meta
     console.print(
         f"{m['steps']} periods, {m['detections']} with a detection, "
@@ -382,11 +491,7 @@ def components() -> None:
 
 def main() -> None:
     """Entry point of the ``odorloc`` script."""
-    try:
-        app()
-    except ConfigError as exc:  # pragma: no cover - commands handle their own
-        err_console.print(f"error: {exc}")
-        sys.exit(2)
+    app()
 
 
 if __name__ == "__main__":

@@ -28,10 +28,10 @@ class SpiralParams(Params):
 
     initial_step: Positive = 0.6
     step_increment: float = Field(0.3, ge=0.0)
-    measure_periods: int = Field(2, ge=1)
+    measure_periods: int = Field(2, ge=1, le=10_000)
     kmu: float = Field(0.5, ge=0.0)
     kp: float = Field(1.0, ge=0.0)
-    patience: int = Field(3, ge=0)
+    patience: int = Field(3, ge=0, le=10_000)
     decay: float = Field(0.5, gt=0.0, le=1.0)
 
 

@@ -27,7 +27,7 @@ __all__ = ["SurgeCast", "SurgeCastParams"]
 class SurgeCastParams(Params):
     """Surge and cast settings (see the module docstring)."""
 
-    surge_steps: int = Field(4, ge=0)
+    surge_steps: int = Field(4, ge=0, le=1_000_000)
     cast_angle_deg: float = Field(80.0, ge=0.0, le=90.0)
     cast_amplitude: Positive = 0.4
     cast_growth: float = Field(1.5, ge=1.0)

@@ -158,7 +158,7 @@ def make_params(family: str, name: str, values: dict[str, Any], field: str = "")
     try:
         return e.params.model_validate(values)
     except pydantic.ValidationError as err:
-        line = format_validation_error(err, prefix=field)
+        line = format_validation_error(err, prefix=field, model=e.params)
         fld, _, problem = line.partition(": ")
         raise ConfigError(fld, problem) from None
 

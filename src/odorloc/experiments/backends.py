@@ -15,11 +15,15 @@ seeds.
 
 from __future__ import annotations
 
+import itertools
 import math
 import multiprocessing
+import os
+import select
+import threading
 import time
 import traceback
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 from typing import Any
@@ -101,9 +105,77 @@ def default_chunk_size(n_tasks: int, workers: int) -> int:
     return max(1, min(MAX_CHUNK, math.ceil(n_tasks / (4 * max(1, workers)))))
 
 
-def _chunks(tasks: Sequence[Any], size: int) -> Iterator[list[Any]]:
-    for i in range(0, len(tasks), size):
-        yield list(tasks[i : i + size])
+def _chunks(tasks: Iterable[Any], size: int) -> Iterator[list[Any]]:
+    it = iter(tasks)
+    while chunk := list(itertools.islice(it, size)):
+        yield chunk
+
+
+def _count(tasks: Iterable[Any], total: int | None) -> int:
+    if total is not None:
+        return total
+    return len(tasks) if isinstance(tasks, Sequence) else MAX_CHUNK * 64
+
+
+def _process_gone(pid: int) -> bool:
+    """Whether process ``pid`` has ended (a zombie counts as ended)."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return True
+    except PermissionError:
+        return False
+    try:
+        with open(f"/proc/{pid}/stat", "rb") as fh:
+            return fh.read().rsplit(b")", 1)[1].split()[0] in (b"Z", b"X")
+    except (OSError, IndexError):
+        return False
+
+
+def watch_parent(pid: int, period: float = 0.5) -> None:
+    """Worker initializer: end this process as soon as process ``pid`` (the sweep) is gone.
+
+    A worker blocked waiting for work, or busy in an episode, would otherwise outlive a parent
+    killed with SIGKILL (nothing tells it), and keep the pool's helper processes alive too. A
+    daemon thread waits on a Linux pidfd of the parent (woken the moment it exits) or, where
+    that is unavailable, polls every ``period`` seconds.
+    """
+
+    def watch() -> None:
+        fd = None
+        pidfd_open = getattr(os, "pidfd_open", None)
+        if pidfd_open is not None:
+            try:
+                fd = pidfd_open(pid)
+            except OSError:
+                fd = None
+        if fd is not None:
+            select.select([fd], [], [])
+        else:
+            while not _process_gone(pid):
+                time.sleep(period)
+        os._exit(1)
+
+    if _process_gone(pid):
+        os._exit(1)
+    threading.Thread(target=watch, name="odorloc-parent-watch", daemon=True).start()
+
+
+def warm_kernels() -> None:
+    """Load the compiled kernels now (:func:`odorloc.core.jit.warm`), so that a worker's first
+    episode is not slower than the others; a failure here only costs that speed."""
+    try:
+        from odorloc.core.jit import warm
+
+        warm()
+    except Exception:  # an optimisation only: the episode compiles what it needs
+        pass
+
+
+def init_worker(parent_pid: int) -> None:
+    """Initializer of a local pool worker: watch the parent, then load the kernels."""
+    watch_parent(parent_pid)
+    warm_kernels()
 
 
 class LocalBackend:
@@ -130,7 +202,12 @@ class LocalBackend:
 
     def _new_pool(self) -> ProcessPoolExecutor:
         ctx = multiprocessing.get_context(self.mp_context)
-        return ProcessPoolExecutor(max_workers=self.workers, mp_context=ctx)
+        return ProcessPoolExecutor(
+            max_workers=self.workers,
+            mp_context=ctx,
+            initializer=init_worker,
+            initargs=(os.getpid(),),
+        )
 
     def __enter__(self) -> LocalBackend:
         return self
@@ -146,59 +223,70 @@ class LocalBackend:
 
     def run(
         self,
-        tasks: Sequence[Any],
+        tasks: Iterable[Any],
         episode_fn: Callable[[Any], Any],
         keep_arrays: bool = False,
         chunk_size: int | None = None,
-        groups: Sequence[Sequence[Any]] | None = None,
+        groups: Iterable[Sequence[Any]] | None = None,
+        total: int | None = None,
     ) -> Iterator[TaskRow]:
         """Yield ``(task, row)`` for every task, in completion order.
 
-        With ``groups`` (a partition of ``tasks``), each group is one work item and
-        ``episode_fn`` is a group function (see :func:`run_chunk`).
+        ``tasks`` may be a lazy iterable (it is consumed as work is sent out; ``total``, the
+        number of tasks, then sizes the chunks). With ``groups`` (a partition of the tasks,
+        also possibly lazy), each group is one work item and ``episode_fn`` is a group
+        function (see :func:`run_chunk`).
         """
         grouped = groups is not None
+        chunks: Iterator[list[Any]]
         if grouped:
-            chunks = [list(g) for g in groups]  # type: ignore[union-attr]
+            chunks = (list(g) for g in groups)  # type: ignore[union-attr]
         else:
-            size = chunk_size or default_chunk_size(len(tasks), self.workers)
-            chunks = list(_chunks(tasks, size))
+            size = chunk_size or default_chunk_size(_count(tasks, total), self.workers)
+            chunks = _chunks(tasks, size)
         if self.workers == 1:
             for chunk in chunks:
                 yield from zip(
                     chunk, run_chunk(episode_fn, chunk, keep_arrays, grouped), strict=True
                 )
             return
-        suspects: list[list[Any]] = []
-        yield from self._run_chunks(chunks, episode_fn, keep_arrays, suspects, grouped)
-        if suspects:
-            # a worker died (segfault, os._exit, out of memory): rerun the affected episodes
-            # one per work item (one group per item), so a repeat offender is isolated and
-            # recorded as an error
-            yield from self._run_isolated(suspects, episode_fn, keep_arrays, grouped)
+        while True:
+            suspects: list[list[Any]] = []
+            yield from self._run_chunks(chunks, episode_fn, keep_arrays, suspects, grouped)
+            if suspects:
+                # a worker died (segfault, os._exit, out of memory): rerun the episodes that
+                # were in flight one per work item (one group per item), so a repeat offender
+                # is isolated and recorded as an error; then go on with the rest
+                yield from self._run_isolated(suspects, episode_fn, keep_arrays, grouped)
+            nxt = next(chunks, None)
+            if nxt is None:
+                return
+            chunks = itertools.chain([nxt], chunks)
 
     def _run_chunks(
         self,
-        chunks: list[list[Any]],
+        queue: Iterator[list[Any]],
         episode_fn: Callable[[Any], Any],
         keep_arrays: bool,
         suspects: list[list[Any]],
         grouped: bool,
     ) -> Iterator[TaskRow]:
+        """Run chunks from ``queue`` until it is empty or the pool breaks (then the chunks in
+        flight go to ``suspects`` and the rest of the queue is left for the caller)."""
         if self._pool is None:
             self._pool = self._new_pool()
-        queue = iter(chunks)
         inflight: dict[Future, list[Any]] = {}
         max_inflight = 2 * self.workers + 1
         broken = False
 
         def submit() -> None:
-            for chunk in queue:
+            while len(inflight) < max_inflight:
+                chunk = next(queue, None)
+                if chunk is None:
+                    return
                 assert self._pool is not None
                 fut = self._pool.submit(run_chunk, episode_fn, chunk, keep_arrays, grouped)
                 inflight[fut] = chunk
-                if len(inflight) >= max_inflight:
-                    break
 
         submit()
         while inflight:
@@ -215,8 +303,6 @@ class LocalBackend:
             if not broken:
                 submit()
         if broken:
-            for chunk in queue:
-                suspects.extend([chunk] if grouped else [[t] for t in chunk])
             self._pool.shutdown(wait=True, cancel_futures=True)
             self._pool = None
 
@@ -301,6 +387,7 @@ class DaskBackend:
                 silence_logs=logging.ERROR,
             )
             self._client = distributed.Client(self._cluster, set_as_default=False)
+        self._client.run(warm_kernels)
         return self
 
     def __exit__(self, *exc: object) -> None:
@@ -322,15 +409,16 @@ class DaskBackend:
 
     def run(
         self,
-        tasks: Sequence[Any],
+        tasks: Iterable[Any],
         episode_fn: Callable[[Any], Any],
         keep_arrays: bool = False,
         chunk_size: int | None = None,
-        groups: Sequence[Sequence[Any]] | None = None,
+        groups: Iterable[Sequence[Any]] | None = None,
+        total: int | None = None,
     ) -> Iterator[TaskRow]:
         """Yield ``(task, row)`` for every task, as the chunks finish (``as_completed``).
 
-        ``groups`` as for :meth:`LocalBackend.run`.
+        ``tasks``, ``groups`` and ``total`` as for :meth:`LocalBackend.run`.
         """
         import distributed
 
@@ -339,9 +427,10 @@ class DaskBackend:
         n_workers = max(1, self.n_workers or self.workers)
         grouped = groups is not None
         if grouped:
-            queue: Iterator[list[Any]] = iter([list(g) for g in groups])  # type: ignore[union-attr]
+            queue: Iterator[list[Any]] = (list(g) for g in groups)  # type: ignore[union-attr]
         else:
-            queue = _chunks(tasks, chunk_size or default_chunk_size(len(tasks), n_workers))
+            size = chunk_size or default_chunk_size(_count(tasks, total), n_workers)
+            queue = _chunks(tasks, size)
         chunk_of: dict[str, list[Any]] = {}
         max_inflight = 2 * n_workers + 1
         ac = distributed.as_completed(loop=self._client.loop)

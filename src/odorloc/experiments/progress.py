@@ -16,10 +16,13 @@ class SweepProgress:
     """A progress display: an overall bar with ETA and one bar per cell with its success rate.
 
     Disabled (``enabled=False``) it does nothing, so the runner calls it unconditionally.
+    ``success`` names the row column counted as a success (a reproduction's own criterion, so
+    the bars say what its tables say).
     """
 
-    def __init__(self, enabled: bool = True, console: Any = None) -> None:
+    def __init__(self, enabled: bool = True, console: Any = None, success: str = "success") -> None:
         self.enabled = enabled
+        self.success = success
         self._console = console
         self._progress: Any = None
         self._overall: Any = None
@@ -59,9 +62,8 @@ class SweepProgress:
             self._progress.__exit__(*exc)
             self._progress = None
 
-    @staticmethod
-    def _rate(n: int, k: int, err: int) -> str:
-        s = f"success {100 * k / n:5.1f}%" if n else "success   -  "
+    def _rate(self, n: int, k: int, err: int) -> str:
+        s = f"{self.success} {100 * k / n:5.1f}%" if n else f"{self.success}   -  "
         return s + (f" errors {err}" if err else "")
 
     def begin_round(
@@ -99,7 +101,7 @@ class SweepProgress:
         """Count one finished episode."""
         c = self._counts.setdefault(task.cell_id, [0, 0, 0])
         c[0] += 1
-        c[1] += int(bool(row.get("success")) and row.get("status", "ok") != "error")
+        c[1] += int(bool(row.get(self.success)) and row.get("status", "ok") != "error")
         c[2] += int(row.get("status") == "error")
         if self._progress is None:
             return

@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 
 from odorloc.experiments import stats
+from odorloc.viz.intervals import errorbar_lengths
 
 Renderer = Callable[[dict[str, np.ndarray], dict[str, Any]], Any]
 """``renderer(arrays, info) -> GIF bytes or a path to a GIF``; ``info`` holds the episode row."""
@@ -273,7 +274,7 @@ def _param_figures(summ: Any, level: float) -> list[str]:
             ax1.errorbar(
                 x,
                 100 * sr,
-                yerr=[100 * (sr - lo), 100 * (hi - sr)],
+                yerr=errorbar_lengths(100 * sr, 100 * lo, 100 * hi),
                 marker="o",
                 capsize=3,
                 label=lab,
@@ -281,7 +282,9 @@ def _param_figures(summ: Any, level: float) -> list[str]:
             mt = g["mean_time"].to_numpy(float)[o]
             tlo = g["mean_time_lo"].to_numpy(float)[o]
             thi = g["mean_time_hi"].to_numpy(float)[o]
-            ax2.errorbar(x, mt, yerr=[mt - tlo, thi - mt], marker="o", capsize=3, label=lab)
+            ax2.errorbar(
+                x, mt, yerr=errorbar_lengths(mt, tlo, thi), marker="o", capsize=3, label=lab
+            )
         name = col.split(".", 1)[1]
         for ax in (ax1, ax2):
             ax.set_xlabel(name)
@@ -346,8 +349,7 @@ def _distance_figure(df: Any, level: float, bins: int = 5) -> str | None:
         ax.errorbar(
             centres,
             100 * p,
-            # round-off can leave the Wilson bound a hair past the point (k = 0 or n)
-            yerr=[100 * np.maximum(p - lo, 0.0), 100 * np.maximum(hi - p, 0.0)],
+            yerr=errorbar_lengths(100 * p, 100 * lo, 100 * hi),
             marker="o",
             capsize=3,
             label=lab,
@@ -421,7 +423,14 @@ def _viewer_section(
                 f": {info.get('termination', '')}, success={bool(info.get('success'))}, "
                 f"t={_f(info.get('search_time'))} s"
             )
-        arrays = store.arrays(cid, ep) if store is not None else None
+        try:
+            arrays = store.arrays(cid, ep) if store is not None else None
+        except Exception as exc:  # one unreadable blob is reported, the rest still shows
+            parts.append(
+                f'<p class="note bad">{_e(caption)}: stored arrays unreadable '
+                f"({_e(type(exc).__name__)}: {_e(exc)})</p>"
+            )
+            continue
         img = None
         if arrays is not None and renderer is not None:
             try:
@@ -434,12 +443,32 @@ def _viewer_section(
             except Exception as exc:  # the static plot still tells the story
                 caption += f" (animation failed: {type(exc).__name__}: {exc})"
         if img is None and arrays is not None and "positions" in arrays:
-            img = f'<img alt="{_e(caption)}" src="data:image/png;base64,{_trajectory_png(arrays)}">'
+            try:
+                png = _trajectory_png(arrays)
+                img = f'<img alt="{_e(caption)}" src="data:image/png;base64,{png}">'
+            except Exception as exc:  # malformed arrays: say so, keep the page
+                caption += f" (trajectory plot failed: {type(exc).__name__}: {exc})"
         if img is None:
             parts.append(f'<p class="note">{_e(caption)}: no trajectory stored.</p>')
         else:
             parts.append(f"<figure>{img}<figcaption>{_e(caption)}</figcaption></figure>")
     return "".join(parts)
+
+
+def _failed(name: str, exc: Exception) -> str:
+    return (
+        f'<p class="note bad">The {_e(name)} could not be drawn from these results '
+        f"({_e(type(exc).__name__)}: {_e(exc)}).</p>"
+    )
+
+
+def _guarded(name: str, fn: Callable[..., str], *args: Any) -> str:
+    """A section, or a note saying why it is missing: one failing part never takes the rest of
+    the report down."""
+    try:
+        return fn(*args)
+    except Exception as exc:
+        return _failed(name, exc)
 
 
 # ----------------------------------------------------------------------------- entry points
@@ -500,6 +529,9 @@ def write_report(
     seed: int = 0,
     sections: Sequence[ReportSection] = (),
     paired: bool = True,
+    success: str = "success",
+    success_label: str = "",
+    rows: Any = None,
 ) -> Path:
     """Write a self-contained HTML report.
 
@@ -528,12 +560,23 @@ def write_report(
     paired : bool
         Include the paired comparisons of every two cells of each world (``False`` for results
         with many cells per world whose paired tables are given in ``sections``).
+    success : str
+        Column that says whether an episode succeeded (default the episode's own
+        ``success``); a reproduction whose paper scores episodes differently names its column
+        here, so that every table of the page (and the console) counts the same thing.
+    success_label : str
+        What ``success`` means, shown under the title.
+    rows : pandas.DataFrame, optional
+        The episodes to report when they are a subset of the store's (a reproduction run with
+        fewer episodes than the store holds); the store still provides the stored arrays.
 
     Returns
     -------
     pathlib.Path
         ``out_html``.
     """
+    import pandas as pd
+
     from odorloc.experiments.store import ResultStore, open_results
 
     store = None
@@ -548,7 +591,15 @@ def write_report(
         store = ResultStore(store_or_df, readonly=True)
         own = True
     try:
-        df = store.frame() if store is not None else open_results(store_or_df)
+        if rows is not None:
+            df = rows
+        else:
+            df = store.frame() if store is not None else open_results(store_or_df)
+        if success != "success" and len(df):
+            df = df.copy()
+            # rows without the column (failed episodes) did not meet the criterion
+            col = df[success] if success in df.columns else False
+            df["success"] = pd.Series(col, index=df.index).astype("boolean").fillna(False)
         meta = store.meta() if store is not None else {}
         sweep_name = ""
         if meta.get("sweep"):
@@ -558,7 +609,10 @@ def write_report(
         title = title or (
             f"odorloc sweep report: {sweep_name}" if sweep_name else "odorloc sweep report"
         )
-        summ = stats.summarize(df, level=level, seed=seed)
+        try:
+            summ = stats.summarize(df, level=level, seed=seed) if len(df) else None
+        except Exception:  # each section that needs it says so below
+            summ = None
         n_err = int((df["status"] == "error").sum()) if len(df) else 0
         n_cells = df["cell_id"].nunique() if len(df) else 0
         body = [
@@ -567,23 +621,33 @@ def write_report(
             f"{n_err} errors; config hash {_e(meta.get('config_hash', '–'))}; "
             f"generated {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}.</p>",
         ]
+        if success_label:
+            body.append(f'<p class="meta">Success: {_e(success_label)}</p>')
         for sec in sections:
-            body.append(_extra_section(sec))
+            body.append(_guarded(f"section {sec.title!r}", _extra_section, sec))
         if len(df) == 0:
             body.append('<p class="note">No episodes stored yet.</p>')
         else:
-            body.append(_summary_section(summ, level))
+            body.append(_guarded("summary", _summary_section, summ, level))
             if paired:
-                body.append(_paired_section(df, level, seed))
+                body.append(_guarded("paired comparisons", _paired_section, df, level, seed))
             if reference:
-                body.append(_paper_section(summ, reference))
-            figs = _param_figures(summ, level)
-            box = _box_figure(df)
-            dist = _distance_figure(df, level)
-            figs += [f for f in (box, dist) if f]
+                body.append(_guarded("paper comparison", _paper_section, summ, reference))
+            figs: list[str] = []
+            for name, fn, args in (
+                ("parameter figures", _param_figures, (summ, level)),
+                ("search-time box plot", _box_figure, (df,)),
+                ("start-distance figure", _distance_figure, (df, level)),
+            ):
+                try:
+                    got = fn(*args)
+                except Exception as exc:
+                    figs.append(_failed(name, exc))
+                    continue
+                figs += got if isinstance(got, list) else [got] if got else []
             if figs:
                 body.append("<h2>Figures</h2>" + "".join(figs))
-            body.append(_viewer_section(df, store, episodes, renderer))
+            body.append(_guarded("episode viewer", _viewer_section, df, store, episodes, renderer))
             errs = df[df["status"] == "error"]
             if len(errs):
                 rows = [

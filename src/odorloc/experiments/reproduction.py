@@ -21,6 +21,7 @@ A reproduction (registry family ``"reproduction"``) lives in its paper package
 from __future__ import annotations
 
 import math
+import shutil
 import time
 import traceback
 import warnings
@@ -30,14 +31,17 @@ from pathlib import Path
 from typing import Any, ClassVar
 
 from odorloc.core.errors import ConfigError
+from odorloc.core.loading import check_output_dir
 from odorloc.core.params import Params
 from odorloc.core.registry import entry, names
 
 __all__ = [
+    "CONSOLE_WIDTH",
     "Figure",
     "Reproduction",
     "ReproductionParams",
     "Table",
+    "console_table",
     "fmt",
     "get",
     "names_of_reproductions",
@@ -64,6 +68,7 @@ class Table:
     console: bool = True
     note: str = ""
     left: int = 1
+    """Leading text columns (left-aligned); the others are numbers (right-aligned)."""
 
 
 @dataclass
@@ -113,9 +118,14 @@ class Reproduction:
     report_paired : bool
         Include the generic paired comparisons of every two cells of a world in the report
         (a reproduction with many cells per world and its own paired tables turns them off).
+    success_column, success_label : str
+        The row column that says an episode succeeded by the paper's own criterion (default
+        the episode's ``success``) and what it means; the console tables and every table of
+        the report count that column, so they say one thing.
     cell_summary : bool
         Print the harness's per-cell summary before the reproduction's own tables (off for
-        sweeps of many cells, whose compact tables say it better).
+        sweeps of many cells, whose compact tables say it better; never printed when the
+        reproduction counts success by a column of its own, so the console says one thing).
     """
 
     name: ClassVar[str] = ""
@@ -124,6 +134,8 @@ class Reproduction:
     default_episodes: ClassVar[int] = 10
     paper_episodes: ClassVar[int] = 10
     report_paired: ClassVar[bool] = True
+    success_column: ClassVar[str] = "success"
+    success_label: ClassVar[str] = ""
     cell_summary: ClassVar[bool] = True
 
     def __init__(self, params: ReproductionParams | None = None) -> None:
@@ -194,7 +206,6 @@ class Reproduction:
         """
         import pandas as pd
         from rich.console import Console
-        from rich.table import Table as RichTable
 
         from odorloc.experiments.report import ReportSection, write_report
         from odorloc.experiments.store import ResultStore
@@ -205,9 +216,9 @@ class Reproduction:
         specs = {name: load_sweep(spec) for name, spec in self.sweeps(episodes, seed).items()}
         chosen = select_sweeps(list(specs), only)
         out = Path(out)
+        check_output_dir(out, "out")
         out.mkdir(parents=True, exist_ok=True)
-        # the console output is meant to be read in a 100-column terminal
-        console = Console(width=100)
+        console = Console(width=shutil.get_terminal_size((CONSOLE_WIDTH, 24)).columns)
         t0 = time.perf_counter()
         frames = []
         stores: dict[str, Path] = {}
@@ -222,7 +233,8 @@ class Reproduction:
                     scheduler=scheduler,
                     progress=progress,
                     group_fn=self.group_fn(),
-                    summary=progress and self.cell_summary,
+                    summary=progress and self.cell_summary and self.success_column == "success",
+                    success=self.success_column,
                 )
             else:
                 part = _stored_rows(spec, path, console)
@@ -247,12 +259,7 @@ class Reproduction:
         for tab in tables:
             pd.DataFrame(tab.rows, columns=tab.headers).to_csv(out / f"{tab.name}.csv", index=False)
             if tab.console:
-                rt = RichTable(title=tab.title)
-                for i, h in enumerate(tab.headers):
-                    rt.add_column(h, justify="left" if i < tab.left else "right")
-                for r in tab.rows:
-                    rt.add_row(*r)
-                console.print(rt)
+                console.print(console_table(tab))
                 if tab.note:
                     console.print(tab.note)
         console.print(f"wall time {wall:.0f} s on {workers} worker(s) ({backend})")
@@ -298,6 +305,9 @@ class Reproduction:
                         sections=sections,
                         seed=seed,
                         paired=self.report_paired,
+                        success=self.success_column,
+                        success_label=self.success_label,
+                        rows=df,
                     )
             except Exception:
                 console.print(f"[red]report failed:[/]\n{traceback.format_exc()}")
@@ -336,6 +346,24 @@ def _stored_rows(spec: Any, path: Path, console: Any) -> Any:
             console.print(f"{path.name} holds another sweep's settings: not used")
             return pd.DataFrame()
         return store.frame()
+
+
+CONSOLE_WIDTH = 100
+"""Columns a reproduction's console tables must fit in (wider ones go to CSV and the report)."""
+
+
+def console_table(tab: Table) -> Any:
+    """A compact rich table of ``tab`` (no vertical rules, so that it fits
+    :data:`CONSOLE_WIDTH` columns)."""
+    from rich import box
+    from rich.table import Table as RichTable
+
+    rt = RichTable(title=tab.title, box=box.SIMPLE_HEAD, show_edge=False, collapse_padding=True)
+    for i, h in enumerate(tab.headers):
+        rt.add_column(h, justify="left" if i < tab.left else "right", no_wrap=True)
+    for r in tab.rows:
+        rt.add_row(*r)
+    return rt
 
 
 def names_of_reproductions() -> list[str]:

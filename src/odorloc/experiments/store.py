@@ -85,6 +85,18 @@ VOLATILE_COLUMNS = ("wall_time", "finished_at")
 _RESERVED = {"status", "error", "wall_time", "arrays", "traceback"}
 
 
+def connect_readonly(path: Path) -> sqlite3.Connection:
+    """A read-only connection that leaves the store's folder as it is.
+
+    A reader of a write-ahead-log database normally creates its ``-wal`` and ``-shm`` files;
+    when there is no ``-wal`` file (the store was closed cleanly, everything is in the main
+    file) the file is opened as immutable, which creates nothing.
+    """
+    wal = path.with_name(path.name + "-wal")
+    extra = "" if wal.exists() else "&immutable=1"
+    return sqlite3.connect(f"{Path(path).absolute().as_uri()}?mode=ro{extra}", uri=True)
+
+
 def _create_sql() -> str:
     metric_cols = ",\n  ".join(f"{k} {t}" for k, t in STANDARD_METRICS.items())
     return f"""
@@ -178,7 +190,7 @@ class ResultStore:
         if readonly or self.path.exists():
             self._check_existing()
         if readonly:
-            self._con = sqlite3.connect(f"file:{self.path}?mode=ro", uri=True)
+            self._con = connect_readonly(self.path)
         else:
             self.path.parent.mkdir(parents=True, exist_ok=True)
             self._con = sqlite3.connect(self.path)
@@ -189,22 +201,45 @@ class ResultStore:
 
     # ------------------------------------------------------------------ lifecycle
     def _check_existing(self) -> None:
+        if self.path.is_dir():
+            raise ConfigError("store", f"{self.path} is a folder, not a results store")
         if not self.path.is_file():
             raise ConfigError("store", f"no results store at {self.path}")
         if self.path.stat().st_size == 0:
+            if self.readonly:
+                raise ConfigError("store", f"{self.path} is empty (0 bytes): no results stored")
             return
         try:
-            con = sqlite3.connect(f"file:{self.path}?mode=ro", uri=True)
+            con = connect_readonly(self.path)
             try:
                 tables = {r[0] for r in con.execute("SELECT name FROM sqlite_master")}
+                columns = {
+                    t: {r[1] for r in con.execute(f"PRAGMA table_info({t})")}
+                    for t in ("meta", "episodes", "arrays")
+                    if t in tables
+                }
             finally:
                 con.close()
         except sqlite3.DatabaseError:
             raise ConfigError("store", f"{self.path} is not an odorloc results store") from None
-        if tables and not {"meta", "episodes"} <= tables:
+        if not tables:
+            if self.readonly:
+                raise ConfigError("store", f"{self.path} is an empty database: no results stored")
+            return
+        if not {"meta", "episodes"} <= tables:
             raise ConfigError(
                 "store", f"{self.path} is a database but not an odorloc results store"
             )
+        wanted = {"meta": {"key", "value"}, "episodes": set(COLUMNS)}
+        wanted["arrays"] = {"cell_id", "episode", "npz"}
+        for t, cols in columns.items():
+            missing = sorted(wanted[t] - cols)
+            if missing:
+                raise ConfigError(
+                    "store",
+                    f"{self.path} is not an odorloc results store: table {t!r} lacks "
+                    f"column(s) {', '.join(missing[:5])}" + (" ..." if len(missing) > 5 else ""),
+                )
 
     def close(self) -> None:
         """Close the connection (the data are already committed)."""
@@ -341,10 +376,17 @@ class ResultStore:
         """``{(cell_id, episode)}`` of every stored episode."""
         return {(c, int(e)) for c, e in self._con.execute("SELECT cell_id, episode FROM episodes")}
 
-    def cell_counts(self) -> dict[str, tuple[int, int, int]]:
-        """Per cell: ``(episodes, successes, errors)`` stored so far."""
+    def cell_counts(self, success: str = "success") -> dict[str, tuple[int, int, int]]:
+        """Per cell: ``(episodes, successes, errors)`` stored so far; ``success`` names the
+        column counted (a standard column or a numeric metric kept in ``extra``)."""
+        if success == "success":
+            hit = "success"
+        elif success.isidentifier():
+            hit = f"CAST(json_extract(extra, '$.{success}') AS INTEGER)"
+        else:
+            raise ConfigError("success", f"{success!r} is not a column name")
         q = (
-            "SELECT cell_id, COUNT(*), COALESCE(SUM(success), 0), "
+            f"SELECT cell_id, COUNT(*), COALESCE(SUM({hit}), 0), "
             "SUM(CASE WHEN status = 'error' THEN 1 ELSE 0 END) FROM episodes GROUP BY cell_id"
         )
         return {c: (int(n), int(s), int(e)) for c, n, s, e in self._con.execute(q)}
@@ -365,9 +407,14 @@ class ResultStore:
         """
         import pandas as pd
 
-        df = pd.read_sql_query(
-            f"SELECT {', '.join(COLUMNS)} FROM episodes ORDER BY cell_index, episode", self._con
-        )
+        try:
+            df = pd.read_sql_query(
+                f"SELECT {', '.join(COLUMNS)} FROM episodes ORDER BY cell_index, episode",
+                self._con,
+            )
+        except (sqlite3.DatabaseError, pd.errors.DatabaseError) as exc:
+            reason = " ".join(str(exc).split())[-120:]
+            raise ConfigError("store", f"cannot read {self.path}: {reason}") from None
         df["success"] = df["success"].astype("boolean")
         for k, t in STANDARD_METRICS.items():
             if t == "REAL":
@@ -446,12 +493,70 @@ def expand_frame(df: Any) -> Any:
                 new[k] = [s.get(k) for s in swept]
     if not new:
         return df
-    # one concatenation: inserting hundreds of per-agent columns one by one fragments the frame
+    # one concatenation instead of one insertion per column (no fragmented frame)
     return pd.concat([df, pd.DataFrame(new, index=df.index)], axis=1)
 
 
+REQUIRED_COLUMNS = ("cell_id", "world_key", "episode", "scenario", "searcher", "status")
+"""Columns a results table (store, CSV or Parquet export) must have, with the standard
+metrics."""
+
+
+def check_results_frame(df: Any, source: str = "results") -> Any:
+    """``df`` with its standard columns typed, or :class:`ConfigError` if it is not a results
+    table (missing columns, a metric column that is not numeric)."""
+    import pandas as pd
+
+    missing = [c for c in (*REQUIRED_COLUMNS, *STANDARD_METRICS) if c not in df.columns]
+    if missing:
+        more = " ..." if len(missing) > 5 else ""
+        raise ConfigError(
+            "results",
+            f"{source} is not an odorloc results table: no column(s) "
+            f"{', '.join(missing[:5])}{more}",
+        )
+    df = df.copy()
+    for k, t in STANDARD_METRICS.items():
+        if t == "TEXT":
+            df[k] = df[k].astype("string").fillna("")
+            continue
+        col = df[k]
+        if k == "success":
+            col = col.map(
+                lambda v: (
+                    {"true": 1, "false": 0}.get(v.strip().lower(), v) if isinstance(v, str) else v
+                )
+            )
+        try:
+            num = pd.to_numeric(col)
+        except (ValueError, TypeError):
+            raise ConfigError(
+                "results", f"{source}: column {k!r} holds values that are not numbers"
+            ) from None
+        if k == "success":
+            df[k] = num.astype("Float64").astype("boolean")
+        else:
+            df[k] = num.astype(float)
+    try:
+        df["episode"] = pd.to_numeric(df["episode"]).astype(int)
+    except (ValueError, TypeError):
+        raise ConfigError("results", f"{source}: column 'episode' must hold integers") from None
+    df["status"] = df["status"].astype("string").fillna("ok")
+    if "error" not in df.columns:
+        df["error"] = ""
+    df["error"] = df["error"].astype("string").fillna("")
+    return df
+
+
 def open_results(source: Any) -> Any:
-    """A results DataFrame from a store, a store path, a CSV/Parquet file or a DataFrame."""
+    """A results DataFrame from a store, a store path, a CSV/Parquet file or a DataFrame.
+
+    Raises
+    ------
+    ConfigError
+        ``results``: a file that cannot be read as a table or is not a results table;
+        ``store``: a database that is not a results store.
+    """
     import pandas as pd
 
     if isinstance(source, pd.DataFrame):
@@ -459,9 +564,17 @@ def open_results(source: Any) -> Any:
     if isinstance(source, ResultStore):
         return source.frame()
     path = Path(source)
-    if path.suffix == ".csv":
-        return expand_frame(pd.read_csv(path))
-    if path.suffix in (".parquet", ".pq"):
-        return expand_frame(pd.read_parquet(path))
+    if path.suffix in (".csv", ".parquet", ".pq"):
+        if not path.is_file():
+            raise ConfigError("results", f"no such file: {path}")
+        try:
+            if path.suffix == ".csv":
+                df = pd.read_csv(path, encoding="utf-8", low_memory=False)
+            else:
+                df = pd.read_parquet(path)
+        except Exception as exc:  # any reader failure means the file is not a table we can use
+            reason = " ".join(str(exc).split())[:120] or type(exc).__name__
+            raise ConfigError("results", f"cannot read {path} as a table: {reason}") from None
+        return expand_frame(check_results_frame(df, str(path)))
     with ResultStore(path, readonly=True) as st:
         return st.frame()

@@ -66,16 +66,17 @@ import hashlib
 import itertools
 import json
 import math
-from collections.abc import Callable, Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
 
 import pydantic
-import yaml
 from pydantic import Field, field_validator, model_validator
+from pydantic_core import PydanticCustomError
 
 from odorloc.core.errors import ConfigError, format_validation_error
+from odorloc.core.loading import load_yaml_mapping
 from odorloc.core.params import Params
 from odorloc.core.seeds import episode_seeds
 
@@ -87,18 +88,24 @@ EpisodeFn = Callable[["EpisodeTask"], dict]
 
 _SCALAR = (str, int, float, bool, type(None))
 
+MAX_EPISODES = 1_000_000
+"""Most episodes per cell (``episodes``, ``adaptive.max_episodes``)."""
+MAX_CELLS = 10_000
+"""Most cells of a sweep's cross product (every one is validated before the first episode)."""
+
 
 def _check_value(v: Any, where: str) -> Any:
-    """Reject values that cannot be written canonically to JSON (so the hash is well defined)."""
+    """Reject values that cannot be written canonically to JSON (so the hash is well defined);
+    :class:`ConfigError` naming ``where`` (the override key)."""
     if isinstance(v, float) and not math.isfinite(v):
-        raise ValueError(f"{where}: must be finite")
+        raise ConfigError(where, "must be finite")
     if isinstance(v, _SCALAR):
         return v
     if isinstance(v, list | tuple):
         return [_check_value(x, where) for x in v]
     if isinstance(v, dict):
         return {str(k): _check_value(x, where) for k, x in v.items()}
-    raise ValueError(f"{where}: unsupported value type {type(v).__name__}")
+    raise ConfigError(where, f"unsupported value type {type(v).__name__}")
 
 
 class ComponentSpec(Params):
@@ -129,7 +136,7 @@ class ComponentSpec(Params):
     @field_validator("params")
     @classmethod
     def _params_ok(cls, v: dict[str, Any]) -> dict[str, Any]:
-        return _check_value(v, "value")
+        return {str(k): _check_value(x, str(k)) for k, x in v.items()}
 
     @field_validator("agent_grid")
     @classmethod
@@ -147,23 +154,23 @@ class ComponentSpec(Params):
     def _grid_ok(cls, v: dict[str, list[Any]]) -> dict[str, list[Any]]:
         for key, values in v.items():
             if len(values) == 0:
-                raise ValueError(f"grid {key!r} has no values")
+                raise ConfigError(key, "has no values")
             _check_value(values, key)
             canon = [json.dumps(x, sort_keys=True) for x in values]
             if len(set(canon)) != len(canon):
-                raise ValueError(f"grid {key!r} repeats a value")
+                raise ConfigError(key, "repeats a value")
         return v
 
     @model_validator(mode="after")
     def _no_overlap(self) -> ComponentSpec:
-        for a, b, what in (
-            (self.params, self.grid, "a fixed param and a grid axis"),
-            (self.params, self.agent_grid, "a fixed param and an agent_grid axis"),
-            (self.grid, self.agent_grid, "a grid and an agent_grid axis"),
+        for a, b, field, what in (
+            (self.params, self.grid, "grid", "is also a fixed parameter (params)"),
+            (self.params, self.agent_grid, "agent_grid", "is also a fixed parameter (params)"),
+            (self.grid, self.agent_grid, "agent_grid", "is both a grid and an agent_grid axis"),
         ):
             both = sorted(set(a) & set(b))
             if both:
-                raise ValueError(f"{both[0]!r} is both {what}")
+                raise ConfigError(f"{field}.{both[0]}", what)
         return self
 
     @property
@@ -195,35 +202,65 @@ class AdaptiveSpec(Params):
 
     metric: Literal["success", "search_time"] = "success"
     target_width: float = Field(gt=0)
-    batch: int = Field(default=20, ge=1)
-    max_episodes: int = Field(default=1000, ge=1)
+    batch: int = Field(default=20, ge=1, le=MAX_EPISODES)
+    max_episodes: int = Field(default=1000, ge=1, le=MAX_EPISODES)
     level: float = Field(default=0.95, gt=0, lt=1)
     extend_together: bool = True
 
 
 class SweepSpec(Params):
-    """A validated sweep file (see the module docstring for the YAML layout)."""
+    """A validated sweep file (see the module docstring for the YAML layout).
+
+    ``episodes`` lies in ``[1, MAX_EPISODES]`` and the cross product of scenarios, searchers
+    and their grids may have at most :data:`MAX_CELLS` cells.
+    """
 
     name: str = "sweep"
     seed: int = Field(ge=0, lt=2**63)
-    episodes: int = Field(ge=1)
+    episodes: int = Field(ge=1, le=MAX_EPISODES)
     scenarios: list[ComponentSpec] = Field(min_length=1)
     searchers: list[ComponentSpec] = Field(min_length=1)
     keep_arrays: bool = False
-    keep_episodes: list[int] = Field(default_factory=list)
+    keep_episodes: list[int] = Field(default_factory=list, max_length=10_000)
     replay: bool = False
     adaptive: AdaptiveSpec | None = None
     base_dir: str | None = Field(default=None, exclude=True)
     """Directory that relative scenario paths are resolved against (the sweep file's folder)."""
 
+    @field_validator("keep_episodes")
+    @classmethod
+    def _episode_indices(cls, v: list[int]) -> list[int]:
+        for e in v:
+            if not 0 <= e < MAX_EPISODES:
+                raise ValueError(f"episode index {e} is not in [0, {MAX_EPISODES})")
+        return v
+
     @model_validator(mode="after")
-    def _unique_labels(self) -> SweepSpec:
+    def _labels_and_size(self) -> SweepSpec:
         for fam in ("scenarios", "searchers"):
             labels = [c.display for c in getattr(self, fam)]
             for i, lab in enumerate(labels):
                 if lab in labels[:i]:
-                    raise ValueError(f"{fam}: label {lab!r} used twice (give a distinct 'label')")
+                    raise _field_error(
+                        f"{fam}[{i}].label", f"{lab!r} is used twice (give a distinct 'label')"
+                    )
+
+        def points(c: ComponentSpec) -> int:
+            return math.prod(len(v) for v in c.grid.values())
+
+        n = sum(points(c) for c in self.scenarios) * sum(points(c) for c in self.searchers)
+        if n > MAX_CELLS:
+            fam, i = max(
+                ((f, i) for f in ("scenarios", "searchers") for i in range(len(getattr(self, f)))),
+                key=lambda fi: points(getattr(self, fi[0])[fi[1]]),
+            )
+            raise _field_error(f"{fam}[{i}].grid", f"the grids make {n} cells; at most {MAX_CELLS}")
         return self
+
+
+def _field_error(field: str, problem: str) -> PydanticCustomError:
+    """A validation error that names ``field`` (see :func:`format_validation_error`)."""
+    return PydanticCustomError("component", "{problem}", {"field": field, "problem": problem})
 
 
 # ----------------------------------------------------------------------------- loading
@@ -231,6 +268,9 @@ class SweepSpec(Params):
 
 def load_sweep(source: str | Path | Mapping[str, Any] | SweepSpec) -> SweepSpec:
     """Read and validate a sweep file, a dict or an existing :class:`SweepSpec`.
+
+    Files are read through :mod:`odorloc.core.loading` (size, encoding, YAML limits,
+    duplicate keys); relative scenario paths are relative to the sweep file's folder.
 
     Raises
     ------
@@ -242,26 +282,20 @@ def load_sweep(source: str | Path | Mapping[str, Any] | SweepSpec) -> SweepSpec:
     base_dir = None
     if isinstance(source, str | Path):
         path = Path(source)
-        if not path.is_file():
-            raise ConfigError("sweep", f"file not found: {path}")
-        try:
-            data = yaml.safe_load(path.read_text())
-        except yaml.YAMLError as exc:
-            mark = getattr(exc, "problem_mark", None)
-            where = f" (line {mark.line + 1})" if mark is not None else ""
-            raise ConfigError("sweep", f"not valid YAML{where}: {path}") from None
-        base_dir = str(path.resolve().parent)
-    else:
+        data: Any = load_yaml_mapping(path, "sweep")
+        base_dir = str(path.absolute().parent)
+    elif isinstance(source, Mapping):
         data = dict(source)
-    if not isinstance(data, dict):
-        raise ConfigError("sweep", "the file must hold a mapping (name, seed, episodes, ...)")
+    else:
+        raise ConfigError("sweep", f"expected a file or a mapping, got {type(source).__name__}")
     if base_dir is not None and "base_dir" not in data:
         data["base_dir"] = base_dir
     try:
         return SweepSpec.model_validate(data)
     except pydantic.ValidationError as err:
-        line = format_validation_error(err)
+        line = format_validation_error(err, model=SweepSpec)
         fld, _, problem = line.partition(": ")
+        fld = fld.replace(".[", "[")
         raise ConfigError(fld, problem) from None
 
 
@@ -328,9 +362,11 @@ class Cell:
         Scenario part of the id; cells sharing it are paired (common random numbers).
     spec : dict
         ``{"scenario", "scenario_params", "searcher", "searcher_params"}`` with the fixed and
-        swept overrides merged.
+        swept overrides merged; ``scenario`` is a built-in name or an absolute file path.
     swept : dict
         Only the swept overrides, keys prefixed ``scenario.`` / ``searcher.``.
+    scenario_index, searcher_index : int
+        Which entries of the sweep's ``scenarios`` and ``searchers`` the cell comes from.
     flow_key : str
         Key of the world seeds and of the recorded flow: the world key without the
         ``agent_grid`` axes (equal to it without them).
@@ -341,6 +377,8 @@ class Cell:
     world_key: str
     spec: dict[str, Any]
     swept: dict[str, Any]
+    scenario_index: int = 0
+    searcher_index: int = 0
     flow_key: str = ""
 
     def __post_init__(self) -> None:
@@ -355,46 +393,56 @@ def _fmt_point(point: dict[str, Any]) -> str:
     return f"[{inner}]"
 
 
-def _grid_points(grid: dict[str, list[Any]]) -> list[dict[str, Any]]:
+def _grid_points(grid: dict[str, list[Any]]) -> Iterator[dict[str, Any]]:
     keys = sorted(grid)
-    return [
-        dict(zip(keys, combo, strict=True)) for combo in itertools.product(*(grid[k] for k in keys))
-    ]
+    for combo in itertools.product(*(grid[k] for k in keys)):
+        yield dict(zip(keys, combo, strict=True))
 
 
-def expand_cells(spec: SweepSpec) -> list[Cell]:
-    """All cells in deterministic order: scenarios, their grid, searchers, their grid."""
-    cells: list[Cell] = []
-    for sc in spec.scenarios:
+def iter_cells(spec: SweepSpec) -> Iterator[Cell]:
+    """The cells one by one, in deterministic order: scenarios, their grid, their agent grid,
+    searchers, their grid. Scenario file paths are made absolute (relative to the sweep file's
+    folder), so an episode opens the same file whatever the current folder of the process
+    running it."""
+    from odorloc.scenarios.loading import resolve_ref
+
+    index = 0
+    for i, sc in enumerate(spec.scenarios):
+        ref = resolve_ref(sc.name, spec.base_dir)
         for gp in _grid_points(sc.grid):
             flow_key = f"{sc.display}{_fmt_point(gp)}"
             for ap in _grid_points(sc.agent_grid):
                 sp = {**gp, **ap}
                 world_key = f"{sc.display}{_fmt_point(sp)}"
-                for se in spec.searchers:
+                for j, se in enumerate(spec.searchers):
                     for ep in _grid_points(se.grid):
                         cell_id = f"{world_key}/{se.display}{_fmt_point(ep)}"
                         swept = {f"scenario.{k}": v for k, v in sp.items()}
                         swept.update({f"searcher.{k}": v for k, v in ep.items()})
-                        cells.append(
-                            Cell(
-                                index=len(cells),
-                                cell_id=cell_id,
-                                world_key=world_key,
-                                spec={
-                                    "scenario": sc.name,
-                                    "scenario_label": sc.display,
-                                    "scenario_params": {**sc.params, **sp},
-                                    "searcher": se.name,
-                                    "searcher_label": se.display,
-                                    "searcher_params": {**se.params, **ep},
-                                    "swept": swept,
-                                },
-                                swept=swept,
-                                flow_key=flow_key,
-                            )
+                        yield Cell(
+                            index=index,
+                            cell_id=cell_id,
+                            world_key=world_key,
+                            spec={
+                                "scenario": ref,
+                                "scenario_label": sc.display,
+                                "scenario_params": {**sc.params, **sp},
+                                "searcher": se.name,
+                                "searcher_label": se.display,
+                                "searcher_params": {**se.params, **ep},
+                                "swept": swept,
+                            },
+                            swept=swept,
+                            scenario_index=i,
+                            searcher_index=j,
+                            flow_key=flow_key,
                         )
-    return cells
+                        index += 1
+
+
+def expand_cells(spec: SweepSpec) -> list[Cell]:
+    """All cells in deterministic order (see :func:`iter_cells`)."""
+    return list(iter_cells(spec))
 
 
 @dataclass(frozen=True)
@@ -480,57 +528,61 @@ def expand_tasks(
 
 
 def validate_names(spec: SweepSpec) -> None:
-    """Check scenario and searcher names against the package's own registries where present.
-
-    Scenarios are resolved with ``odorloc.scenarios.get_scenario`` and searchers looked up in the
-    ``"searcher"`` registry family. A module that does not exist yet is skipped.
+    """Check scenario and searcher names (see :func:`.sweep_check.check_names`).
 
     Raises
     ------
     ConfigError
         Naming ``scenarios[i].name`` / ``searchers[i].name``.
     """
-    try:
-        from odorloc.scenarios import get_scenario  # type: ignore[attr-defined]
-    except ImportError:
-        get_scenario = None
-    if get_scenario is not None:
-        for i, sc in enumerate(spec.scenarios):
-            name = sc.name
-            if spec.base_dir and name.endswith((".yaml", ".yml", ".json")):
-                p = Path(spec.base_dir) / name
-                if p.is_file():
-                    name = str(p)
-            try:
-                base = get_scenario(name)
-            except ConfigError as exc:
-                raise ConfigError(f"scenarios[{i}].name", str(exc)) from None
-            except (KeyError, FileNotFoundError, ValueError) as exc:
-                raise ConfigError(
-                    f"scenarios[{i}].name", f"unknown scenario {sc.name!r}: {exc}"
-                ) from None
-            drawn = base.world.source_draw is not None or any(
-                k.startswith("world.source_draw") for k in (*sc.params, *sc.grid)
-            )
-            if sc.agent_grid and drawn:
-                # the drawn sources keep a distance from the starts: placements would not
-                # share one world
-                raise ConfigError(
-                    f"scenarios[{i}].agent_grid", "cannot be used with world.source_draw"
-                )
-    try:
-        from odorloc.core import registry
+    from odorloc.experiments.sweep_check import check_names
 
-        known = registry.names("searcher")
-    except ImportError:
-        known = []
-    if known:
-        for i, se in enumerate(spec.searchers):
-            if se.name not in known:
-                raise ConfigError(
-                    f"searchers[{i}].name",
-                    f"unknown searcher {se.name!r} (known: {', '.join(known)})",
-                )
+    check_names(spec)
+
+
+def iter_pending(
+    spec: SweepSpec,
+    cells: Sequence[Cell],
+    targets: Mapping[str, int],
+    done: set[tuple[str, int]],
+    chash: str,
+) -> Iterator[EpisodeTask]:
+    """The tasks not yet stored, generated one by one (ordered by cell, then episode)."""
+    for c in cells:
+        for e in range(targets[c.cell_id]):
+            if (c.cell_id, e) not in done:
+                yield make_task(spec, c, e, chash)
+
+
+def iter_pending_groups(
+    spec: SweepSpec,
+    cells: Sequence[Cell],
+    targets: Mapping[str, int],
+    done: set[tuple[str, int]],
+    chash: str,
+) -> Iterator[list[EpisodeTask]]:
+    """The pending tasks of a replay sweep as flow groups (one flow key and episode each: all
+    cells replaying one recorded flow), generated one by one (ordered by flow key, then
+    episode)."""
+    by_world: dict[str, list[Cell]] = {}
+    for c in cells:
+        by_world.setdefault(c.flow_key, []).append(c)
+    for group_cells in by_world.values():
+        n = max(targets[c.cell_id] for c in group_cells)
+        for e in range(n):
+            group = [
+                make_task(spec, c, e, chash)
+                for c in group_cells
+                if e < targets[c.cell_id] and (c.cell_id, e) not in done
+            ]
+            if group:
+                yield group
+
+
+def count_pending(targets: Mapping[str, int], done: set[tuple[str, int]]) -> int:
+    """How many of the ``targets`` episodes are not in ``done``."""
+    have = sum(1 for cid, e in done if e < targets.get(cid, 0))
+    return sum(targets.values()) - have
 
 
 # ----------------------------------------------------------------------------- runner
@@ -594,6 +646,7 @@ def run_sweep(
     chunk_size: int | None = None,
     group_fn: Callable[[list[EpisodeTask]], list[dict]] | None = None,
     summary: bool | None = None,
+    success: str = "success",
 ) -> Any:
     """Run (or resume) a sweep, writing every finished episode to the store at once.
 
@@ -620,8 +673,10 @@ def run_sweep(
     retry_errors : bool
         Run again the episodes stored with status ``"error"`` (their rows are replaced).
     validate : bool, optional
-        Check scenario/searcher names against the registries; default: only with the real
-        episode function.
+        Validate every cell before anything runs (:func:`.sweep_check.check_sweep`: names,
+        overrides, grid values, each cell's scenario built and its searcher reset); default:
+        only with the real episode function. An invalid sweep raises before the store is
+        opened, so the store is left untouched.
     timeout : float, seconds
         How long to wait for a Dask scheduler before giving up.
     chunk_size : int, optional
@@ -631,7 +686,10 @@ def run_sweep(
         and episode, on one recorded flow); default
         :func:`odorloc.experiments.runner.replay_group`.
     summary : bool, optional
-        Print the per-cell summary table at the end (default: with ``progress``).
+        Print the per-cell summary table at the end (default: with ``progress``; a
+        reproduction prints its own tables instead).
+    success : str
+        Row column the progress bars count as a success (a reproduction's own criterion).
 
     Returns
     -------
@@ -651,7 +709,10 @@ def run_sweep(
     if validate is None:
         validate = episode_fn is None
     if validate:
-        validate_names(spec)
+        # every cell, before the store is opened or a worker started
+        from odorloc.experiments.sweep_check import check_sweep
+
+        check_sweep(spec, iter_cells(spec))
     if episode_fn is None:
         episode_fn = default_episode_fn()
     if spec.replay and group_fn is None:
@@ -662,37 +723,35 @@ def run_sweep(
         backend = "dask"
     cells = expand_cells(spec)
     chash = config_hash(spec)
-    cell_by_id = {c.cell_id: c for c in cells}
-
+    if Path(store_path).exists():
+        # refuse a store of another sweep before writing anything to it
+        with ResultStore(store_path, readonly=True) as probe:
+            probe.check(chash)
     runner = make_backend(backend, workers=workers, scheduler=scheduler, timeout=timeout)
     with ResultStore(store_path) as store:
-        # refuse a store of another sweep before starting any worker
         store.check(chash)
-        with runner, SweepProgress(enabled=progress) as prog:
+        with runner, SweepProgress(enabled=progress, success=success) as prog:
             store.bind(chash, spec)
             if retry_errors:
                 store.delete_errors()
             targets = {c.cell_id: spec.episodes for c in cells}
             while True:
                 done = store.done_keys()
-                pending = [
-                    make_task(spec, cell_by_id[cid], e, chash)
-                    for cid, n in targets.items()
-                    for e in range(n)
-                    if (cid, e) not in done
-                ]
-                prog.begin_round(cells, targets, store.cell_counts())
+                n_pending = count_pending(targets, done)
+                prog.begin_round(cells, targets, store.cell_counts(success))
                 keep = spec.keep_arrays or bool(spec.keep_episodes)
-                if pending and spec.replay:
+                if n_pending and spec.replay:
                     assert group_fn is not None
-                    groups: dict[tuple[str, int], list[EpisodeTask]] = {}
-                    for task in pending:
-                        groups.setdefault((task.flow_key, task.episode), []).append(task)
+                    groups = iter_pending_groups(spec, cells, targets, done, chash)
+                    work = runner.run((), group_fn, keep_arrays=keep, groups=groups)
+                elif n_pending:
                     work = runner.run(
-                        pending, group_fn, keep_arrays=keep, groups=list(groups.values())
+                        iter_pending(spec, cells, targets, done, chash),
+                        episode_fn,
+                        keep_arrays=keep,
+                        chunk_size=chunk_size,
+                        total=n_pending,
                     )
-                elif pending:
-                    work = runner.run(pending, episode_fn, keep_arrays=keep, chunk_size=chunk_size)
                 else:
                     work = iter(())
                 for task, row in work:

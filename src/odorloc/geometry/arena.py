@@ -9,6 +9,7 @@ The occupancy grid ``occ`` has shape ``(nx, ny)`` or ``(nx, ny, nz)``: it lives 
 from __future__ import annotations
 
 import csv
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -17,7 +18,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from odorloc.core.errors import ConfigError
-from odorloc.geometry.grid import CellGrid
+from odorloc.geometry.grid import MAX_GRID_CELLS, CellGrid, check_cell_count
 
 FloatArray = NDArray[np.float64]
 BoolArray = NDArray[np.bool_]
@@ -64,11 +65,15 @@ class Arena:
         if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi))):
             raise ConfigError("arena.upper", "bounds must be finite")
         if np.any(hi <= lo):
-            raise ConfigError("arena.upper", f"must exceed lower in every axis ({hi} vs {lo})")
+            raise ConfigError(
+                "arena.upper",
+                f"must exceed lower in every axis ({tuple(hi.tolist())} vs {tuple(lo.tolist())})",
+            )
         if not (np.isfinite(self.resolution) and self.resolution > 0):
             raise ConfigError("arena.resolution", "must be a finite number > 0")
         object.__setattr__(self, "lower", tuple(float(x) for x in lo))
         object.__setattr__(self, "upper", tuple(float(x) for x in hi))
+        check_cell_count((hi - lo) / self.resolution, self.resolution, "arena.resolution")
         shape = tuple(int(n) for n in np.maximum(1, np.ceil((hi - lo) / self.resolution - 1e-9)))
         object.__setattr__(self, "grid", CellGrid(self.lower, float(self.resolution), shape))
         for name, corner in (("_lo", self.lower), ("_hi", self.upper)):
@@ -256,9 +261,39 @@ class Arena:
         """Load a 2D occupancy grid from CSV.
 
         Rows are y (the top row is the largest y), columns x; non-zero cells are obstacles.
+
+        Raises
+        ------
+        ConfigError
+            ``occupancy_file``: unreadable, not UTF-8 text, more than
+            :data:`~odorloc.geometry.grid.MAX_GRID_CELLS` cells, ragged rows or a cell that is
+            not a finite number (named by row and column).
         """
-        with open(path, newline="") as fh:
-            rows = [[float(c) for c in r] for r in csv.reader(fh) if r]
+        from odorloc.core.loading import read_text
+
+        text = read_text(path, "occupancy_file")
+        rows: list[list[float]] = []
+        n_cells = 0
+        for i, r in enumerate(csv.reader(text.splitlines())):
+            if not r:
+                continue
+            n_cells += len(r)
+            if n_cells > MAX_GRID_CELLS:
+                raise ConfigError("occupancy_file", f"{path} has more than {MAX_GRID_CELLS} cells")
+            row = []
+            for j, c in enumerate(r):
+                try:
+                    v = float(c)
+                except ValueError:
+                    v = math.nan
+                if not math.isfinite(v):
+                    raise ConfigError(
+                        "occupancy_file",
+                        f"{path} row {i + 1}, column {j + 1}: {c.strip()[:20]!r} is not a "
+                        "finite number",
+                    ) from None
+                row.append(v)
+            rows.append(row)
         if not rows or len({len(r) for r in rows}) != 1:
             raise ConfigError("occupancy_file", f"{path}: rows must be non-empty and equal length")
         img = np.asarray(rows) != 0
@@ -272,13 +307,34 @@ class Arena:
         origin: Sequence[float] = (0.0, 0.0),
         threshold: float = 0.5,
     ) -> Arena:
-        """Load a 2D occupancy grid from an image (ROS map style: dark pixels are obstacles)."""
+        """Load a 2D occupancy grid from an image (ROS map style: dark pixels are obstacles).
+
+        Raises
+        ------
+        ConfigError
+            ``occupancy_file``: not an image, unreadable, or more than
+            :data:`~odorloc.geometry.grid.MAX_GRID_CELLS` pixels.
+        """
+        import warnings
+
         from PIL import Image
 
         try:
-            img = np.asarray(Image.open(path).convert("L"), float) / 255.0
-        except OSError as exc:
-            raise ConfigError("occupancy_file", f"cannot read image {path}: {exc}") from None
+            with warnings.catch_warnings():
+                warnings.simplefilter("error", Image.DecompressionBombWarning)
+                with Image.open(path) as im:
+                    w, h = im.size
+                    if w * h > MAX_GRID_CELLS:
+                        raise ConfigError(
+                            "occupancy_file",
+                            f"{path} has {w} x {h} pixels; at most {MAX_GRID_CELLS}",
+                        )
+                    img = np.asarray(im.convert("L"), float) / 255.0
+        except (OSError, ValueError, SyntaxError, Image.DecompressionBombWarning) as exc:
+            if isinstance(exc, ConfigError):
+                raise
+            reason = " ".join(str(exc).split())[:120] or type(exc).__name__
+            raise ConfigError("occupancy_file", f"cannot read image {path}: {reason}") from None
         return cls.from_grid((img < threshold)[::-1].T, resolution, origin)
 
     def distance_to_bounds(self, points: ArrayLike) -> FloatArray:

@@ -21,10 +21,34 @@ from numpy.typing import ArrayLike, NDArray
 
 from odorloc.core.errors import ConfigError
 
-__all__ = ["CellGrid", "multilinear"]
+__all__ = ["MAX_GRID_CELLS", "CellGrid", "check_cell_count", "multilinear"]
+
+MAX_GRID_CELLS = 20_000_000
+"""Most cells of one grid (a float64 field of this size takes 160 MB): a cell size too small
+for its extent is refused instead of exhausting memory."""
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.intp]
+
+
+def check_cell_count(
+    counts: ArrayLike, cell_size: float | Sequence[float], field: str = "cell_size"
+) -> None:
+    """Refuse a grid of more than :data:`MAX_GRID_CELLS` cells before it is sized in integers.
+
+    ``counts`` are the (float) cells per axis, e.g. ``extent / cell_size``.
+    """
+    c = np.maximum(np.asarray(counts, float), 1.0)
+    # in logarithms: the product of absurd counts must not overflow (and warn) before it is
+    # refused
+    log_total = float(np.sum(np.log(c))) if np.all(np.isfinite(c)) else math.inf
+    if not log_total <= math.log(MAX_GRID_CELLS):
+        shown = f"{math.exp(log_total):.3g}" if log_total < 700 else "too many"
+        raise ConfigError(
+            field,
+            f"{cell_size} m cells make a grid of {shown} cells; at most {MAX_GRID_CELLS} "
+            "(use larger cells)",
+        )
 
 
 @dataclass(frozen=True, eq=False)
@@ -63,6 +87,7 @@ class CellGrid:
         shape = tuple(int(n) for n in self.shape)
         if len(shape) != len(lo) or min(shape) < 1:
             raise ConfigError("grid.shape", f"needs {len(lo)} positive cell counts, got {shape}")
+        check_cell_count(shape, cs)
         object.__setattr__(self, "lower", lo)
         object.__setattr__(self, "cell_size", cs)
         object.__setattr__(self, "shape", shape)
@@ -91,6 +116,7 @@ class CellGrid:
             raise ConfigError("grid.upper", f"must exceed lower in every axis ({hi} vs {lo})")
         if not (math.isfinite(cell_size) and cell_size > 0):
             raise ConfigError("grid.cell_size", "must be a finite number > 0")
+        check_cell_count((hi - lo) / cell_size, cell_size)
         if rounding == "floor":
             # The small tolerance keeps 10 m / 0.05 m at 200 cells despite rounding.
             n = np.floor((hi - lo) / cell_size + 1e-9).astype(int)

@@ -42,13 +42,8 @@ __all__ = [
     "rate_means",
 ]
 
-try:  # numba is the optional extra "fast"
-    import numba as _numba
-
-    HAVE_NUMBA = True
-except ImportError:  # pragma: no cover - exercised only without the extra
-    _numba = None
-    HAVE_NUMBA = False
+from odorloc.core.jit import HAVE_NUMBA
+from odorloc.core.jit import jit as _cached_jit
 
 
 def _available(backend: str) -> str:
@@ -68,10 +63,9 @@ def compiled(backend: str) -> bool:
 
 
 def jit(fn):  # type: ignore[no-untyped-def]
-    """``fn`` compiled with ``numba.njit(cache=True, nogil=True)``, or ``fn`` without numba."""
-    if _numba is None:  # pragma: no cover
-        return fn
-    return _numba.njit(cache=True, nogil=True)(fn)
+    """``fn`` compiled with ``numba.njit(cache=True, nogil=True)`` into the shared kernel cache
+    (:mod:`odorloc.core.jit`), or ``fn`` without numba."""
+    return _cached_jit(fn, nogil=True)
 
 
 @jit

@@ -280,7 +280,7 @@ class AdaptivePlannerParams(LatticeParams):
     h2_scale: NonNegative = 0.1
     zeta_threshold: float = Field(0.1, gt=0.0, lt=1.0)
     zeta_product: float = Field(0.1, gt=0.0, le=1.0)
-    l_max: int | None = Field(None, ge=1)
+    l_max: int | None = Field(None, ge=1, le=1_000_000)
     tail_mass: float = Field(1e-6, gt=0.0, lt=0.1)
 
 

@@ -48,11 +48,12 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import lru_cache
-from typing import Literal, Protocol
+from typing import Any, Literal, Protocol
 
 import numpy as np
 
 from odorloc.core.errors import ConfigError
+from odorloc.core.jit import HAVE_NUMBA, jit
 from odorloc.geometry.vectors import lattice_moves
 from odorloc.inference.belief import ParticleBelief
 from odorloc.models.lattice import OffsetTable
@@ -223,57 +224,70 @@ def _correlate_numpy(
     return out
 
 
-_NUMBA: list = []
+# Rows outermost and a contiguous innermost loop: it vectorises, and each belief row is read
+# once for every candidate and channel.
+def _corr2(ch, b, cells, h0, h1, out):  # type: ignore[no-untyped-def]  # pragma: no cover
+    n0, n1 = b.shape
+    out[:, :] = 0.0
+    for i in range(n0):
+        brow = b[i]
+        for m in range(cells.shape[0]):
+            r = i + h0 - cells[m, 0]
+            o1 = h1 - cells[m, 1]
+            for c in range(ch.shape[0]):
+                row = ch[c, r, o1 : o1 + n1]
+                acc = 0.0
+                for j in range(n1):
+                    acc += row[j] * brow[j]
+                out[m, c] += acc
+
+
+def _corr3(ch, b, cells, h0, h1, h2, out):  # type: ignore[no-untyped-def]  # pragma: no cover
+    n0, n1, n2 = b.shape
+    out[:, :] = 0.0
+    for i in range(n0):
+        for j in range(n1):
+            brow = b[i, j]
+            for m in range(cells.shape[0]):
+                r0 = i + h0 - cells[m, 0]
+                r1 = j + h1 - cells[m, 1]
+                o2 = h2 - cells[m, 2]
+                for c in range(ch.shape[0]):
+                    row = ch[c, r0, r1, o2 : o2 + n2]
+                    acc = 0.0
+                    for k in range(n2):
+                        acc += row[k] * brow[k]
+                    out[m, c] += acc
+
+
+def _warm_corr2(kernel: Any) -> None:
+    """One call on a one-cell belief, with the argument types :func:`_correlate` uses."""
+    kernel(np.ones((1, 1, 1)), np.ones((1, 1)), np.zeros((1, 2), np.int64), 0, 0, np.zeros((1, 1)))
+
+
+def _warm_corr3(kernel: Any) -> None:
+    """One call on a one-cell 3-D belief, with the argument types :func:`_correlate` uses."""
+    kernel(
+        np.ones((1, 1, 1, 1)),
+        np.ones((1, 1, 1)),
+        np.zeros((1, 3), np.int64),
+        0,
+        0,
+        0,
+        np.zeros((1, 1)),
+    )
+
+
+if HAVE_NUMBA:
+    # module-level kernels with a cache in the user's cache folder, so that the cache hits in
+    # every later process and nothing is written into the package (see odorloc.core.jit)
+    _corr2 = jit(_corr2, warmup=_warm_corr2, fastmath=True)
+    _corr3 = jit(_corr3, warmup=_warm_corr3, fastmath=True)
 
 
 def _correlate_kernel():  # type: ignore[no-untyped-def]
-    """The compiled correlation (2-D and 3-D), or ``None`` without numba (compiled once)."""
-    if _NUMBA:
-        return _NUMBA[0]
-    try:
-        import numba
-    except ImportError:
-        _NUMBA.append(None)
-        return None
-
-    # Rows outermost and a contiguous innermost loop: it vectorises, and each belief row is read
-    # once for every candidate and channel.
-    @numba.njit(cache=True, fastmath=True)
-    def corr2(ch, b, cells, h0, h1, out):  # pragma: no cover - compiled
-        n0, n1 = b.shape
-        out[:, :] = 0.0
-        for i in range(n0):
-            brow = b[i]
-            for m in range(cells.shape[0]):
-                r = i + h0 - cells[m, 0]
-                o1 = h1 - cells[m, 1]
-                for c in range(ch.shape[0]):
-                    row = ch[c, r, o1 : o1 + n1]
-                    acc = 0.0
-                    for j in range(n1):
-                        acc += row[j] * brow[j]
-                    out[m, c] += acc
-
-    @numba.njit(cache=True, fastmath=True)
-    def corr3(ch, b, cells, h0, h1, h2, out):  # pragma: no cover - compiled
-        n0, n1, n2 = b.shape
-        out[:, :] = 0.0
-        for i in range(n0):
-            for j in range(n1):
-                brow = b[i, j]
-                for m in range(cells.shape[0]):
-                    r0 = i + h0 - cells[m, 0]
-                    r1 = j + h1 - cells[m, 1]
-                    o2 = h2 - cells[m, 2]
-                    for c in range(ch.shape[0]):
-                        row = ch[c, r0, r1, o2 : o2 + n2]
-                        acc = 0.0
-                        for k in range(n2):
-                            acc += row[k] * brow[k]
-                        out[m, c] += acc
-
-    _NUMBA.append((corr2, corr3))
-    return _NUMBA[0]
+    """The compiled correlations ``(2-D, 3-D)``, or ``None`` without numba."""
+    return (_corr2, _corr3) if HAVE_NUMBA else None
 
 
 def correlate(

@@ -55,7 +55,7 @@ class EulerianParams(Params):
     D: NonNegative = 0.05
     boundary: Literal["open", "closed"] = "open"
     cfl: float = Field(default=0.5, gt=0.0, le=1.0)
-    max_substeps: int = Field(default=100_000, ge=1)
+    max_substeps: int = Field(default=100_000, ge=1, le=10_000_000)
 
 
 def _sl(dim: int, axis: int, s: slice) -> tuple[slice, ...]:

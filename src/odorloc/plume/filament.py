@@ -11,12 +11,13 @@ State is kept as structure-of-arrays (centres ``(F, d)``, squared widths ``(F,)`
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 from pydantic import Field
 from scipy.spatial import cKDTree
 
+from odorloc.core.jit import HAVE_NUMBA, jit
 from odorloc.core.params import NonNegative, Params, Positive
 from odorloc.core.registry import register
 from odorloc.geometry.arena import Arena
@@ -67,7 +68,7 @@ class FilamentParams(Params):
     noise_std: NonNegative = 0.1
     amount: Positive = 1.0
     cutoff: float = Field(default=4.0, ge=1.0, le=10.0)
-    max_filaments: int = Field(default=100_000, ge=1)
+    max_filaments: int = Field(default=100_000, ge=1, le=10_000_000)
     release: Literal["poisson", "deterministic"] = "poisson"
     integrator: Literal["euler", "midpoint"] = "midpoint"
     sensor_radius: Positive = 0.1
@@ -195,50 +196,66 @@ def _concentration_cells(
     return out
 
 
-_KERNEL: list = []
+def _range(x: float, r: float, lo: float, h: float, n: int) -> tuple[int, int]:
+    """Cells ``[i0, i1]`` of an axis (origin ``lo``, cell ``h``, ``n`` cells) within ``r`` of
+    ``x``."""
+    i0 = int(np.floor((x - r - lo) / h))
+    i1 = int(np.floor((x + r - lo) / h))
+    return max(i0, 0), min(i1, n - 1)
+
+
+def _cell_kernel(pts, start, lo, h, dims, pos, sigma2, coef, cut2, out):  # pragma: no cover
+    """Add every filament's truncated Gaussian to the binned points within its cutoff."""
+    ny, nz = dims[1], dims[2]
+    for j in range(pos.shape[0]):
+        lim = cut2 * sigma2[j]
+        r = np.sqrt(lim)
+        inv = 0.5 / sigma2[j]
+        px, py, pz = pos[j, 0], pos[j, 1], pos[j, 2]
+        x0, x1 = _range(px, r, lo[0], h, dims[0])
+        y0, y1 = _range(py, r, lo[1], h, ny)
+        z0, z1 = _range(pz, r, lo[2], h, nz)
+        cj = coef[j]
+        for ix in range(x0, x1 + 1):
+            for iy in range(y0, y1 + 1):
+                base = (ix * ny + iy) * nz
+                for k in range(start[base + z0], start[base + z1 + 1]):
+                    dx = pts[k, 0] - px
+                    dy = pts[k, 1] - py
+                    dz = pts[k, 2] - pz
+                    d2 = dx * dx + dy * dy + dz * dz
+                    if d2 < lim:
+                        out[k] += cj * np.exp(-d2 * inv)
+
+
+def _warm_cells(kernel: Any) -> None:
+    """One call on a single point and filament, with the argument types of
+    :func:`_concentration_cells`."""
+    one = np.ones(1)
+    kernel(
+        np.zeros((1, 3)),
+        np.array([0, 1], np.int64),
+        np.zeros(3),
+        1.0,
+        np.ones(3, np.int64),
+        np.zeros((1, 3)),
+        one,
+        one,
+        9.0,
+        np.zeros(1),
+    )
+
+
+if HAVE_NUMBA:
+    # module-level kernels (the helper first: the kernel resolves it as a global when it
+    # compiles), so the cache hits in every later process (see odorloc.core.jit)
+    _range = jit(_range)
+    _cell_kernel = jit(_cell_kernel, warmup=_warm_cells)
 
 
 def _numba_kernel():
-    """The compiled cell-list kernel, or ``None`` without numba (compiled once, cached)."""
-    if _KERNEL:
-        return _KERNEL[0]
-    try:
-        import numba
-    except ImportError:
-        _KERNEL.append(None)
-        return None
-
-    @numba.njit(cache=True)
-    def _range(x: float, r: float, lo: float, h: float, n: int) -> tuple[int, int]:
-        i0 = int(np.floor((x - r - lo) / h))
-        i1 = int(np.floor((x + r - lo) / h))
-        return max(i0, 0), min(i1, n - 1)
-
-    @numba.njit(cache=True)
-    def kernel(pts, start, lo, h, dims, pos, sigma2, coef, cut2, out):  # pragma: no cover
-        ny, nz = dims[1], dims[2]
-        for j in range(pos.shape[0]):
-            lim = cut2 * sigma2[j]
-            r = np.sqrt(lim)
-            inv = 0.5 / sigma2[j]
-            px, py, pz = pos[j, 0], pos[j, 1], pos[j, 2]
-            x0, x1 = _range(px, r, lo[0], h, dims[0])
-            y0, y1 = _range(py, r, lo[1], h, ny)
-            z0, z1 = _range(pz, r, lo[2], h, nz)
-            cj = coef[j]
-            for ix in range(x0, x1 + 1):
-                for iy in range(y0, y1 + 1):
-                    base = (ix * ny + iy) * nz
-                    for k in range(start[base + z0], start[base + z1 + 1]):
-                        dx = pts[k, 0] - px
-                        dy = pts[k, 1] - py
-                        dz = pts[k, 2] - pz
-                        d2 = dx * dx + dy * dy + dz * dz
-                        if d2 < lim:
-                            out[k] += cj * np.exp(-d2 * inv)
-
-    _KERNEL.append(kernel)
-    return kernel
+    """The compiled cell-list kernel, or ``None`` without numba."""
+    return _cell_kernel if HAVE_NUMBA else None
 
 
 def _concentration_numpy(

@@ -12,8 +12,10 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
+from pydantic import Field
 
 from odorloc.core.errors import ConfigError
 from odorloc.core.params import Params
@@ -141,31 +143,87 @@ class Movie:
 
     @classmethod
     def load(cls, path: str | Path) -> Movie:
-        """Read a movie written by :meth:`save`."""
+        """Read a movie written by :meth:`save`.
+
+        Raises
+        ------
+        ConfigError
+            ``path``: the file is missing, is not an ``.npz`` archive, lacks a key of the
+            layout, or holds arrays whose shapes do not fit together (named in the message).
+        """
+        import zipfile
+
+        p = Path(path)
+        if not p.is_file():
+            raise ConfigError("path", f"movie file not found: {p}")
+        with p.open("rb") as fh:
+            magic = fh.read(6)
+        if magic.startswith(b"\x93NUMPY"):
+            raise ConfigError("path", f"{p} holds one array, not a movie (.npz archive)")
+        if not magic.startswith(b"PK"):
+            raise ConfigError("path", f"{p} is not a movie (.npz archive)")
         try:
-            z = np.load(path, allow_pickle=False)
-        except (OSError, ValueError) as exc:
-            raise ConfigError("path", f"cannot read movie {path}: {exc}") from None
-        with z:
-            keys = set(z.files)
-            dim = len(z["arena_lower"])
-            frames: list[dict[str, np.ndarray]] = [{} for _ in range(len(z["times"]))]
-            for key in keys:
-                if key.startswith("frame_"):
-                    head, name = key.split("__", 1)
-                    frames[int(head[6:])][name] = z[key]
-            return cls(
-                times=z["times"],
-                frames=frames,
-                wind_axes=[z[f"wind_axis_{a}"] for a in range(dim)],
-                wind=z["wind"],
-                arena_lower=z["arena_lower"],
-                arena_upper=z["arena_upper"],
-                resolution=float(z["resolution"]),
-                source_positions=z["source_positions"],
-                source_rates=z["source_rates"],
-                occ=z["occ"] if "occ" in keys else None,
-            )
+            z = np.load(p, allow_pickle=False)
+        except (OSError, ValueError, EOFError, zipfile.BadZipFile) as exc:
+            reason = " ".join(str(exc).split())[:100] or type(exc).__name__
+            raise ConfigError("path", f"cannot read movie {p}: {reason}") from None
+        if not hasattr(z, "files"):
+            raise ConfigError("path", f"{p} holds one array, not a movie (.npz archive)")
+        try:
+            with z:
+                return cls._from_archive(z, p)
+        except ConfigError:
+            raise
+        except (OSError, ValueError, EOFError, zipfile.BadZipFile) as exc:
+            reason = " ".join(str(exc).split())[:100] or type(exc).__name__
+            raise ConfigError("path", f"cannot read movie {p}: {reason}") from None
+
+    @classmethod
+    def _from_archive(cls, z: Any, p: Path) -> Movie:
+        keys = set(z.files)
+        required = ["times", "wind", "arena_lower", "arena_upper", "resolution"]
+        required += ["source_positions", "source_rates"]
+        missing = [k for k in required if k not in keys]
+        if missing:
+            raise ConfigError("path", f"{p} is not a movie: no {', '.join(missing)}")
+        times = np.asarray(z["times"], float)
+        lower = np.asarray(z["arena_lower"], float)
+        dim = lower.size
+        if times.ndim != 1 or times.size == 0 or np.any(np.diff(times) <= 0):
+            raise ConfigError("path", f"{p}: 'times' must be a non-empty increasing list")
+        if dim not in (2, 3):
+            raise ConfigError("path", f"{p}: 'arena_lower' must have 2 or 3 components")
+        axes_missing = [f"wind_axis_{a}" for a in range(dim) if f"wind_axis_{a}" not in keys]
+        if axes_missing:
+            raise ConfigError("path", f"{p} is not a movie: no {', '.join(axes_missing)}")
+        axes = [np.asarray(z[f"wind_axis_{a}"], float) for a in range(dim)]
+        wind = np.asarray(z["wind"], float)
+        want = (times.size, *(ax.size for ax in axes), dim)
+        if wind.shape != want:
+            raise ConfigError("path", f"{p}: 'wind' has shape {wind.shape}, expected {want}")
+        frames: list[dict[str, np.ndarray]] = [{} for _ in range(times.size)]
+        for key in keys:
+            if key.startswith("frame_"):
+                head, _, name = key.partition("__")
+                k = head[6:]
+                if not (name and k.isdigit() and int(k) < times.size):
+                    raise ConfigError("path", f"{p}: array {key!r} is not a frame of the movie")
+                frames[int(k)][name] = z[key]
+        for k, frame in enumerate(frames):
+            if "model" not in frame:
+                raise ConfigError("path", f"{p}: frame {k} has no 'model' entry")
+        return cls(
+            times=times,
+            frames=frames,
+            wind_axes=axes,
+            wind=wind,
+            arena_lower=lower,
+            arena_upper=np.asarray(z["arena_upper"], float),
+            resolution=float(z["resolution"]),
+            source_positions=z["source_positions"],
+            source_rates=z["source_rates"],
+            occ=z["occ"] if "occ" in keys else None,
+        )
 
 
 def record_movie(
@@ -250,12 +308,13 @@ class ReplayParams(Params):
     Attributes
     ----------
     path : str or None
-        ``.npz`` movie file (required unless a :class:`Movie` is passed in code).
+        ``.npz`` movie file (required unless a :class:`Movie` is passed in code); in a scenario
+        file, a relative path is relative to that file's folder.
     loop : bool
         Past the last frame, start again from the first (else hold the last frame).
     """
 
-    path: str | None = None
+    path: str | None = Field(None, json_schema_extra={"file_path": True})
     loop: bool = False
 
 

@@ -40,10 +40,10 @@ from typing import Any, Literal
 
 import numpy as np
 import pydantic
-import yaml
 from pydantic import Field
 
 from odorloc.core.errors import ConfigError, format_validation_error
+from odorloc.core.loading import load_yaml_mapping
 from odorloc.core.params import Params, Positive
 from odorloc.core.types import Observation, SearchContext, SensorInfo
 from odorloc.geometry.arena import Arena
@@ -109,13 +109,8 @@ def load_mapping(source: str | Path | dict[str, Any] | BagMapping) -> BagMapping
         return source
     data: Any = source
     if not isinstance(source, dict):
-        p = Path(source)
-        try:
-            data = yaml.safe_load(p.read_text())
-        except OSError as exc:
-            raise ConfigError("topics", f"cannot read {p}: {exc.strerror}") from None
-        except yaml.YAMLError:
-            raise ConfigError("topics", f"{p} is not valid YAML") from None
+        # the same guarded reader as scenarios and sweeps (encoding, size, aliases, depth)
+        data = load_yaml_mapping(Path(source), "topics")
     if not isinstance(data, dict):
         raise ConfigError("topics", "the topic mapping must be a mapping")
     try:

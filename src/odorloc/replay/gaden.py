@@ -184,6 +184,8 @@ def read_occupancy(path: str | Path) -> tuple[np.ndarray, np.ndarray, float]:
         lines = p.read_text().splitlines()
     except OSError as exc:
         raise _fail(p, f"cannot read occupancy grid ({exc.strerror})") from None
+    except UnicodeDecodeError:
+        raise _fail(p, "not a GADEN occupancy grid (not a text file)") from None
     try:
         lo = np.array(lines[0].split()[1:4], float)
         n = [int(float(v)) for v in lines[2].split()[1:4]]
@@ -433,9 +435,9 @@ class GadenParams(Params):
         Decode every frame once when loading, so a corrupted file is reported before the run.
     """
 
-    path: str
-    extra_paths: list[str] = Field(default_factory=list)
-    occupancy: str | None = None
+    path: str = Field(json_schema_extra={"file_path": True})
+    extra_paths: list[str] = Field(default_factory=list, json_schema_extra={"file_path": True})
+    occupancy: str | None = Field(None, json_schema_extra={"file_path": True})
     frame_dt: Positive = 0.5
     first_iteration: int = Field(0, ge=0)
     loop: bool = False

@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 
 from odorloc.core import registry
-from odorloc.core.errors import ConfigError
+from odorloc.core.errors import ConfigError, join_field
 from odorloc.core.types import Group, SearchContext
 from odorloc.geometry.arena import Arena
 from odorloc.platforms.base import Platform
@@ -26,10 +26,13 @@ def build_arena(cfg: ArenaConfig) -> Arena:
     obs = cfg.obstacles
     if obs.file:
         path = Path(obs.file)
-        if not path.exists():
+        if not path.is_file():
             raise ConfigError("world.arena.obstacles.file", f"{path} does not exist")
         loader = Arena.from_csv if path.suffix.lower() == ".csv" else Arena.from_image
-        grid = loader(path, cfg.resolution, cfg.lower)
+        try:
+            grid = loader(path, cfg.resolution, cfg.lower)
+        except ConfigError as exc:
+            raise ConfigError("world.arena.obstacles.file", exc.problem) from None
         if grid.grid_shape != arena.grid_shape:
             raise ConfigError(
                 "world.arena.obstacles.file",
@@ -46,7 +49,9 @@ def build_arena(cfg: ArenaConfig) -> Arena:
 _TOP_LEVEL = ("world.", "sensors.", "platform.", "agents.", "searcher.", "limits.")
 
 
-def _prefixed(field: str, fn: Any, *args: Any, **kwargs: Any) -> Any:
+def prefixed(field: str, fn: Any, *args: Any, **kwargs: Any) -> Any:
+    """``fn(*args, **kwargs)``, its :class:`ConfigError` named under ``field`` (a component's
+    own field names are relative to it)."""
     try:
         return fn(*args, **kwargs)
     except ConfigError as exc:
@@ -54,17 +59,17 @@ def _prefixed(field: str, fn: Any, *args: Any, **kwargs: Any) -> Any:
         # Components name fields relative to themselves ("sigma0"); errors that already carry
         # a scenario path ("world.sources[0]...") are kept as they are.
         if not inner.startswith(_TOP_LEVEL):
-            inner = f"{field}.{inner}"
+            inner = join_field(field, inner)
         raise ConfigError(inner, exc.problem) from None
 
 
 def build_world(sc: Scenario) -> World:
     """Arena, wind and plume of a scenario (not yet reset)."""
-    arena = _prefixed("world.arena", build_arena, sc.world.arena)
+    arena = prefixed("world.arena", build_arena, sc.world.arena)
     wp = sc.world.wind.params("wind", "world.wind")
-    wind = _prefixed("world.wind", registry.entry("wind", sc.world.wind.type).build, wp, arena)
+    wind = prefixed("world.wind", registry.entry("wind", sc.world.wind.type).build, wp, arena)
     pp = sc.world.plume.params("plume", "world.plume")
-    plume = _prefixed(
+    plume = prefixed(
         "world.plume",
         registry.entry("plume", sc.world.plume.type).build,
         pp,
@@ -109,7 +114,8 @@ def build(sc: Scenario, world: World | None = None) -> Built:
     starts = np.asarray(sc.agents.starts, float)
     for k, s in enumerate(starts):
         if not world.arena.is_free(s)[0]:
-            raise ConfigError(f"agents.starts[{k}]", f"{tuple(s)} is outside the arena or blocked")
+            where = "(" + ", ".join(f"{float(x):g}" for x in s) + ")"
+            raise ConfigError(f"agents.starts[{k}]", f"{where} is outside the arena or blocked")
     gp = sc.sensors.gas.params("gas_sensor", "sensors.gas")
     ap = sc.sensors.anemometer.params("anemometer", "sensors.anemometer")
     gas_cls = registry.entry("gas_sensor", sc.sensors.gas.type).build
@@ -118,15 +124,15 @@ def build(sc: Scenario, world: World | None = None) -> Built:
     plp = sc.platform.params("platform", "platform")
     se = registry.entry("searcher", sc.searcher.type)
     sp = sc.searcher.params("searcher", "searcher")
-    searcher = _prefixed("searcher", se.build, sp)
+    searcher = prefixed("searcher", se.build, sp)
     _check_searcher(sc, searcher)
-    platforms = [_prefixed("platform", pl_cls, plp) for _ in range(n)]
+    platforms = [prefixed("platform", pl_cls, plp) for _ in range(n)]
     _check_bodies(starts, np.array([float(pl.radius) for pl in platforms]))
     return Built(
         scenario=sc,
         world=world,
-        gas_sensors=[_prefixed("sensors.gas", gas_cls, gp) for _ in range(n)],
-        anemometers=[_prefixed("sensors.anemometer", an_cls, ap) for _ in range(n)],
+        gas_sensors=[prefixed("sensors.gas", gas_cls, gp) for _ in range(n)],
+        anemometers=[prefixed("sensors.anemometer", an_cls, ap) for _ in range(n)],
         platforms=platforms,
         searcher=searcher,
     )

@@ -32,7 +32,8 @@ import yaml
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from odorloc.core.errors import ConfigError, format_validation_error
-from odorloc.core.params import NonNegative, Positive
+from odorloc.core.loading import load_yaml_mapping
+from odorloc.core.params import Finite, NonNegative, Positive
 from odorloc.core.registry import ComponentRef
 from odorloc.geometry.regions import check_region
 from odorloc.plume.sources import Source
@@ -47,12 +48,32 @@ Component = ComponentRef
 :meth:`Scenario.validate_components`)."""
 
 
+COMPONENTS: dict[str, str] = {
+    "world.wind": "wind",
+    "world.plume": "plume",
+    "world.source_draw": "source_draw",
+    "sensors.gas": "gas_sensor",
+    "sensors.anemometer": "anemometer",
+    "platform": "platform",
+    "searcher": "searcher",
+}
+"""Registry family of every component field of a scenario (dotted path -> family)."""
+
+
+def is_file_field(info: Any) -> bool:
+    """Whether a pydantic field holds a file path (``json_schema_extra={"file_path": True}``);
+    such paths in a scenario file are relative to the file's folder."""
+    extra = getattr(info, "json_schema_extra", None)
+    return isinstance(extra, dict) and bool(extra.get("file_path"))
+
+
 class ObstaclesConfig(_Strict):
-    """Obstacles: axis-aligned boxes, 2D polygons, and/or an occupancy file (CSV or image)."""
+    """Obstacles: axis-aligned boxes, 2D polygons, and/or an occupancy file (CSV or image; a
+    relative path in a scenario file is relative to that file's folder)."""
 
     boxes: list[tuple[tuple[float, ...], tuple[float, ...]]] = []
     polygons: list[list[tuple[float, float]]] = []
-    file: str | None = None
+    file: str | None = Field(None, json_schema_extra={"file_path": True})
 
 
 class ArenaConfig(_Strict):
@@ -127,7 +148,7 @@ class AgentsConfig(_Strict):
     """
 
     starts: list[Point] = Field(min_length=1)
-    heading: float = 0.0
+    heading: Finite = 0.0
     comm_radius: float = math.inf
     groups: list[GroupConfig] = []
     start_points: list[Point] = []
@@ -136,20 +157,22 @@ class AgentsConfig(_Strict):
     @model_validator(mode="after")
     def _check(self) -> AgentsConfig:
         if not (self.comm_radius >= 0):
-            raise ValueError("comm_radius must be >= 0")
+            raise ConfigError("comm_radius", "must be >= 0")
         seen: set[int] = set()
         n = len(self.starts)
         for k, g in enumerate(self.groups):
             for a in g.agents:
                 if not 0 <= a < n:
-                    raise ValueError(f"groups[{k}] names agent {a}, but there are {n} agents")
+                    raise ConfigError(
+                        f"groups[{k}].agents", f"names agent {a}, but there are {n} agents"
+                    )
                 if a in seen:
-                    raise ValueError(f"groups[{k}]: agent {a} is in two groups")
+                    raise ConfigError(f"groups[{k}].agents", f"agent {a} is in two groups")
                 seen.add(a)
         for name, pts in self.start_sets.items():
             if self.groups and len(pts) != len(self.groups):
-                raise ValueError(
-                    f"start_sets[{name}] has {len(pts)} points for {len(self.groups)} groups"
+                raise ConfigError(
+                    f"start_sets.{name}", f"has {len(pts)} points for {len(self.groups)} groups"
                 )
         return self
 
@@ -182,19 +205,30 @@ class TaskConfig(_Strict):
     end: Literal["first_declaration", "all_groups", "reach", "limits"] = "first_declaration"
     success_radius: Positive = 0.5
     reach_radius: Positive | None = None
-    stuck_limit: int | None = Field(None, ge=0)
+    stuck_limit: int | None = Field(None, ge=0, le=1_000_000)
 
     @model_validator(mode="after")
     def _check(self) -> TaskConfig:
         if self.region is not None:
             check_region(self.region, "region")
         if self.end == "reach" and self.reach_radius is None:
-            raise ValueError("end 'reach' needs reach_radius")
+            raise ConfigError("reach_radius", "is required by end 'reach'")
         return self
 
 
+MAX_CONTROL_STEPS = 1_000_000
+"""Most control periods of one episode (``limits.time / limits.control_dt``)."""
+MAX_WORLD_STEPS = 20_000_000
+"""Most world steps of one episode, warm-up included (``(warmup + time) / world.dt``)."""
+
+
 class LimitsConfig(_Strict):
-    """Episode limits: control period (s), time limit (s), energy limit (J)."""
+    """Episode limits: control period (s), time limit (s), energy limit (J).
+
+    An episode may have at most :data:`MAX_CONTROL_STEPS` control periods and
+    :data:`MAX_WORLD_STEPS` world steps (warm-up included), and the time limit must hold at
+    least one control period.
+    """
 
     control_dt: Positive = 0.5
     time: Positive = 600.0
@@ -206,9 +240,9 @@ class RecordingConfig(_Strict):
     a coarse plume frame every ``plume_stride`` steps on a grid of ``plume_grid`` cells per
     metre."""
 
-    stride: int = Field(1, ge=1)
-    belief_stride: int = Field(4, ge=1)
-    plume_stride: int = Field(4, ge=1)
+    stride: int = Field(1, ge=1, le=1_000_000)
+    belief_stride: int = Field(4, ge=1, le=1_000_000_000)
+    plume_stride: int = Field(4, ge=1, le=1_000_000_000)
     plume_grid: Positive = 10.0
     enabled: bool = True
 
@@ -238,14 +272,10 @@ class Scenario(_Strict):
     # ------------------------------------------------------------------ validation
     def validate_components(self) -> Scenario:
         """Check every registry reference and geometric consistency; raise :class:`ConfigError`."""
-        self.world.wind.params("wind", "world.wind")
-        self.world.plume.params("plume", "world.plume")
-        if self.world.source_draw is not None:
-            self.world.source_draw.params("source_draw", "world.source_draw")
-        self.sensors.gas.params("gas_sensor", "sensors.gas")
-        self.sensors.anemometer.params("anemometer", "sensors.anemometer")
-        self.platform.params("platform", "platform")
-        self.searcher.params("searcher", "searcher")
+        for path, family in COMPONENTS.items():
+            ref = self._component(path)
+            if ref is not None:
+                ref.params(family, path)
         d = len(self.world.arena.lower)
         if len(self.world.arena.upper) != d or d not in (2, 3):
             raise ConfigError(
@@ -265,8 +295,51 @@ class Scenario(_Strict):
             raise ConfigError("task.region", f"has more components than the {d}D arena")
         if self.world.dt > self.limits.control_dt:
             raise ConfigError("world.dt", "must not exceed limits.control_dt")
+        self._check_sizes(d)
         self._check_knobs()
         return self
+
+    def _component(self, path: str) -> ComponentRef | None:
+        node: Any = self
+        for k in path.split("."):
+            node = getattr(node, k)
+        return node
+
+    def _check_sizes(self, d: int) -> None:
+        """Consistent limits and bounded work: step counts and the arena's grid."""
+        from odorloc.geometry.grid import check_cell_count
+
+        lim, w = self.limits, self.world
+        if lim.control_dt > lim.time:
+            raise ConfigError(
+                "limits.control_dt",
+                f"{lim.control_dt:g} s is longer than the time limit limits.time "
+                f"({lim.time:g} s): the episode would have no step",
+            )
+        steps = lim.time / lim.control_dt
+        if steps > MAX_CONTROL_STEPS:
+            raise ConfigError(
+                "limits.time",
+                f"{lim.time:g} s at limits.control_dt {lim.control_dt:g} s is {steps:.3g} "
+                f"control periods; at most {MAX_CONTROL_STEPS}",
+            )
+        world_steps = (w.warmup + lim.time) / w.dt
+        if world_steps > MAX_WORLD_STEPS:
+            field = "world.warmup" if w.warmup > lim.time else "world.dt"
+            raise ConfigError(
+                field,
+                f"warm-up {w.warmup:g} s plus {lim.time:g} s at world.dt {w.dt:g} s is "
+                f"{world_steps:.3g} world steps; at most {MAX_WORLD_STEPS}",
+            )
+        a = self.world.arena
+        size = [hi - lo for lo, hi in zip(a.lower, a.upper, strict=True)]
+        if all(math.isfinite(x) and x > 0 for x in size):
+            check_cell_count(
+                [x / a.resolution for x in size], a.resolution, "world.arena.resolution"
+            )
+        if d and self.recording.enabled:
+            cells = [x * self.recording.plume_grid for x in size[:2]]
+            check_cell_count(cells, 1.0 / self.recording.plume_grid, "recording.plume_grid")
 
     def _check_knobs(self) -> None:
         data = self.to_dict()
@@ -300,25 +373,20 @@ class Scenario(_Strict):
         try:
             sc = cls.model_validate(data)
         except pydantic.ValidationError as err:
-            field, _, problem = format_validation_error(err).partition(": ")
+            field, _, problem = format_validation_error(err, model=cls).partition(": ")
             raise ConfigError(field, problem) from None
         return sc.validate_components()
 
     @classmethod
     def from_yaml(cls, path: str | Path) -> Scenario:
-        """Load a scenario file."""
-        p = Path(path)
-        try:
-            text = p.read_text()
-        except OSError as exc:
-            raise ConfigError("scenario", f"cannot read {p}: {exc.strerror}") from None
-        try:
-            data = yaml.safe_load(text)
-        except yaml.YAMLError as exc:
-            mark = getattr(exc, "problem_mark", None)
-            where = f" (line {mark.line + 1})" if mark is not None else ""
-            raise ConfigError("scenario", f"{p} is not valid YAML{where}") from None
-        return cls.from_dict(data)
+        """Load a scenario file.
+
+        It is read through :mod:`odorloc.core.loading` (a binary, non-UTF-8, oversized or
+        alias-bomb file is refused with one line), and relative file paths inside it (an
+        obstacle file, a replayed movie) are taken relative to the file's folder.
+        """
+        data = load_yaml_mapping(path, "scenario")
+        return cls.from_dict(_resolve_files(data, Path(path).absolute().parent))
 
     def to_dict(self) -> dict[str, Any]:
         """Plain-data form (JSON/YAML serialisable; infinities kept as floats)."""
@@ -368,7 +436,15 @@ class Scenario(_Strict):
     def with_overrides(self, overrides: dict[str, Any]) -> Scenario:
         """A copy with dotted-path overrides, e.g. ``{"searcher.n_particles": 500}``.
 
-        A key naming one of :attr:`knobs` sets every path of the knob to the value.
+        A path must lead through existing settings (list items by index, ``"agents.starts.0"``);
+        its last key may be new only inside a component (``type`` plus free parameters), where
+        the component's own parameter model then checks it. A key naming one of :attr:`knobs`
+        sets every path of the knob to the value.
+
+        Raises
+        ------
+        ConfigError
+            Naming the override path: an unknown setting, a bad index or an invalid value.
         """
         data = copy.deepcopy(self.to_dict())
         expanded: dict[str, Any] = {}
@@ -378,14 +454,67 @@ class Scenario(_Strict):
                     raise ConfigError(path, f"sets {p!r}, which another override sets too")
                 expanded[p] = value
         for path, value in expanded.items():
-            node, last = _walk(data, path)
-            if isinstance(node, list):
-                if not (last.isdigit() and int(last) < len(node)):
-                    raise ConfigError(path, f"no such setting {last!r}")
-                node[int(last)] = value
-            else:
-                node[last] = value
+            node: Any = data
+            keys = str(path).split(".")
+            for depth, k in enumerate(keys):
+                last = depth == len(keys) - 1
+                where = ".".join(keys[:depth]) or "the scenario"
+                if isinstance(node, list):
+                    if not (k.isdigit() and int(k) < len(node)):
+                        raise ConfigError(
+                            path, f"{k!r} is not an index of {where} ({len(node)} items)"
+                        )
+                    if last:
+                        node[int(k)] = value
+                    else:
+                        node = node[int(k)]
+                elif isinstance(node, dict):
+                    free = "type" in node  # a component: its parameters are checked by type
+                    if k not in node and not (last and free):
+                        known = ", ".join(str(x) for x in node) or "none"
+                        raise ConfigError(
+                            path, f"no such setting {k!r} in {where} (known: {known})"
+                        )
+                    if last:
+                        node[k] = value
+                    else:
+                        node = node[k]
+                else:
+                    raise ConfigError(path, f"{where} is a value, not a group of settings")
         return Scenario.from_dict(data)
+
+
+def _absolute(value: Any, base: Path) -> Any:
+    if isinstance(value, list):
+        return [_absolute(v, base) for v in value]
+    if isinstance(value, str) and value and not Path(value).expanduser().is_absolute():
+        return str(base / value)
+    return value
+
+
+def _resolve_files(data: dict[str, Any], base: Path) -> dict[str, Any]:
+    """``data`` with the relative file paths of its file fields made absolute against ``base``
+    (the obstacle file and any component parameter marked as a file path)."""
+    from odorloc.core.registry import entry
+
+    data = copy.deepcopy(data)
+    obstacles = data.get("world", {}).get("arena", {}).get("obstacles")
+    if isinstance(obstacles, dict) and "file" in obstacles:
+        obstacles["file"] = _absolute(obstacles["file"], base)
+    for path, family in COMPONENTS.items():
+        node: Any = data
+        for k in path.split("."):
+            node = node.get(k) if isinstance(node, dict) else None
+        if not (isinstance(node, dict) and isinstance(node.get("type"), str)):
+            continue
+        try:
+            model = entry(family, node["type"]).params
+        except ConfigError:
+            continue  # an unknown type is reported by the validation that follows
+        for name, info in model.model_fields.items():
+            if name in node and is_file_field(info):
+                node[name] = _absolute(node[name], base)
+    return data
 
 
 def _walk(data: Any, path: str) -> tuple[Any, str]:

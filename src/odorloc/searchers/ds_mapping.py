@@ -34,9 +34,9 @@ Readings of the paper (each configurable):
   by its sum for eq. 7 only.
 * Wave rounds: ``round_order="restart"`` (default; section 4.2) or ``"alternate"``.
 * Declaration. When the planner finds even the whole region below ``eta_E`` (dynamic route),
-  or after the last round (wave), the mapped sources are declared (one per connected region,
-  see :mod:`odorloc.inference.evidence.mapper`); if none passes the threshold the strongest cell
-  is declared with confidence 0, so an episode always scores.
+  or after the last round (wave), the mapped sources are declared (placed by the map's
+  ``source_rule``, see :mod:`odorloc.inference.evidence.mapper`); if there is none the
+  strongest cell is declared with confidence 0, so an episode always scores.
 """
 
 from __future__ import annotations
@@ -111,7 +111,7 @@ class DSMappingParams(DSMapParams):
         ``eta_E`` of the stop rule (0.5, D-S paper section 3).
     """
 
-    dwell_periods: int = Field(1, ge=0)
+    dwell_periods: int = Field(1, ge=0, le=1000)
     step_range: Positive | None = None
     stay_candidate: bool = False
     edge_reach: NonNegative | None = None
@@ -190,7 +190,7 @@ class DSMappingSearcher(Searcher):
         fit = self.last_plan.fitness if self.last_plan is not None else math.nan
         return {
             "total_uncertainty": self.mapper.total_uncertainty(),
-            "mapped_sources": float(len(self.mapper.sources())),
+            "mapped_regions": float(len(self.mapper.sources())),
             "fitness": float(fit),
         }
 
@@ -222,10 +222,10 @@ class DSRectangularWaveParams(DSMapParams):
         (:func:`~odorloc.planning.coverage.wave_waypoints`).
     """
 
-    dwell_periods: int = Field(1, ge=0)
+    dwell_periods: int = Field(1, ge=0, le=1000)
     lane_spacing: Positive = 2.0
     lanes_along: Literal["x", "y"] = "y"
-    rounds: int = Field(5, ge=1)
+    rounds: int = Field(5, ge=1, le=1000)
     margin: NonNegative = 0.0
     round_order: Literal["restart", "alternate"] = "restart"
 
@@ -288,7 +288,7 @@ class DSRectangularWaveSearcher(Searcher):
     def diagnostics(self) -> dict[str, float]:
         return {
             "total_uncertainty": self.mapper.total_uncertainty(),
-            "mapped_sources": float(len(self.mapper.sources())),
+            "mapped_regions": float(len(self.mapper.sources())),
             "waypoint": float(self.index),
         }
 

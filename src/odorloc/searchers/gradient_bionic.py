@@ -77,19 +77,19 @@ def fit_gradient(
 class GradientBionicParams(Params):
     """Parameters of :class:`GradientBionicSearcher` (see the module docstring)."""
 
-    fit_readings: int = Field(6, ge=3)
+    fit_readings: int = Field(6, ge=3, le=10_000)
     min_spread: NonNegative = 0.03
     min_gradient: NonNegative = 0.0
     upwind_bias: NonNegative = 0.0
-    lost_after: int = Field(3, ge=1)
-    surge_steps: int = Field(4, ge=0)
+    lost_after: int = Field(3, ge=1, le=1_000_000)
+    surge_steps: int = Field(4, ge=0, le=1_000_000)
     cast_angle_deg: float = Field(80.0, ge=0.0, le=90.0)
     cast_amplitude: Positive = 0.4
     cast_growth: float = Field(1.5, ge=1.0)
     cast_max: Positive = 3.0
     step_length: Positive | None = None
     declare_radius: Positive = 0.5
-    declare_steps: int = Field(30, ge=1)
+    declare_steps: int = Field(30, ge=1, le=1_000_000)
     declare_fraction: float = Field(0.5, ge=0.0, le=1.0)
     declare_gradient: NonNegative = math.inf
     declare_peak_fraction: float = Field(0.0, ge=0.0, le=1.0)

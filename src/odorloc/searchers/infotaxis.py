@@ -110,7 +110,7 @@ class GridPolicyParams(Params):
     n_classes: int | None = Field(None, ge=2, le=64)
     releases: tuple[Positive, ...] | None = None
     exposure: Positive | None = None
-    wind_average: int = Field(10, ge=1)
+    wind_average: int = Field(10, ge=1, le=10_000)
     retabulate_deg: NonNegative = 10.0
     entropy_floor: NonNegative = 1e-10
     tie_tolerance: NonNegative = 1e-10

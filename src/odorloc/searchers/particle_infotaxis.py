@@ -83,7 +83,7 @@ class ParticleInfotaxisParams(Params):
     reading: Literal["auto", "hits", "detection"] = "auto"
     n_classes: int | None = Field(None, ge=2, le=64)
     exposure: Positive | None = None
-    wind_average: int = Field(10, ge=1)
+    wind_average: int = Field(10, ge=1, le=10_000)
     resampler: Ref("resampler") = ComponentRef(type="systematic", jitter_std=0.2)
     resample_threshold: float = Field(0.5, ge=0.0, le=1.0)
     ties: Literal["first", "random"] = "first"

@@ -135,11 +135,11 @@ class PFEntropyParams(Params):
     time_scale: Positive = 1.0
     min_wind_variance: NonNegative = 0.05
     p_floor: float = Field(1e-4, ge=0.0, lt=0.5)
-    window: int = Field(20, ge=1)
+    window: int = Field(20, ge=1, le=100_000)
     wind_var_window: Positive = 10.0
     r_conv: Positive = 0.5
     r_err: Positive = 0.25
-    history: int = Field(20, ge=1)
+    history: int = Field(20, ge=1, le=100_000)
     history_on_detection: bool = False
     variance: Literal["trace", "radius", "max_axis"] = "radius"
     resampler: Ref("resampler") = ComponentRef(type="roulette")
@@ -148,7 +148,7 @@ class PFEntropyParams(Params):
     move_frame: Literal["robot", "wind", "world"] = "robot"
     zigzag_angle_deg: float = Field(45.0, ge=0.0, le=90.0)
     zigzag_leg: Positive | None = None
-    wind_average: int = Field(4, ge=1)
+    wind_average: int = Field(4, ge=1, le=10_000)
     pad_window: bool = True
     init_min_std: NonNegative = 0.1
     init_uniform_fraction: float = Field(0.0, ge=0.0, le=1.0)

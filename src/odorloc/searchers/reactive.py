@@ -85,7 +85,7 @@ class ReactiveParams(Params):
     """
 
     step_length: Positive | None = None
-    wind_average: int = Field(4, ge=1)
+    wind_average: int = Field(4, ge=1, le=10_000)
     threshold: float | None = None
     cast_angle_deg: float = Field(80.0, ge=0.0, le=90.0)
     cast_amplitude: Positive = 0.4
@@ -159,7 +159,7 @@ class ReactiveSearcher(Searcher):
 class SurgeCastSearchParams(ReactiveParams):
     """:class:`ReactiveParams` and ``surge_steps``: periods of upwind surge per detection."""
 
-    surge_steps: int = Field(4, ge=1)
+    surge_steps: int = Field(4, ge=1, le=1_000_000)
 
 
 @register("searcher", "surge-cast", SurgeCastSearchParams, "moth-inspired upwind surge + casts")
@@ -202,10 +202,10 @@ class SurgeSpiralParams(ReactiveParams):
         Blocked spiral legs skipped before the spiral restarts.
     """
 
-    surge_steps: int = Field(4, ge=1)
+    surge_steps: int = Field(4, ge=1, le=1_000_000)
     spiral_step: Positive = 1.0
     spiral_increment: float = Field(0.4, ge=0.0)
-    max_skips: int = Field(3, ge=0)
+    max_skips: int = Field(3, ge=0, le=10_000)
 
 
 @register("searcher", "surge-spiral", SurgeSpiralParams, "upwind surge + square spiral (GSL)")
@@ -273,7 +273,7 @@ class SurgeSpiralSearcher(ReactiveSearcher):
 class ChemotaxisParams(ReactiveParams):
     """:class:`ReactiveParams` and ``memory``: recent samples the rule compares."""
 
-    memory: int = Field(6, ge=2)
+    memory: int = Field(6, ge=2, le=10_000)
 
 
 class _TaxisSearcher(ReactiveSearcher):
@@ -326,7 +326,7 @@ class AnemotaxisParams(ReactiveParams):
     """:class:`ReactiveParams` and ``memory``: recent readings that must all exceed the
     threshold (and winds averaged)."""
 
-    memory: int = Field(2, ge=1)
+    memory: int = Field(2, ge=1, le=10_000)
 
 
 @register("searcher", "anemotaxis", AnemotaxisParams, "upwind while the odor holds, else cast")

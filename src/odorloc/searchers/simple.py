@@ -85,7 +85,7 @@ class ZigzagParams(Params):
     """
 
     angle_deg: float = Field(60.0, gt=0, lt=180)
-    wind_average: int = Field(10, ge=1)
+    wind_average: int = Field(10, ge=1, le=10_000)
     speed_fraction: float = Field(1.0, gt=0, le=1)
     lookahead: Positive = 1.0
 
@@ -147,7 +147,7 @@ class RectangularWaveParams(Params):
     lane_spacing: Positive = 2.0
     lanes_along: Literal["x", "y"] = "y"
     region: tuple[tuple[float, float], tuple[float, float]] | None = None
-    rounds: int = Field(1, ge=1)
+    rounds: int = Field(1, ge=1, le=1000)
     margin: float = Field(0.0, ge=0)
     declare_at_max: bool = False
 

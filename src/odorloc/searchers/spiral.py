@@ -31,7 +31,7 @@ class SpiralSearchParams(SpiralParams):
     """The spiral's settings (:class:`~odorloc.behaviours.spiral.SpiralParams`) and
     ``max_skips``: blocked legs skipped before the spiral restarts."""
 
-    max_skips: int = Field(3, ge=0)
+    max_skips: int = Field(3, ge=0, le=10_000)
 
 
 @register("searcher", "spiral", SpiralSearchParams, "square spiral restarted on a better signal")

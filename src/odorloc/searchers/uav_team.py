@@ -99,7 +99,7 @@ class UAVSearchParams(Params):
     estimator: Ref("team_estimator") = Field(default_factory=lambda: ComponentRef(type="col-pf"))
     planner: Ref("step_planner") = Field(default_factory=lambda: ComponentRef(type="adap-pp"))
     declare_spread: Positive = 3.0
-    k_max: int = Field(800, ge=1)
+    k_max: int = Field(800, ge=1, le=1_000_000)
     wind: Literal["measured", "model"] = "measured"
 
 

@@ -137,7 +137,7 @@ class VirtualPhysicsParams(Params):
     k_c: NonNegative = 1.0e-4
     rho_T: NonNegative = 0.005
     phi_T: Finite = 0.05
-    n_s: int = Field(10, ge=1)
+    n_s: int = Field(10, ge=1, le=1_000_000)
     step_rule: StepRule = "capped"
     follow: bool = True
     repulsion: bool = True

@@ -42,7 +42,7 @@ class AnemometerParams(Params):
     """
 
     noise_std: NonNegative = 0.0
-    samples: int = Field(1, ge=1)
+    samples: int = Field(1, ge=1, le=10_000)
     relative: bool = False
 
 

@@ -37,7 +37,7 @@ class EncounterSensorParams(Params):
     """
 
     gain: Positive = 1.0
-    threshold: int = Field(1, ge=1)
+    threshold: int = Field(1, ge=1, le=1_000_000)
 
 
 @register("gas_sensor", "encounter", EncounterSensorParams, "Poisson particle-encounter counter")

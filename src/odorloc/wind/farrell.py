@@ -70,8 +70,8 @@ class FarrellWindParams(Params):
     @field_validator("nodes")
     @classmethod
     def _check_nodes(cls, v: tuple[int, int]) -> tuple[int, int]:
-        if min(v) < 3:
-            raise ValueError("must be >= 3 along each axis")
+        if min(v) < 3 or max(v) > 1000:
+            raise ValueError("must be between 3 and 1000 along each axis")
         return v
 
     @property

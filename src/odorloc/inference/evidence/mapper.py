@@ -21,13 +21,24 @@ Readings of the paper (each configurable, :class:`DSMapParams`):
   of a reading is computed at its own record (the simulated sensor has no delay unless
   configured).
 * Source estimates. The paper leaves declaration open ("some other methods should be
-  considered next to declare the mapped odor sources"). A mapped source is a connected region
-  with ``m(S) >= source_min_mass``; its position follows ``source_rule``: ``peak`` (default)
-  the region's strongest cell, ranked by the exactly stored doubt ``m(notS) + m(U)`` because
-  long runs of detections round ``m(S)`` to exactly 1.0; ``centroid`` the ``m(S)``-weighted
-  centroid; ``upwind`` the centroid of the region's upwind end. A region is the footprint of
-  where the robot detected (the source plus the plume downwind of it), so the centroid is
-  pulled downwind while the peak marks where the local detection rate is highest.
+  considered next to declare the mapped odor sources"). The map is not changed by any of them;
+  ``source_rule`` only reads it. ``likelihood`` (default) scores candidate source cells by how
+  well they explain every fused reading: a reading detects with probability
+  ``1 - (1 - eps) prod_c (1 - alpha pi_c)`` over the chosen source cells ``c`` (a noisy-OR
+  of the sources its air-mass path ``pi`` passed, plus false alarms), and sources are added
+  greedily, each the occupied cell (``m(S) >= source_min_mass``) with the largest gain in
+  log-likelihood given those already chosen, until the gain falls below
+  ``source_min_gain`` times the first one. A cell whose detections an upwind source already
+  explains gains little (plume footprints downwind of a source are not sources), two sources
+  side by side across the wind are found even where their footprints join into one region,
+  and cells within ``source_exclusion`` (along, across the mean wind) of a chosen source are
+  not candidates. The region rules read the connected regions with ``m(S) >=
+  source_min_mass``, one estimate each: ``peak`` the region's strongest cell, ranked by the
+  exactly stored doubt ``m(notS) + m(U)`` because long runs of detections round ``m(S)`` to
+  exactly 1.0; ``centroid`` the ``m(S)``-weighted centroid; ``upwind`` the centroid of the
+  region's upwind end. A region is the footprint of where the robot detected (the source plus
+  the plume downwind of it), so the centroid is pulled downwind, the peak may lie inside the
+  footprint, and two joined footprints give one estimate; the README compares the rules.
 """
 
 from __future__ import annotations
@@ -48,7 +59,7 @@ from odorloc.inference.evidence.dempster_shafer import DSGrid, DSParams, Evidenc
 from odorloc.inference.odor_path.estimator import OdorPathEstimator, OdorPathParams, PathPatch
 from odorloc.sensors.preprocessing import OnlinePreprocessor, PreprocessorParams
 
-__all__ = ["DSMapParams", "DSMapper", "as_distribution"]
+__all__ = ["RULES", "DSMapParams", "DSMapper", "ReadingLog", "as_distribution"]
 
 FloatArray = NDArray[np.float64]
 
@@ -79,13 +90,27 @@ class DSMapParams(Params):
         ``m(S)`` a cell needs to belong to a mapped source, in (0, 1].
     source_min_cells : int
         Smallest connected region counted as a mapped source.
-    source_rule : {"centroid", "upwind", "peak"}
-        Position declared for a mapped region: the centre of its cell with the largest
-        ``m(S)`` (``"peak"``, default, see the module notes), its ``m(S)``-weighted centroid
-        (``"centroid"``, the paper's maps are read by eye), or the weighted centroid
-        of its cells within ``upwind_depth`` of its most upwind cell along the mean recorded
-        wind (``"upwind"``: detections also mark the plume downwind of a source, so a region
-        stretches downwind and its centroid lies downwind of the source).
+    source_rule : {"likelihood", "peak", "centroid", "upwind"}
+        How mapped sources are placed (see the module notes): ``"likelihood"`` (default) the
+        cells that best explain the readings, chosen greedily; one estimate per connected
+        region for the others: the centre of its cell with the largest ``m(S)``
+        (``"peak"``), its ``m(S)``-weighted centroid (``"centroid"``, the paper's maps are
+        read by eye), or the weighted centroid of its cells within ``upwind_depth`` of its
+        most upwind cell along the mean recorded wind (``"upwind"``).
+    source_hit_rate : float
+        ``alpha`` of the likelihood rule: probability that a reading detects when all the
+        air it samples passed a source cell (``pi = 1``), in (0, 1).
+    source_false_alarm : float
+        ``eps`` of the likelihood rule: probability of a detection no mapped source explains,
+        in (0, 1).
+    source_min_gain : float
+        The likelihood rule stops when the next source's log-likelihood gain is below this
+        fraction of the first source's, in (0, 1].
+    source_exclusion : (along, across), metres
+        Cells closer than these distances along and across the mean recorded wind to a chosen
+        source are not candidates for the next one (the likelihood rule).
+    max_sources : int
+        Most sources the likelihood rule places.
     upwind_depth : float, metres
         Depth of the upwind end used by ``source_rule="upwind"``.
     path_normalise : {"window", "total"}
@@ -113,9 +138,14 @@ class DSMapParams(Params):
     kernel: Literal["point", "cell"] = "point"
     ds: DSParams = DSParams()
     source_min_mass: float = Field(0.5, gt=0.0, le=1.0)
-    source_min_cells: int = Field(1, ge=1)
-    source_rule: Literal["centroid", "upwind", "peak"] = "peak"
+    source_min_cells: int = Field(1, ge=1, le=1_000_000)
+    source_rule: Literal["likelihood", "peak", "centroid", "upwind"] = "likelihood"
     upwind_depth: Positive = 1.5
+    source_hit_rate: float = Field(0.8, gt=0.0, lt=1.0)
+    source_false_alarm: float = Field(0.02, gt=0.0, lt=1.0)
+    source_min_gain: float = Field(0.15, gt=0.0, le=1.0)
+    source_exclusion: tuple[NonNegative, NonNegative] = (3.0, 1.0)
+    max_sources: int = Field(8, ge=1, le=100)
     path_normalise: Literal["window", "total"] = "window"
     preprocess: PreprocessorParams | None = None
     intensity_threshold: Positive = 0.1
@@ -173,6 +203,8 @@ class DSMapper:
         self.last_patch: PathPatch | None = None
         self._pre = OnlinePreprocessor(params.preprocess) if params.preprocess else None
         self._pending: deque[tuple[float, np.ndarray]] = deque()
+        self._log = ReadingLog(self.grid.grid.shape)
+        self._likely: tuple[int, FloatArray, FloatArray] | None = None
 
     def update(
         self,
@@ -223,6 +255,7 @@ class DSMapper:
         if self.params.path_normalise == "total":
             patch = as_distribution(patch)
         self.grid.update(patch, bool(detected))
+        self._log.add(patch, bool(detected))
         self.n_readings += 1
         self.n_detections += int(bool(detected))
         self.wind_sum += u
@@ -290,13 +323,48 @@ class DSMapper:
         pos = ndimage.minimum_position(doubt, labels, kept)
         return self.grid.grid.center(np.array(pos)).reshape(-1, 2)
 
+    def likelihood_sources(self) -> tuple[FloatArray, FloatArray]:
+        """``(K, 2)`` source positions of the likelihood rule and their ``(K,)`` gains (nats),
+        strongest first (see the module notes; cached until the next reading)."""
+        if self._likely is not None and self._likely[0] == self.n_readings:
+            return self._likely[1], self._likely[2]
+        p = self.params
+        g = self.grid.grid
+        cand = (self.grid.m_s >= p.source_min_mass) & g.region_mask(self.region)
+        norm = float(np.hypot(*self.wind_sum))
+        u = self.wind_sum / norm if norm > 0 else np.array([1.0, 0.0])
+        cells, gains = self._log.greedy_sources(
+            cand,
+            g.centers().reshape(-1, 2),
+            alpha=p.source_hit_rate,
+            eps=p.source_false_alarm,
+            min_gain=p.source_min_gain,
+            exclusion=p.source_exclusion,
+            wind=u,
+            max_sources=p.max_sources,
+        )
+        pos = g.centers().reshape(-1, 2)[cells].reshape(-1, 2)
+        self._likely = (self.n_readings, pos, gains)
+        return pos, gains
+
     def source_positions(self) -> FloatArray:
-        """``(K, 2)`` mapped source positions by ``source_rule``, heaviest region first."""
-        if self.params.source_rule == "upwind":
+        """``(K, 2)`` mapped source positions by ``source_rule`` (strongest first)."""
+        return self.positions_by_rule(self.params.source_rule)
+
+    def positions_by_rule(self, rule: str) -> FloatArray:
+        """``(K, 2)`` mapped source positions under ``rule`` (one of ``source_rule``'s)."""
+        if rule == "likelihood":
+            pos = self.likelihood_sources()[0]
+            # no reading explains a mapped region (e.g. masses set without readings): the
+            # regions' own peaks rather than nothing
+            return pos if len(pos) else self.peaks()
+        if rule == "upwind":
             return self.upwind_ends()
-        if self.params.source_rule == "peak":
+        if rule == "peak":
             return self.peaks()
-        return np.array([s.position for s in self.sources()]).reshape(-1, 2)
+        if rule == "centroid":
+            return np.array([s.position for s in self.sources()]).reshape(-1, 2)
+        raise ConfigError("source_rule", f"unknown rule {rule!r}")
 
     def declaration(self) -> Declaration:
         """The mapped sources as a declaration (see the module notes for the empty case)."""
@@ -310,28 +378,135 @@ class DSMapper:
     def final_metrics(self) -> dict[str, float]:
         """Row fields: residual/initial uncertainty, mapped-source count and positions.
 
-        ``mapped_x_k, mapped_y_k`` follow ``source_rule``; ``centroid_*_k``, ``upwind_*_k``
-        and ``peak_*_k`` are the three estimates of the same regions whatever the rule.
+        ``mapped_sources`` and ``mapped_x_k, mapped_y_k`` follow ``source_rule``
+        (``mapped_mass_k`` is the ``m(S)`` sum of the region each lies in); for every rule
+        ``R`` in :data:`RULES`, ``R_n`` and ``R_x_k, R_y_k`` are its estimates of the same map.
         """
-        found = self.sources()
-        pos = self.source_positions()
-        tips = self.upwind_ends()
-        tops = self.peaks()
         out: dict[str, float] = {
             "residual_uncertainty": self.total_uncertainty(),
             "initial_uncertainty": self.initial_uncertainty,
-            "mapped_sources": float(len(found)),
             "detections": float(self.n_detections),
             "max_conflict": float(self.grid.max_conflict),
+            "mapped_regions": float(len(self.sources())),
         }
-        for k, s in enumerate(found):
-            out[f"mapped_x_{k}"] = float(pos[k, 0])
-            out[f"mapped_y_{k}"] = float(pos[k, 1])
-            out[f"mapped_mass_{k}"] = float(s.total_mass)
-            out[f"upwind_x_{k}"] = float(tips[k, 0])
-            out[f"upwind_y_{k}"] = float(tips[k, 1])
-            out[f"centroid_x_{k}"] = float(s.position[0])
-            out[f"centroid_y_{k}"] = float(s.position[1])
-            out[f"peak_x_{k}"] = float(tops[k, 0])
-            out[f"peak_y_{k}"] = float(tops[k, 1])
+        labels, kept = self._regions()
+        mass = {lab: float(self.grid.m_s[labels == lab].sum()) for lab in kept}
+        g = self.grid.grid
+        for rule in RULES:
+            pos = self.positions_by_rule(rule)
+            out[f"{rule}_n"] = float(len(pos))
+            for k, xy in enumerate(pos):
+                out[f"{rule}_x_{k}"] = float(xy[0])
+                out[f"{rule}_y_{k}"] = float(xy[1])
+            if rule == self.params.source_rule:
+                out["mapped_sources"] = float(len(pos))
+                for k, xy in enumerate(pos):
+                    out[f"mapped_x_{k}"] = float(xy[0])
+                    out[f"mapped_y_{k}"] = float(xy[1])
+                    ij = tuple(g.index(np.asarray(xy)[None])[0])
+                    out[f"mapped_mass_{k}"] = mass.get(int(labels[ij]), 0.0)
         return out
+
+
+RULES = ("likelihood", "peak", "centroid", "upwind")
+"""Every source rule (``DSMapParams.source_rule``)."""
+
+
+class ReadingLog:
+    """Every fused reading's air-mass path map and outcome, for the likelihood source rule.
+
+    Stored flat (cell index, ``pi`` as float32, reading index) in buffers that grow by
+    doubling: a 5000 s mission at 0.5 s with a 100-cell path map is about 10 MB.
+
+    Parameters
+    ----------
+    shape : (nx, ny)
+        The map's grid.
+    """
+
+    def __init__(self, shape: tuple[int, ...]) -> None:
+        self.shape = (int(shape[0]), int(shape[1]))
+        self.n = 0
+        self.size = 0
+        self._cells = np.zeros(1024, np.int32)
+        self._pi = np.zeros(1024, np.float32)
+        self._rid = np.zeros(1024, np.int32)
+        self._det: list[bool] = []
+
+    def add(self, patch: PathPatch, detected: bool) -> None:
+        """Append one reading."""
+        v = patch.values
+        by = v.shape[1]
+        nz = np.flatnonzero(v.ravel() > 0)
+        m = nz.size
+        if self.size + m > self._cells.size:
+            cap = max(2 * self._cells.size, self.size + m)
+            for name in ("_cells", "_pi", "_rid"):
+                old = getattr(self, name)
+                new = np.zeros(cap, old.dtype)
+                new[: self.size] = old[: self.size]
+                setattr(self, name, new)
+        ii, jj = np.divmod(nz, by)
+        sl = slice(self.size, self.size + m)
+        self._cells[sl] = (patch.ix0 + ii) * self.shape[1] + (patch.iy0 + jj)
+        self._pi[sl] = np.minimum(v.ravel()[nz], 1.0)
+        self._rid[sl] = self.n
+        self._det.append(bool(detected))
+        self.size += m
+        self.n += 1
+
+    def greedy_sources(
+        self,
+        candidates: NDArray[np.bool_],
+        centres: FloatArray,
+        *,
+        alpha: float,
+        eps: float,
+        min_gain: float,
+        exclusion: tuple[float, float],
+        wind: FloatArray,
+        max_sources: int,
+    ) -> tuple[NDArray[np.intp], FloatArray]:
+        """Flat indices of the greedily chosen source cells and their gains (nats).
+
+        Each step adds the candidate cell ``c`` maximising
+        ``sum_r log P(d_r | S + c) - log P(d_r | S)`` under the noisy-OR model of the module
+        notes; a reading that does not pass ``c`` contributes nothing, a non-detection that
+        does contributes ``log(1 - alpha pi_r(c))`` whatever ``S`` is.
+        """
+        n_cells = self.shape[0] * self.shape[1]
+        if self.n == 0 or not candidates.any():
+            return np.zeros(0, np.intp), np.zeros(0)
+        cells = self._cells[: self.size]
+        pi = self._pi[: self.size].astype(float)
+        rid = self._rid[: self.size]
+        det = np.asarray(self._det, bool)[rid]
+        keep = candidates.ravel()[cells]
+        cells, pi, rid, det = cells[keep], pi[keep], rid[keep], det[keep]
+        miss = 1.0 - alpha * pi  # the chance a source at the cell leaves the reading clean
+        nd_term = np.log(miss)
+        q = np.ones(self.n)  # prod over chosen sources of (1 - alpha pi_r) per reading
+        free = candidates.ravel().copy()
+        across = np.array([-wind[1], wind[0]])
+        chosen: list[int] = []
+        gains: list[float] = []
+        for _ in range(max_sources):
+            if not free.any():
+                break
+            qe = (1.0 - eps) * q[rid]
+            det_term = np.log((1.0 - qe * miss) / (1.0 - qe))
+            gain = np.bincount(cells, weights=np.where(det, det_term, nd_term), minlength=n_cells)
+            gain = np.where(free, gain, -np.inf)
+            c = int(np.argmax(gain))
+            best = float(gain[c])
+            if not (best > 0.0) or (gains and best < min_gain * gains[0]):
+                break
+            chosen.append(c)
+            gains.append(best)
+            on = cells == c
+            np.multiply.at(q, rid[on], miss[on])
+            d = centres - centres[c]
+            near = (np.abs(d @ wind) <= exclusion[0]) & (np.abs(d @ across) <= exclusion[1])
+            free &= ~near
+            free[c] = False
+        return np.asarray(chosen, np.intp), np.asarray(gains)

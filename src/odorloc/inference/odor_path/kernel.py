@@ -9,9 +9,12 @@ reference it is tested against.
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
+
+from odorloc.core.jit import HAVE_NUMBA, jit
 
 __all__ = ["HAVE_NUMBA", "axis_factors", "dw_kernel", "dw_kernel_fast"]
 
@@ -127,13 +130,17 @@ def dw_kernel(
     return boxes, n_cells, patch, ux0, uy0
 
 
-try:  # numba is the optional extra "fast"
-    import numba as _numba
+def _warm(kernel: Any) -> None:
+    """One call on a single window, with the argument types the estimator passes."""
+    one = np.ones(1)
+    for cell_kernel in (False, True):
+        kernel(one, one, one, one, one, 0.0, 0.0, 0.5, 4, 4, cell_kernel, True)
 
-    # the kernel resolves _axis_factors when it compiles, so the helper is compiled first
-    axis_factors = _numba.njit(cache=True, nogil=True)(axis_factors)
-    dw_kernel_fast = _numba.njit(cache=True, nogil=True)(dw_kernel)
-    HAVE_NUMBA = True
-except ImportError:  # pragma: no cover - exercised only without the extra
+
+if HAVE_NUMBA:
+    # the kernel resolves axis_factors when it compiles, so the helper is compiled first; both
+    # are cached across processes (odorloc.core.jit)
+    axis_factors = jit(axis_factors, nogil=True)
+    dw_kernel_fast = jit(dw_kernel, warmup=_warm, nogil=True)
+else:  # pragma: no cover - exercised only without the extra
     dw_kernel_fast = dw_kernel
-    HAVE_NUMBA = False

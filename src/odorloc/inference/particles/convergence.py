@@ -61,7 +61,7 @@ class ConvergenceParams(Params):
 
     r_conv: Positive = 0.5
     r_err: Positive = 0.5
-    history: int = Field(20, ge=1)
+    history: int = Field(20, ge=1, le=100_000)
     variance: Literal["trace", "radius", "max_axis"] = "trace"
 
 

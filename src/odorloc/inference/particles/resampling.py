@@ -270,12 +270,12 @@ class RouletteParams(Params):
     """
 
     survival_floor: float = Field(0.5, ge=0.0, le=1.0)
-    max_children: int = Field(5, ge=1)
+    max_children: int = Field(5, ge=1, le=10_000)
     child_variance: NonNegative = 0.25
     count: Literal["keep", "bounded"] = "keep"
     min_particles: int = Field(100, ge=1, le=10_000_000)
     max_particles: int = Field(5000, ge=1, le=10_000_000)
-    max_redraws: int = Field(5, ge=0)
+    max_redraws: int = Field(5, ge=0, le=1000)
 
     @model_validator(mode="after")
     def _check(self) -> RouletteParams:

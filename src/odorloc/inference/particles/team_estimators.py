@@ -268,9 +268,9 @@ class ColPFParams(_FilterParams):
         ``Delta_c`` of the cue-capture frequency (not given in the paper).
     """
 
-    n_min: int | None = Field(20, ge=1)
-    n_max: int = Field(160, ge=1)
-    k_max: int = Field(800, ge=1)
+    n_min: int | None = Field(20, ge=1, le=10_000_000)
+    n_max: int = Field(160, ge=1, le=10_000_000)
+    k_max: int = Field(800, ge=1, le=1_000_000)
     gamma1: Positive = 1.8
     gamma2: Positive = 4.0
     weighting: Literal["confidence", "equal"] = "confidence"
@@ -280,7 +280,7 @@ class ColPFParams(_FilterParams):
     col_pu: bool = True
     adaptive_count: bool = True
     count_reading: Literal["proportional", "literal"] = "proportional"
-    delta_c: int = Field(3, ge=1)
+    delta_c: int = Field(3, ge=1, le=1_000_000)
 
     @model_validator(mode="after")
     def _bounds(self) -> ColPFParams:

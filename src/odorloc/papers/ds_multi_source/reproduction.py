@@ -20,9 +20,12 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import pandas as pd
 
 from odorloc.core.registry import register
 from odorloc.experiments.reproduction import Figure, Reproduction, ReproductionParams, Table, fmt
+from odorloc.inference.evidence.mapper import RULES as MAP_RULES
+from odorloc.inference.evidence.mapper import DSMapParams
 from odorloc.papers.ds_multi_source.reference import PAPER, RATIOS, SCENES
 
 __all__ = ["DSReproduction", "ds_group", "map_errors", "residual_at", "time_to_residual"]
@@ -34,7 +37,8 @@ SEARCHERS: dict[str, dict[str, Any]] = {
     WAVE: {"rounds": 5, "lane_spacing": 2.0, "lanes_along": "y"},
     DYNAMIC: {},
 }
-RULES = ("", "upwind", "peak", "centroid")
+RULES = ("", *MAP_RULES)
+"""Source rules reported: the default ('') and each named one."""
 _BELIEF_STRIDE = 40  # one map snapshot every 20 s of a kept episode
 
 
@@ -46,8 +50,10 @@ def map_errors(
     Returns ``source_error_i{tag}`` (distance from true source ``i`` to the nearest mapped
     source, NaN if none), ``map_false_sources{tag}`` (mapped sources farther than ``radius``
     from every true source) and ``map_success{tag}`` (every true source within ``radius``).
+    The number of positions is ``mapped_sources`` for ``kind="mapped"``, else ``{kind}_n``.
     """
-    k = int(row.get("mapped_sources", 0) or 0)
+    count = row.get("mapped_sources" if kind == "mapped" else f"{kind}_n", 0)
+    k = int(count or 0)
     mapped = np.array([[row[f"{kind}_x_{i}"], row[f"{kind}_y_{i}"]] for i in range(k)])
     out: dict[str, Any] = {}
     if k:
@@ -177,10 +183,16 @@ def _ms(x: Any, d: int = 1) -> str:
     return f"{fmt(m, d)} ± {fmt(s, d)}"
 
 
+def _stopped(g: Any) -> str:
+    """Flows that ended by the route's own rule (the stop rule or the last round)."""
+    return f"{int((g.termination == 'declared').sum())}/{len(g)}"
+
+
 def _count(g: Any, col: str) -> str:
     if col not in g:
         return f"0/{len(g)}"
-    return f"{int(g[col].fillna(False).astype(bool).sum())}/{len(g)}"
+    hits = pd.to_numeric(g[col], errors="coerce").fillna(0.0) > 0.5
+    return f"{int(hits.sum())}/{len(g)}"
 
 
 @register("reproduction", "ds-multi-source", ReproductionParams, "Sec. 4 and Figs. 1-2")
@@ -192,6 +204,12 @@ class DSReproduction(Reproduction):
     summary = "Sec. 4 and Figs. 1-2: D-S map with dynamic route vs rectangular wave, two sources"
     default_episodes = 10
     paper_episodes = 1
+    success_column = "map_success"
+    success_label = (
+        "both true sources have a mapped source within the scenario's success radius in the "
+        "final map, whether the route's stop rule declared it or the time limit ended the "
+        "mission (the paper's criterion: both sources appear in the map)"
+    )
 
     def __init__(
         self,
@@ -228,6 +246,21 @@ class DSReproduction(Reproduction):
     def tables(self, df: Any, seed: int) -> list[Table]:
         import pandas as pd
 
+        # rows of failed episodes carry none of the mapping columns: read them as missing
+        needed = [
+            "search_time",
+            "path_length",
+            "residual_uncertainty",
+            "initial_uncertainty",
+            "time_to_baseline_residual",
+            "distance_to_baseline_residual",
+            "source_error_0",
+            "source_error_1",
+            *[f"map_false_sources{('_' + r) if r else ''}" for r in RULES],
+            *[f"map_success{('_' + r) if r else ''}" for r in RULES],
+            *[f"scene_residual_{k}" for k in range(3)],
+        ]
+        df = df.assign(**{c: np.nan for c in needed if c not in df.columns})
         df = df.sort_values(["searcher", "episode"])
         compact, wide = [], []
         for label in SEARCHERS:
@@ -238,13 +271,23 @@ class DSReproduction(Reproduction):
                     label,
                     str(len(g)),
                     _ms(g.search_time, 0),
-                    fmt(ref["time"]),
                     _ms(g.path_length, 0),
-                    fmt(ref["distance"]),
                     _ms(g.residual_uncertainty, 0),
-                    fmt(ref["residual"]),
                     _count(g, "map_success"),
+                    _stopped(g),
                     _ms(g.map_false_sources),
+                ]
+            )
+            compact.append(
+                [
+                    f"  paper, {ref['source'].split(' (')[0]}",
+                    "1",
+                    fmt(ref["time"]),
+                    fmt(ref["distance"]),
+                    fmt(ref["residual"]),
+                    "both",
+                    "yes",
+                    "some",
                 ]
             )
             wide.append(
@@ -252,35 +295,34 @@ class DSReproduction(Reproduction):
                     label,
                     str(len(g)),
                     _count(g, "declared"),
+                    _stopped(g),
                     _ms(g.search_time),
                     _ms(g.path_length),
                     _ms(g.residual_uncertainty),
                     fmt(_mean_sd(g.initial_uncertainty)[0], 0),
                     _ms(g.source_error_0, 2),
                     _ms(g.source_error_1, 2),
-                    *[_count(g, f"map_success{('_' + r) if r else ''}") for r in RULES],
-                    _ms(g.map_false_sources),
+                    *[
+                        cell
+                        for r in MAP_RULES
+                        for cell in (
+                            _count(g, f"map_success_{r}"),
+                            _ms(g.get(f"map_false_sources_{r}", [])),
+                        )
+                    ],
                 ]
             )
+        rule = DSMapParams().source_rule
         tables = [
             Table(
                 "summary",
                 "D-S mapping, ours (mean ± sd over flows) vs paper",
-                [
-                    "method",
-                    "n",
-                    "time s",
-                    "paper",
-                    "distance m",
-                    "paper",
-                    "ΣX",
-                    "paper",
-                    "both found",
-                    "false",
-                ],
+                ["method", "n", "time s", "distance m", "ΣX", "both found", "stopped", "false"],
                 compact,
-                note="both found: each true source has a mapped source within the success "
-                "radius (source rule 'peak'); false: mapped sources farther from both",
+                note=f"both found: each true source has a mapped source within the success "
+                f"radius in the final map (source rule {rule!r}); stopped: flows whose route "
+                "ended by its own rule (else the time limit); false: mapped sources farther "
+                "from both",
             ),
             Table(
                 "summary_wide",
@@ -289,17 +331,14 @@ class DSReproduction(Reproduction):
                     "method",
                     "n",
                     "declared",
+                    "stopped",
                     "time s",
                     "distance m",
                     "residual ΣX",
                     "initial ΣX",
                     "err src1 m",
                     "err src2 m",
-                    "both (peak)",
-                    "both (upwind)",
-                    "both (peak)",
-                    "both (centroid)",
-                    "false",
+                    *[h for r in MAP_RULES for h in (f"both ({r})", f"false ({r})")],
                 ],
                 wide,
                 console=False,
@@ -401,12 +440,16 @@ def _flow0(df: Any, store: Any) -> dict[str, Any]:
         sc = cell_scenario({"scenario": SCENARIO})
         region = check_region(sc.task.region)
         mapper = DSMapper(DSMapParams(), region, sc.limits.control_dt)
+        row = g.iloc[0]
+        n = int(row.get("mapped_sources", 0) or 0) if "mapped_sources" in g else 0
+        mapped = [(row.get(f"mapped_x_{k}"), row.get(f"mapped_y_{k}")) for k in range(n)]
         out[label] = {
             "recording": rec,
             "final": maps[-1],
             "lower": mapper.grid.grid.lower,
             "upper": mapper.grid.grid.upper,
             "region": region,
+            "mapped": np.array([m for m in mapped if np.all(np.isfinite(m))], float),
         }
     return out
 
@@ -468,6 +511,9 @@ def _state_map_figure(recs: dict[str, Any], path: Path) -> None:
             if len(pos):
                 ax.plot(*pos[-1, :2], "o", color="tab:green", mec="k")
             ax.plot(rec.sources[:, 0], rec.sources[:, 1], "*", color="red", mec="k", ms=13)
+            mapped = entry.get("mapped", np.zeros((0, 2)))
+            if c == 2 and len(mapped):
+                ax.plot(mapped[:, 0], mapped[:, 1], "X", color="tab:orange", mec="k", ms=10)
             ax.add_patch(Rectangle((rx0, ry0), rx1 - rx0, ry1 - ry0, fill=False, ec="gold", lw=2))
             d = float(np.sum(np.linalg.norm(np.diff(pos[:, :2], axis=0), axis=1)))
             x = cell_uncertainty(ms, mn, snap["m_u"])
@@ -481,13 +527,27 @@ def _state_map_figure(recs: dict[str, Any], path: Path) -> None:
             ax.set_xlim(rx0 - 1.0, rx1 + 1.0)
             ax.set_ylim(ry0 - 1.0, ry1 + 1.0)
             ax.set_aspect("equal")
+    from matplotlib.lines import Line2D
+
+    rule = DSMapParams().source_rule
     handles = [
         Patch(color="0.6", label="unknown"),
         Patch(fc="white", ec="k", label="free"),
         Patch(color="black", label="occupied by a source"),
+        Line2D([], [], ls="", marker="*", color="red", mec="k", ms=12, label="true source"),
+        Line2D(
+            [],
+            [],
+            ls="",
+            marker="X",
+            color="tab:orange",
+            mec="k",
+            ms=9,
+            label=f"mapped source at the end ({rule} rule)",
+        ),
     ]
-    fig.legend(handles=handles, loc="lower center", ncol=3)
-    fig.suptitle("D-S state maps at three moments (cf. paper Figs. 1-2); red stars: true sources")
+    fig.legend(handles=handles, loc="lower center", ncol=5)
+    fig.suptitle("D-S state maps at three moments (cf. paper Figs. 1-2)")
     fig.savefig(path, dpi=100)
     plt.close(fig)
 

@@ -25,6 +25,7 @@ from odorloc.experiments.reproduction import (
     fmt,
 )
 from odorloc.papers.indoor_pf_entropy.reference import TABLE1
+from odorloc.viz.intervals import errorbar_lengths
 
 __all__ = ["PF_LITERAL", "PF_LITERAL_PARAMS", "IndoorReproduction", "table1_wall_time"]
 
@@ -116,10 +117,10 @@ class IndoorReproduction(Reproduction):
                 f"{fmt(100 * r.success_hi, 0)}]"
             )
 
-        def mtime(r: Any) -> str:
+        def mtime(r: Any, d: int = 0) -> str:
             if r is None:
                 return "-"
-            return f"{fmt(r.mean_time)} [{fmt(r.mean_time_lo)}, {fmt(r.mean_time_hi)}]"
+            return f"{fmt(r.mean_time, d)} [{fmt(r.mean_time_lo, d)}, {fmt(r.mean_time_hi, d)}]"
 
         t1 = []
         for idx, ref in TABLE1.items():
@@ -157,13 +158,16 @@ class IndoorReproduction(Reproduction):
                     "start",
                     "method",
                     "n",
-                    "success % [95% CI]",
+                    "success % [CI]",
                     "paper %",
-                    "mean time s [95% CI]",
+                    "time s [CI]",
                     "paper s",
                     "error m",
                 ],
                 t1,
+                note="95 % intervals: Wilson for the success rate, bootstrap for the mean time of "
+                "successful episodes; error m: mean localisation error",
+                left=2,
             ),
             Table(
                 "fig8",
@@ -193,11 +197,8 @@ class IndoorReproduction(Reproduction):
 
 
 def _errorbar(center: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> list[np.ndarray]:
-    """Non-negative error-bar lengths (an interval that excludes its point is widened to it)."""
-    c = np.asarray(center, float)
-    low = np.nan_to_num(np.maximum(c - np.asarray(lo, float), 0.0))
-    high = np.nan_to_num(np.maximum(np.asarray(hi, float) - c, 0.0))
-    return [low, high]
+    """Non-negative error-bar lengths (see :func:`odorloc.viz.intervals.errorbar_lengths`)."""
+    return list(errorbar_lengths(center, lo, hi))
 
 
 def _fig8(summ: Any, path: Path) -> None:

@@ -47,11 +47,30 @@ N_BOOT = 2000
 LEVEL = 0.95
 
 
+#: Team metrics the tables and figures read (absent from a store of failed episodes).
+TEAM_METRICS = (
+    "reach_fly_time",
+    "reach_hover_time",
+    "reach_turn_time",
+    "energy_fly",
+    "energy_hover",
+    "energy_turn",
+    "energy_compute",
+    "energy_comm",
+    "team_hover_time",
+    "team_turn_time",
+)
+
+
 def add_uav_search_time(df: Any, limit: float = 1200.0) -> Any:
     """Rows with ``uav_search_time``: flying + hovering + turning time (s) of the first UAV to
     reach the source (Sect. VI.1), ``limit`` for episodes where none did; and ``movement_kj``,
     the team's movement energy ``E_M`` (eqs. 4-6) in kJ."""
     out = df.copy()
+    for name in TEAM_METRICS:
+        # a store of failed episodes has none of the team's metrics: NaN, never a KeyError
+        if name not in out:
+            out[name] = math.nan
     busy = out["reach_fly_time"] + out["reach_hover_time"] + out["reach_turn_time"]
     reached = out["success"].fillna(False).astype(bool)
     out["uav_search_time"] = np.where(reached, busy, limit)

@@ -1,0 +1,106 @@
+"""The one way a scenario is named, found and checked before any episode runs.
+
+- :func:`resolve_ref` turns what a user wrote (a built-in name or a file path, possibly relative
+  to the sweep file that names it) into what every process can open: a built-in name stays as
+  it is, a path becomes absolute.
+- :func:`load_scenario` loads it (built-in or file) through the safe reader of
+  :mod:`odorloc.core.loading`.
+- :func:`check_scenario` is the deep check: it builds every component (the arena and its
+  obstacle file, the wind, the plume, sensors, platforms, the searcher) and resets the searcher
+  on the scenario's search context, so that a scenario which cannot run fails here, with one
+  :class:`~odorloc.core.errors.ConfigError` naming its field, instead of in every episode.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from odorloc.scenarios.catalog import builtin_names, builtin_path
+from odorloc.scenarios.config import Scenario
+
+__all__ = ["SCENARIO_SUFFIXES", "check_scenario", "is_file_ref", "load_scenario", "resolve_ref"]
+
+SCENARIO_SUFFIXES = (".yaml", ".yml")
+"""File endings that mark a scenario reference as a file path."""
+
+
+def is_file_ref(ref: str | Path) -> bool:
+    """Whether ``ref`` names a scenario file (rather than a built-in scenario)."""
+    s = str(ref)
+    return s.endswith(SCENARIO_SUFFIXES) or "/" in s or "\\" in s
+
+
+def resolve_ref(ref: str | Path, base_dir: str | Path | None = None) -> str:
+    """A scenario reference every process can open.
+
+    Parameters
+    ----------
+    ref : str or path
+        A built-in scenario name or a scenario file path.
+    base_dir : path, optional
+        Folder a relative file path is relative to (a sweep file's folder); default the
+        current folder.
+
+    Returns
+    -------
+    str
+        A built-in name unchanged, the absolute path of a file, or (neither) ``ref`` as given,
+        for :func:`load_scenario` to refuse by name.
+    """
+    s = str(ref)
+    if not is_file_ref(s) and s in builtin_names():
+        return s
+    p = Path(s).expanduser()
+    if not p.is_absolute():
+        p = Path(base_dir or ".") / p
+    if is_file_ref(s) or p.exists():
+        return str(p.absolute())
+    return s
+
+
+def load_scenario(ref: str | Path, base_dir: str | Path | None = None) -> Scenario:
+    """A built-in scenario by name, or a scenario file (relative to ``base_dir``).
+
+    Raises
+    ------
+    ConfigError
+        ``scenario``: an unknown name or an unreadable file; otherwise the invalid field.
+    """
+    s = resolve_ref(ref, base_dir)
+    if Path(s).is_absolute():
+        return Scenario.from_yaml(s)
+    return Scenario.from_yaml(builtin_path(s))
+
+
+def check_scenario(sc: Scenario, world: Any = None) -> Any:
+    """Build every component of ``sc`` and reset its searcher on the search context.
+
+    Parameters
+    ----------
+    sc : Scenario
+    world : World, optional
+        An already built world of the same world settings (sweeps build each world once and
+        check every searcher cell of it against that world).
+
+    Returns
+    -------
+    World
+        The built world (to pass back in for the next cell of the same world).
+
+    Raises
+    ------
+    ConfigError
+        The first field that stops the scenario from running.
+    """
+    from odorloc.scenarios.build import build, build_world, prefixed, search_context
+
+    if world is None:
+        world = build_world(sc)
+    built = build(sc, world=world)
+    ctx = search_context(sc, built)
+    # a throwaway generator: the check must not touch any episode's stream
+    prefixed("searcher", built.searcher.reset, ctx, np.random.default_rng(0))
+    return world
