@@ -106,7 +106,14 @@ def test_console_tables_fit_100_columns(tmp_path) -> None:
 
     for name in NAMES:
         r = rp.get(name)
-        df = _fake_run_sweep("one-each")(r.sweep(1, 1), tmp_path / f"{name}.sqlite")
+        import pandas as pd
+
+        fake = _fake_run_sweep("one-each")
+        parts = []
+        for sweep, spec in r.sweeps(1, 1).items():
+            part = fake(spec, tmp_path / f"{name}-{sweep}.sqlite")
+            parts.append(part.assign(sweep=sweep))
+        df = pd.concat(parts, ignore_index=True)
         for tab in r.tables(df, 1):
             if not tab.console:
                 continue

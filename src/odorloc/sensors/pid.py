@@ -86,8 +86,8 @@ class PIDCountParams(Params):
     """
 
     ppm_per_hit: Positive = 100.0
-    max_hits: int | None = Field(None, ge=1)
-    threshold: int = Field(1, ge=1)
+    max_hits: int | None = Field(None, ge=1, le=1_000_000)
+    threshold: int = Field(1, ge=1, le=1_000_000)
     delay: NonNegative = 0.0
     tau: NonNegative = 0.0
     noise_std: NonNegative = 0.0
