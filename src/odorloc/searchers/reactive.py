@@ -34,6 +34,7 @@ The threshold ``rho_T`` is ``threshold`` (default: the gas sensor's detection th
 from __future__ import annotations
 
 import math
+from abc import abstractmethod
 from collections import deque
 from collections.abc import Sequence
 from typing import Any
@@ -288,9 +289,9 @@ class _TaxisSearcher(ReactiveSearcher):
         self.readings: deque[float] = deque(maxlen=m)
         self.winds: deque[np.ndarray] = deque(maxlen=m)
 
+    @abstractmethod
     def rule(self) -> np.ndarray | None:
         """The rule's direction from the samples, or ``None``."""
-        raise NotImplementedError
 
     def act(self, observations: Sequence[Observation], rng: np.random.Generator) -> Action:
         o = observations[0]
