@@ -385,12 +385,17 @@ def reproduce(
     from odorloc.experiments import reproduction as rp
 
     if list_ or not paper:
+        import textwrap
+
         for n in rp.names_of_reproductions():
             r = rp.get(n)
-            console.print(
-                f"[bold]{n}[/]  ({r.paper}) {r.summary}; default {r.default_episodes} "
-                f"episode(s) per cell, the paper's {r.paper_episodes}"
+            console.print(f"[bold]{n}[/]  ({r.paper})")
+            text = (
+                f"{r.summary}. Default {r.default_episodes} episode(s) per cell; the paper's "
+                f"count: --episodes {r.paper_episodes}"
             )
+            for line in textwrap.wrap(text, width=max(console.width - 4, 40)):
+                console.print(f"    {line}", highlight=False)
         return
     try:
         from odorloc.experiments.sweep import MAX_EPISODES
