@@ -138,6 +138,12 @@ class Reproduction:
     success_label: ClassVar[str] = ""
     cell_summary: ClassVar[bool] = True
 
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        # a reproduction is its sweeps: refuse one that defines neither when it is declared
+        if cls.sweep is Reproduction.sweep and cls.sweeps is Reproduction.sweeps:
+            raise TypeError(f"{cls.__name__} must define sweep() or sweeps()")
+
     def __init__(self, params: ReproductionParams | None = None) -> None:
         self.params = params or ReproductionParams()
 
@@ -145,7 +151,7 @@ class Reproduction:
     def sweep(self, episodes: int, seed: int) -> dict[str, Any]:
         """The sweep specification (see :mod:`odorloc.experiments.sweep`) of a one-sweep
         reproduction; a reproduction of several sweeps overrides :meth:`sweeps` instead."""
-        raise NotImplementedError(f"{type(self).__name__} defines neither sweep() nor sweeps()")
+        raise TypeError(f"{type(self).__name__} runs several sweeps: call sweeps()")
 
     def sweeps(self, episodes: int | None, seed: int) -> dict[str, dict[str, Any]]:
         """The reproduction's sweeps by name, in running order; each is stored in

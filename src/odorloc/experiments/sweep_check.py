@@ -17,15 +17,33 @@ reset per cell.
 from __future__ import annotations
 
 import re
-from collections.abc import Iterable
-from typing import TYPE_CHECKING, Any
+from collections.abc import Iterable, Sequence
+from typing import Any, Protocol
 
 from odorloc.core.errors import ConfigError
 
-if TYPE_CHECKING:  # the sweep module calls this one: no import at run time (no cycle)
-    from odorloc.experiments.sweep import Cell, SweepSpec
-
 __all__ = ["check_names", "check_sweep", "locate"]
+
+
+# What this pass reads of :class:`odorloc.experiments.sweep.SweepSpec` and ``Cell``: the sweep
+# module calls this one, so it names their shape instead of importing them.
+class SweepSpec(Protocol):
+    """The parts of a sweep specification the validation reads."""
+
+    base_dir: str | None
+    scenarios: Sequence[Any]
+    searchers: Sequence[Any]
+
+
+class Cell(Protocol):
+    """The parts of a sweep cell the validation reads."""
+
+    cell_id: str
+    world_key: str
+    scenario_index: int
+    searcher_index: int
+    spec: dict[str, Any]
+    swept: dict[str, Any]
 
 
 def _norm(path: str) -> str:

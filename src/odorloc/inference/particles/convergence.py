@@ -16,15 +16,28 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Literal
+from typing import Any, Literal, Protocol
 
 import numpy as np
 from pydantic import Field
 
 from odorloc.core.params import Params, Positive
 
-if TYPE_CHECKING:
-    from odorloc.inference.particles.filter import ParticleFilter
+
+class ParticleFilter(Protocol):
+    """What a stopping rule reads of :class:`~odorloc.inference.particles.filter.ParticleFilter`
+    (named by its shape: the filter module imports this one)."""
+
+    @property
+    def history(self) -> np.ndarray: ...
+
+    @property
+    def constraint(self) -> Any: ...
+
+    def spread(self, variance: Literal["trace", "radius", "max_axis"] = "trace") -> float: ...
+
+    def estimate(self) -> np.ndarray: ...
+
 
 __all__ = ["ConvergenceParams", "ConvergenceStatus", "DualConvergence", "spread"]
 
