@@ -6,8 +6,12 @@ episode in the same process (the warm reference). The cache lives in a temporary
 (``ODORLOC_CACHE_DIR``), so the first mode really compiles:
 
 - ``cold``: empty cache (the first process on a machine compiles and writes the cache);
-- ``cached``: the cache is there; the kernels load from it (no compilation), but numba still
-  initialises its own typing registries on the first call;
+- ``cached``: the cache is there; the kernels load from it (no compilation), but the first
+  numba call of the process still starts numba's runtime (its typing registries, and SciPy's
+  BLAS bound through :mod:`scipy.linalg`), inside the first episode;
+- ``run``: cached, and the runtime started before the episode by
+  :func:`odorloc.core.jit.start`, as ``odorloc run`` does: the episode's kernels load from
+  the cache on their first call;
 - ``worker``: cached and :func:`odorloc.core.jit.warm` called at start, as every sweep worker
   does, so its first episode costs what the others do.
 
@@ -38,6 +42,9 @@ from odorloc.experiments.runner import cell_scenario
 if mode == "worker":
     from odorloc.core.jit import warm
     warm()
+elif mode == "run":
+    from odorloc.core.jit import start
+    start()
 t1 = time.perf_counter()
 cell = {"scenario": "two-sources-farrell", "searcher": "ds-mapping",
         "scenario_params": {"limits.time": 20.0}}
@@ -70,12 +77,13 @@ def main() -> None:
     import odorloc
 
     package = Path(odorloc.__file__).parent
-    rows: dict[str, list[dict[str, float]]] = {"cold": [], "cached": [], "worker": []}
+    rows: dict[str, list[dict[str, float]]] = {"cold": [], "cached": [], "run": [], "worker": []}
     for _ in range(args.repeats):
         with tempfile.TemporaryDirectory() as d:
             cache = Path(d)
             rows["cold"].append(run("cold", cache))
             rows["cached"].append(run("cached", cache))
+            rows["run"].append(run("run", cache))
             rows["worker"].append(run("worker", cache))
     in_src = [p for p in package.rglob("*") if p.suffix in (".nbi", ".nbc")]
     print(f"{'mode':8} {'start s':>8} {'first s':>8} {'second s':>9} {'first/2nd':>10} misses")
@@ -94,6 +102,7 @@ def main() -> None:
         f"cold_first_s={summary['cold'][0]:.3f} cached_first_s={summary['cached'][0]:.3f} "
         f"worker_first_s={summary['worker'][0]:.3f} warm_episode_s={summary['worker'][1]:.3f} "
         f"cold_ratio={summary['cold'][2]:.2f} cached_ratio={summary['cached'][2]:.2f} "
+        f"run_first_s={summary['run'][0]:.3f} run_ratio={summary['run'][2]:.2f} "
         f"worker_ratio={summary['worker'][2]:.2f} cached_misses={summary['cached'][3]} "
         f"files_in_src={len(in_src)}"
     )

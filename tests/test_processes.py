@@ -197,3 +197,29 @@ def test_cache_folder_is_outside_the_package(tmp_path, monkeypatch) -> None:
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "x"))
     assert jit.cache_dir() == tmp_path / "x" / "odorloc" / "numba"
     assert PACKAGE not in jit.cache_dir().parents
+
+
+def test_runtime_start_runs_once_and_loads_from_the_cache(tmp_path) -> None:
+    """``jit.start`` brings numba up once per process (a second call does nothing); in a new
+    process its own tiny kernel loads from the cache instead of compiling."""
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_CACHE_DIR"}
+    env["ODORLOC_CACHE_DIR"] = str(tmp_path / "cache")
+    code = (
+        "import json; from odorloc.core import jit; jit.start(); jit.start(); "
+        "k = jit._RUNTIME; print(json.dumps([len(k), "
+        "[sum(k[0].stats.cache_misses.values()) if k else 0]]))"
+    )
+
+    def run() -> list:
+        r = subprocess.run(
+            [sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=300
+        )
+        assert r.returncode == 0, r.stderr
+        return json.loads(r.stdout.strip().splitlines()[-1])
+
+    first, second = run(), run()
+    if not HAVE_NUMBA:
+        assert first == second == [0, [0]]
+        return
+    assert first[0] == second[0] == 1
+    assert second[1] == [0]  # the second process compiled nothing

@@ -179,6 +179,10 @@ def run(
             f"running [bold]{escape(sc.name)}[/] with searcher "
             f"[bold]{escape(sc.searcher.type)}[/], root seed {sc.seed}, episode {episode}"
         )
+        # numba's one-off runtime start belongs to the process, not to the episode's time
+        from odorloc.core.jit import start
+
+        start()
         res = run_episode(sc, world_seed, agent_seed, record=True)
     except OdorlocError as exc:
         _fail(str(exc))
