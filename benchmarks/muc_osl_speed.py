@@ -256,6 +256,52 @@ def _same(a: list[dict], b: list[dict]) -> bool:
     )
 
 
+def _time_split(episodes: int) -> tuple[float, dict[str, float]]:
+    """Mean MUC-OSL episode (s) and the seconds per episode spent in its parts: the engine's
+    step (world, sensors, flight, messages), the estimators' updates, the planners' decisions,
+    and, inside those, the compiled kernels (the arithmetic; the rest is interpreter work on
+    small arrays). Timers wrap the functions for this measurement only."""
+    import odorloc.engine.episode as engine
+    import odorloc.inference.particles.team_estimators as estimators
+    import odorloc.models.kernels as model_kernels
+    import odorloc.planning.adaptive as adaptive
+    import odorloc.planning.kernels as planning_kernels
+
+    acc: dict[str, float] = dict.fromkeys(("engine step", "update", "plan", "kernels"), 0.0)
+    saved: list[tuple[object, str, object]] = []
+
+    def wrap(owner: object, name: str, key: str) -> None:
+        f = getattr(owner, name)
+        saved.append((owner, name, f))
+
+        def timed(*a: object, **k: object) -> object:
+            t = time.perf_counter()
+            try:
+                return f(*a, **k)
+            finally:
+                acc[key] += time.perf_counter() - t
+
+        setattr(owner, name, timed)
+
+    wrap(engine.Episode, "step", "engine step")
+    wrap(estimators.ColPFEstimator, "update", "update")
+    wrap(adaptive.AdaptivePathPlanner, "plan", "plan")
+    for mod in (model_kernels, planning_kernels):
+        for name in list(vars(mod)):
+            if type(getattr(mod, name)).__name__ == "CPUDispatcher":
+                wrap(mod, name, "kernels")
+    try:
+        sc = get_scenario("muc-osl-3d").with_overrides({"searcher": {"type": "muc-osl"}})
+        t0 = time.perf_counter()
+        for e in range(episodes):
+            run_episode(sc, *episode_seeds(2024, "muc-osl-3d", e), record=False)
+        wall = (time.perf_counter() - t0) / episodes
+    finally:
+        for owner, name, f in reversed(saved):
+            setattr(owner, name, f)
+    return wall, {k: v / episodes for k, v in acc.items()}
+
+
 def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeat", type=int, default=200, help="calls per timing of the vector code")
@@ -376,6 +422,19 @@ def main(argv: list[str] | None = None) -> None:
                 f"{means[name, 'numpy'] / means[name, b]:8.1f}x {reached:>4}/{args.episodes} "
                 f"{'yes' if same else 'NO':>10}"
             )
+    if HAVE_NUMBA:
+        wall, parts = _time_split(args.episodes)
+        print(f"\nwhere a MUC-OSL episode's time goes ({best}, timers on: {wall:.3f} s)")
+        print(f"{'part':<38} {'s/episode':>10} {'share':>7}")
+        rest = wall - parts["engine step"] - parts["update"] - parts["plan"]
+        for name, v in (
+            ("engine step (world, sensors, flight)", parts["engine step"]),
+            ("Col-PF updates", parts["update"]),
+            ("Adap-PP decisions", parts["plan"]),
+            ("searcher bookkeeping, episode loop", rest),
+            ("  of all: inside compiled kernels", parts["kernels"]),
+        ):
+            print(f"{name:<38} {v:10.3f} {v / wall:6.0%}")
     m = means["muc-osl", best]
     target = "  (over the 0.3 s target)" if m > 0.3 else ""
     print(f"mean MUC-OSL episode ({best}) {m:.3f} s{target}")
