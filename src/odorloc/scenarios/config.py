@@ -24,6 +24,7 @@ import copy
 import hashlib
 import json
 import math
+import re
 from pathlib import Path
 from typing import Any, Literal
 
@@ -448,11 +449,14 @@ class Scenario(_Strict):
         """
         data = copy.deepcopy(self.to_dict())
         expanded: dict[str, Any] = {}
+        knob_of: dict[str, str] = {}
         for path, value in overrides.items():
             for p in self.knobs.get(path, [path]):
                 if p in expanded:
                     raise ConfigError(path, f"sets {p!r}, which another override sets too")
                 expanded[p] = value
+                if path in self.knobs:
+                    knob_of[p] = path
         for path, value in expanded.items():
             node: Any = data
             keys = str(path).split(".")
@@ -481,7 +485,15 @@ class Scenario(_Strict):
                         node = node[k]
                 else:
                     raise ConfigError(path, f"{where} is a value, not a group of settings")
-        return Scenario.from_dict(data)
+        try:
+            return Scenario.from_dict(data)
+        except ConfigError as exc:
+            # a bad knob value is the knob's: name it, and the setting that refused it
+            at = re.sub(r"\[(\d+)\]", r".\1", exc.field)
+            for p, knob in knob_of.items():
+                if at == p or at.startswith(p + "."):
+                    raise ConfigError(knob, f"{exc.field} {exc.problem}") from None
+            raise
 
 
 def _absolute(value: Any, base: Path) -> Any:
