@@ -232,6 +232,7 @@ class Episode:
         self.agent_rng = episode_generators(world_seed, agent_seed)[2]
         self.world = world
         self.sources = world.sources
+        self._source_rows = np.asarray(self.sources, float).tolist()
         self._starts = np.asarray(sc.agents.starts, float)
         for k, pl in enumerate(b.platforms):
             pl.reset(self._starts[k], sc.agents.heading)
@@ -340,7 +341,9 @@ class Episode:
         # positions (those already moved this period included), so none enters another.
         near = self._near(positions) if self._radii is not None else None
         for k, pl in enumerate(b.platforms):
-            pl.charge_comm(self._comm.bytes_sent_by(k))
+            nbytes = self._comm.bytes_sent_by(k)
+            if nbytes:
+                pl.charge_comm(nbytes)
             bits = action.compute_bits.get(k, 0.0)
             if bits:
                 pl.charge_compute(bits)
@@ -417,21 +420,36 @@ class Episode:
                 self._events.append(ev)
         reach = self.scenario.task.reach_radius
         if reach is not None and math.isnan(self._reach_time):
-            pos = np.array([o.position for o in obs])
-            diff = pos[:, None, :] - self.sources[None, :, :]
-            # numpy.linalg.norm(diff, axis=2) without its overhead (every step)
-            within = np.sqrt(np.add.reduce(diff * diff, axis=2)) <= reach
-            hit = np.argwhere(within) if within.any() else ()
-            if len(hit):
-                agent, src = (int(v) for v in hit[0])
+            hit = self._first_within(positions, reach)
+            if hit is not None:
+                agent, src = hit
                 self._reach_time = t
                 self._reach_agent = agent
                 # the reaching agent's own totals at this moment (e.g. a UAV's busy time)
                 self._reach_stats = dict(self.built.platforms[agent].stats)
-                ev = Event(t, "source_reached", agent=agent, source=src, position=pos[agent])
+                ev = Event(
+                    t, "source_reached", agent=agent, source=src, position=positions[agent].copy()
+                )
                 events.append(ev)
                 self._events.append(ev)
         return obs
+
+    def _first_within(self, positions: np.ndarray, radius: float) -> tuple[int, int] | None:
+        """The first (agent, source) pair, in agent-major order, closer than ``radius``.
+
+        Distances in Python floats, summed over the axes in order (as ``numpy.linalg.norm``
+        of the difference sums them): checked every step, where array calls on a few numbers
+        cost more than the arithmetic.
+        """
+        sources = self._source_rows
+        for k, p in enumerate(positions.tolist()):
+            for j, s in enumerate(sources):
+                acc = 0.0
+                for a, b in zip(p, s, strict=True):
+                    acc += (a - b) * (a - b)
+                if math.sqrt(acc) <= radius:
+                    return k, j
+        return None
 
     def _stuck(self) -> bool:
         """Update the back-and-forth counters; ``True`` when every agent exceeds the limit.

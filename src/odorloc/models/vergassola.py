@@ -226,8 +226,8 @@ class VergassolaModel(MeasurementModel):
             1.0 / correlation_length(p.V, p.D, p.tau),
             p.sensor_radius * p.sensor_radius,
         )
-        # the class counts n_classes tries (one array for every call)
-        self._class_counts = np.arange(1, self.params.max_classes)
+        # ``a Q`` per hypothesis for the common case of one release rate for all (by count)
+        self._aq: dict[tuple[int, float], np.ndarray] = {}
 
     @property
     def length(self) -> float:
@@ -295,10 +295,13 @@ class VergassolaModel(MeasurementModel):
 
     def _classes_for(self, m: float) -> int:
         p = self.params
-        # tail of class n - 1 is P(d >= n - 1) = gammainc(n - 1, m), decreasing in n
-        tails = gammainc(self._class_counts, m)
-        ok = np.flatnonzero(tails < p.tail_mass)
-        return int(ok[0] + 2) if ok.size else p.max_classes
+        # tail of class n - 1 is P(d >= n - 1) = gammainc(n - 1, m), decreasing in n: the first
+        # n with a small enough tail, tried in order (usually a few; one call each)
+        tail = p.tail_mass
+        for n in range(1, p.max_classes):
+            if gammainc(n, m) < tail:
+                return n + 1
+        return p.max_classes
 
     def outcome_probabilities(
         self, sensor_positions: np.ndarray, hypotheses: np.ndarray, **conditions: Any
@@ -355,10 +358,15 @@ class VergassolaModel(MeasurementModel):
             expo, r = kernels.rate_exponent_direct(xc, sc, xe, se, adv, inv_lam, a2)
         else:
             expo, r = kernels.rate_exponent_gram(x @ s.T, xc, sc, xe, se, adv, inv_lam, a2)
-        aq = p.sensor_radius * q
-        if aq.shape != (len(s),):
-            aq = np.full(len(s), float(aq))
-        return np.exp(expo), r, np.ascontiguousarray(aq, dtype=float)
+        if q.ndim == 0:
+            key = (len(s), float(q))
+            aq = self._aq.get(key)
+            if aq is None:
+                # shared between calls: the kernels only read it
+                aq = self._aq[key] = np.full(len(s), float(p.sensor_radius * q))
+        else:
+            aq = np.ascontiguousarray(p.sensor_radius * q, dtype=float)
+        return np.exp(expo), r, aq
 
 
 def _log_rows(

@@ -121,18 +121,22 @@ def _direction_rewards_compiled(
     position: np.ndarray,
     h1: float,
     tail_mass: float,
+    estimate: np.ndarray | None = None,
 ) -> tuple[np.ndarray, int]:
     """:func:`merge_tail_classes` then :func:`direction_rewards` with the compiled kernels:
-    the same rewards to the bit, and the number of classes kept."""
+    the same rewards to the bit, and the number of classes kept (``estimate``: ``w @ x`` if
+    the caller has it)."""
     w = np.asarray(weights, float)
     x = np.asarray(hypotheses, float)
     q = np.ascontiguousarray(outcome_probs, dtype=float)
     keep = kernels.tail_cut(q @ w, tail_mass)
     joint, pz, xl, safe = kernels.direction_terms(q, w, keep)
     m, z, n = joint.shape
-    est = w @ x
+    est = w @ x if estimate is None else estimate
     h_now = -float(xlogy(w, w).sum())
-    w_now = float(np.linalg.norm(np.asarray(position, float) - est)) + h1 * h_now
+    # numpy.linalg.norm of a vector is sqrt(v . v)
+    gap = np.asarray(position, float) - est
+    w_now = math.sqrt(float(gap.dot(gap))) + h1 * h_now
     t = np.ascontiguousarray(targets, dtype=float)
     rewards = kernels.direction_finish(
         joint.reshape(m * z, n) @ x, pz, xl, safe, np.log(safe), t, h1, w_now
@@ -322,12 +326,17 @@ class AdaptivePathPlanner(StepPlanner):
         x = belief.positions
         w = belief.weights
         est = w @ x
-        var = max(float(np.trace(belief.cov)), 0.0)
+        cov = belief.cov.tolist()
+        # numpy.trace without its call: the diagonal summed in order
+        var = cov[0][0]
+        for i in range(1, len(cov)):
+            var += cov[i][i]
+        var = max(var, 0.0)
         h1 = p.h1_scale * (var if p.h1 == "variance" else math.sqrt(var))
         q = model.outcome_probabilities(targets[ok], x)
         if self.compiled:
             scores[ok], n_classes = _direction_rewards_compiled(
-                w, x, q, targets[ok], pos, h1, p.tail_mass
+                w, x, q, targets[ok], pos, h1, p.tail_mass, est
             )
             q_size = q.shape[0] * n_classes * q.shape[2]
         else:
@@ -343,10 +352,11 @@ class AdaptivePathPlanner(StepPlanner):
         fine = self.feasible(pos, cand)
         # a move is feasible only up to its first blocked length
         fine = np.cumprod(fine).astype(bool)
-        h2 = p.h2_scale * float(np.linalg.norm(pos - est))
+        gap = pos - est
+        h2 = p.h2_scale * math.sqrt(float(gap.dot(gap)))
         if self.compiled:
             hist = np.ascontiguousarray(np.asarray(history, float).reshape(-1, pos.size))
-            step_norm = float(np.linalg.norm(step))
+            step_norm = math.sqrt(float(step.dot(step)))
             r = kernels.step_rewards(pos, step, step_norm, l_max, est, hist, h2)
         else:
             r = step_rewards(pos, step, l_max, est, history, h2)

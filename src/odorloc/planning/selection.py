@@ -40,6 +40,8 @@ def select(
     if not ok.any():
         return None
     signed = np.where(ok, s if mode == "min" else -s, np.inf)
+    if ties == "first" and atol == 0.0 and rtol == 0.0:
+        return int(signed.argmin())  # the first index of the minimum
     best = float(signed.min())
     tol = atol + rtol * abs(best)
     cand = np.flatnonzero(signed <= best + tol)

@@ -132,8 +132,14 @@ class StepPlanner(ABC):
         arena = self.ctx.arena
         if arena.occ is None:
             # a box is convex: free and reachable is both ends inside (what the general test
-            # finds, with one bounds test instead of three)
-            return arena.contains(targets) & bool(arena.contains(position)[0])
+            # finds, with one bounds test instead of three; Arena.contains without its input
+            # checks, the planner's arrays being (M, d) floats already)
+            lo, hi = arena.lo, arena.hi
+            inside = ((targets >= lo) & (targets <= hi)).all(axis=1)
+            here = np.asarray(position, float).tolist()
+            if not all(a <= v <= b for a, v, b in zip(lo.tolist(), here, hi.tolist(), strict=True)):
+                inside[:] = False
+            return inside
         return arena.is_free(targets) & reachable(arena, position, targets)
 
     @abstractmethod

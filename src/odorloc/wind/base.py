@@ -58,6 +58,8 @@ class WindModel(TimeStepped, ABC):
 
     #: ``True`` when :meth:`velocity` is a pure function of (points, t).
     deterministic: bool = False
+    #: ``True`` when the field never changes (the same velocities at every time).
+    steady: bool = False
 
     @abstractmethod
     def _velocity(self, points: np.ndarray, t: float) -> np.ndarray:

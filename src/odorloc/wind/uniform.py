@@ -26,6 +26,7 @@ class UniformWind(WindModel):
     """The same constant velocity everywhere and always."""
 
     deterministic = True
+    steady = True
 
     def __init__(self, params: UniformWindParams, arena: Arena) -> None:
         super().__init__(arena)
