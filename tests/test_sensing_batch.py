@@ -124,3 +124,76 @@ def test_eulerian_substeps_match_the_plain_loop_bit_for_bit(dim, boundary) -> No
         plume.step(0.4, rng)  # the plume steps with the wind of this step, as the reference
         assert np.array_equal(plume.c, want)
     assert plume.c.max() > 0
+
+
+def _rate_plume(velocity, sources, modulation=None):
+    from odorloc.plume.vergassola import VergassolaParams, VergassolaPlume
+
+    arena = Arena.box((0.0, 0.0, 0.0), (100.0, 60.0, 30.0), 2.0)
+    wind = UniformWind(UniformWindParams(velocity=velocity), arena)
+    src = [
+        Source(position=p, rate=5.0, **({"modulation": modulation} if modulation else {}))
+        for p in sources
+    ]
+    return VergassolaPlume(VergassolaParams(), arena, wind, src)
+
+
+@pytest.mark.parametrize("velocity", [(0.0, -1.0, 0.0), (0.3, -0.8, 0.1)])
+@pytest.mark.parametrize("n_sources", [1, 3])
+def test_rate_at_a_few_points_equals_the_array_path(velocity, n_sources) -> None:
+    """The per-point Python path (up to 8 sensors) gives the vectorised rates bit for bit."""
+    from odorloc.models.vergassola import rate_exponent
+
+    rng = np.random.default_rng(5)
+    src = rng.uniform([5, 5, 5], [95, 55, 25], (n_sources, 3)).tolist()
+    plume = _rate_plume(velocity, src)
+    p = plume.params
+    for q in (1, 3, 8):
+        pts = rng.uniform([0, 0, 0], [100, 60, 30], (q, 3))
+        pts[0] = src[0]  # at a source: the floored distance
+        fast = plume.encounter_rate(pts)
+        expo, r = rate_exponent(
+            pts, plume._src, plume._e, V=plume.V, D=p.D, lam=plume._lam, a=p.sensor_radius
+        )
+        ref = (plume._aq * np.exp(expo) / r).sum(axis=1)
+        assert np.array_equal(fast, ref)
+
+
+def test_steady_rate_plume_ticks_only_its_clock() -> None:
+    """A rate plume in a steady wind with constant sources keeps its rates when stepped (and its
+    clock runs); a modulated source still changes them."""
+    steady = _rate_plume((0.0, -1.0, 0.0), [[10.0, 30.0, 25.0]])
+    pt = np.array([[10.0, 20.0, 24.0]])
+    before = steady.encounter_rate(pt)
+    rng = np.random.default_rng(0)
+    for _ in range(5):
+        steady.step(0.5, rng)
+    assert steady.t == pytest.approx(2.5)
+    assert np.array_equal(steady.encounter_rate(pt), before)
+    pulsed = _rate_plume(
+        (0.0, -1.0, 0.0), [[10.0, 30.0, 25.0]], {"kind": "onoff", "period": 2.0, "duty": 0.5}
+    )
+    seen = set()
+    for _ in range(4):
+        seen.add(float(pulsed.encounter_rate(pt)[0]))
+        pulsed.step(0.5, rng)
+    assert len(seen) == 2 and 0.0 in seen
+
+
+def test_reach_test_matches_the_array_norm() -> None:
+    """The reach test finds the first (agent, source) pair within the radius in agent-major
+    order, with the distances numpy.linalg.norm computes."""
+    from types import SimpleNamespace
+
+    rng = np.random.default_rng(2)
+    for _ in range(300):
+        d = int(rng.integers(2, 4))
+        pos = rng.uniform(0, 10, (int(rng.integers(1, 6)), d))
+        src = rng.uniform(0, 10, (int(rng.integers(1, 4)), d))
+        radius = float(rng.uniform(0.5, 4.0))
+        if rng.random() < 0.3:  # exactly on the circle
+            radius = float(np.linalg.norm(pos[0] - src[-1]))
+        stub = SimpleNamespace(_source_rows=src.tolist())
+        got = Episode._first_within(stub, pos, radius)
+        hits = np.argwhere(np.linalg.norm(pos[:, None, :] - src[None, :, :], axis=2) <= radius)
+        assert got == (tuple(int(v) for v in hits[0]) if len(hits) else None)
