@@ -367,3 +367,24 @@ def test_unknown_release_fast_and_explicit_agree() -> None:
     np.testing.assert_allclose(lo.entropy_change, e - s0, atol=1e-12)
     plan = inf.GridPolicyPlanner("infotaxis", floor=0.0).plan(b, tables, cells)
     assert plan.index == int(np.argmin(e))
+
+
+def test_select_first_tie_is_the_first_index_of_the_best() -> None:
+    """``select`` (first-index ties) against a direct reading of its rule: NaN, infinite and
+    infeasible scores never win, equal scores (``-0.0 == 0.0`` too) go to the lowest index."""
+    from odorloc.planning.selection import select
+
+    rng = np.random.default_rng(4)
+    for _ in range(2000):
+        n = int(rng.integers(1, 9))
+        s = rng.choice([-1.0, -0.0, 0.0, 0.5, 2.0, np.nan, np.inf, -np.inf], n)
+        feas = rng.random(n) < 0.8 if rng.random() < 0.5 else None
+        for mode in ("min", "max"):
+            ok = np.isfinite(s) & (feas if feas is not None else True)
+            if not ok.any():
+                want = None
+            else:
+                v = s if mode == "min" else -s
+                best = min(v[ok])
+                want = next(i for i in range(n) if ok[i] and v[i] == best)
+            assert select(s, mode=mode, feasible=feas) == want
