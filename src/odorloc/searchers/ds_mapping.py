@@ -35,20 +35,25 @@ Readings of the paper (each configurable):
 * Visiting the mapped sources. A detection marks every cell of its air-mass path, so the
   cells upwind of the readings along a plume saturate at ``m(S) = 1`` whether they hold the
   source or its footprint; their ``X`` is then about zero, eq. 7 never sends the robot closer,
-  and a reading taken ``d`` metres downwind cannot tell where along those ``d`` metres the
+  and readings taken ``d`` metres downwind cannot tell where along those ``d`` metres the
   source is (the likelihood estimate then lies just upwind of the nearest readings, metres
   downwind of the source). The paper leaves this open ("some other methods should be
   considered next to declare the mapped odor sources", section 4.4; "more exploration should
-  be performed for these cells", section 4.2). Before declaring, the route therefore visits
-  every mapped source whose cell has been read from fewer than ``visit_readings`` times,
-  nearest first, and reads standing in its cell: the readings there cover the cells just
-  upwind, so a source farther upwind keeps detecting and moves the estimate upwind, to be
-  visited in turn, while a source at the estimate leaves those cells clean. The estimates are
-  re-read after each visit; ``visit_time`` bounds the stage. The map update is unchanged; the
+  be performed for these cells", section 4.2). When eq. 7's stop rule holds, the route
+  therefore visits every mapped source whose cell has given fewer than ``visit_readings``
+  readings whose air came over mapped cells, nearest first: it reads standing in that cell
+  (its readings cover the cells just upwind), then in the next mapped cell upwind along the
+  mean recorded wind, and so on up the mapped plume until a cell is not mapped or the region
+  ends; a visit lasts at most ``visit_dwell``, the whole stage at most ``visit_time``. Then the
+  estimates are read again and any new unvisited one is visited. Before the declaration the
+  visited sources are re-placed by the readings of the visits alone
+  (:meth:`~odorloc.inference.evidence.mapper.DSMapper.refined`): a walk up a plume detects
+  while the source is upwind and stops detecting past it. The map update is unchanged; the
   stage only adds readings.
 * Wave rounds: ``round_order="restart"`` (default; section 4.2) or ``"alternate"``.
-* Declaration. When the planner finds even the whole region below ``eta_E`` (dynamic route),
-  or after the last round (wave), the mapped sources are declared (placed by the map's
+* Declaration. When the planner finds even the whole region below ``eta_E`` and the mapped
+  sources have been visited (dynamic route), or after the last round (wave), the mapped
+  sources are declared (placed by the map's
   ``source_rule``, see :mod:`odorloc.inference.evidence.mapper`); if there is none the
   strongest cell is declared with confidence 0, so an episode always scores.
 """

@@ -32,10 +32,14 @@ Readings of the paper (each configurable, :class:`DSMapParams`):
   explains gains little (plume footprints downwind of a source are not sources), two sources
   side by side across the wind are found even where their footprints join into one region,
   and cells within ``source_exclusion`` (along, across the mean wind) of a chosen source are
-  not candidates. The region rules read the connected regions with ``m(S) >=
-  source_min_mass``, one estimate each: ``peak`` the region's strongest cell, ranked by the
-  exactly stored doubt ``m(notS) + m(U)`` because long runs of detections round ``m(S)`` to
-  exactly 1.0; ``centroid`` the ``m(S)``-weighted centroid; ``upwind`` the centroid of the
+  not candidates. Once a route has taken a close look at its mapped sources (``close_since``,
+  set by the dynamic route's visits), each visited likelihood source is re-placed along its
+  own strip by the readings of that look alone (:meth:`DSMapper.refined`): readings taken
+  metres downwind of a source cannot tell where along those metres it lies, and, being many,
+  would otherwise place it just upwind of the nearest of them. The region rules read the
+  connected regions with ``m(S) >= source_min_mass``, one estimate each: ``peak`` the
+  region's strongest cell, ranked by the exactly stored doubt ``m(notS) + m(U)`` because long
+  runs of detections round ``m(S)`` to exactly 1.0; ``centroid`` the ``m(S)``-weighted centroid; ``upwind`` the centroid of the
   region's upwind end. A region is the footprint of where the robot detected (the source plus
   the plume downwind of it), so the centroid is pulled downwind, the peak may lie inside the
   footprint, and two joined footprints give one estimate; the README compares the rules.
@@ -358,10 +362,20 @@ class DSMapper:
         A source is moved to the mapped cell of its own strip (within ``source_exclusion[0]``
         along the mean wind and half a cell across) that best explains those readings alone
         (the same noisy-OR gain, one source); a source they do not bear on (no positive gain),
-        or whose own cell is not ``visited`` (``(nx, ny)`` mask, default every cell), stays. Sources falling on one cell are merged. This is
-        how the readings a route takes up a mapped plume, close to where its source may lie,
-        place that source, instead of being outweighed by the many readings taken far
-        downwind (which cannot tell where along the plume it is).
+        or whose own cell is not ``visited`` (``(nx, ny)`` mask, default every cell), stays.
+        Sources falling on one cell are merged. This is how the readings a route takes up a
+        mapped plume, close to where its source may lie, place that source, instead of being
+        outweighed by the many readings taken far downwind, which cannot tell where along the
+        plume it is.
+
+        Parameters
+        ----------
+        positions : (K, 2) ndarray, metres
+            Sources of the likelihood rule.
+        since : int
+            Index of the first reading of the close look.
+        visited : (nx, ny) bool ndarray, optional
+            Cells the route read from during the close look.
         """
         p = self.params
         g = self.grid.grid
