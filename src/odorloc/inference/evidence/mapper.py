@@ -39,8 +39,8 @@ Readings of the paper (each configurable, :class:`DSMapParams`):
   would otherwise place it just upwind of the nearest of them. The region rules read the
   connected regions with ``m(S) >= source_min_mass``, one estimate each: ``peak`` the
   region's strongest cell, ranked by the exactly stored doubt ``m(notS) + m(U)`` because long
-  runs of detections round ``m(S)`` to exactly 1.0; ``centroid`` the ``m(S)``-weighted centroid; ``upwind`` the centroid of the
-  region's upwind end. A region is the footprint of where the robot detected (the source plus
+  runs of detections round ``m(S)`` to exactly 1.0; ``centroid`` the ``m(S)``-weighted
+  centroid; ``upwind`` the centroid of the region's upwind end. A region is the footprint of where the robot detected (the source plus
   the plume downwind of it), so the centroid is pulled downwind, the peak may lie inside the
   footprint, and two joined footprints give one estimate; the README compares the rules.
 """
