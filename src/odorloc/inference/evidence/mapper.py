@@ -20,29 +20,29 @@ Readings of the paper (each configurable, :class:`DSMapParams`):
   the air velocity in the world frame (eq. 1, odor-path paper). Without ``preprocess`` the map
   of a reading is computed at its own record (the simulated sensor has no delay unless
   configured).
-* Source estimates. The paper leaves declaration open ("some other methods should be
-  considered next to declare the mapped odor sources"). The map is not changed by any of them;
+* Source estimates. The paper leaves declaration open ("some other methods should be considered
+  next to declare the mapped odor sources"). The map is not changed by any of them;
   ``source_rule`` only reads it. ``likelihood`` (default) scores candidate source cells by how
-  well they explain every fused reading: a reading detects with probability
-  ``1 - (1 - eps) prod_c (1 - alpha pi_c)`` over the chosen source cells ``c`` (a noisy-OR
-  of the sources its air-mass path ``pi`` passed, plus false alarms), and sources are added
-  greedily, each the occupied cell (``m(S) >= source_min_mass``) with the largest gain in
-  log-likelihood given those already chosen, until the gain falls below
-  ``source_min_gain`` times the first one. A cell whose detections an upwind source already
-  explains gains little (plume footprints downwind of a source are not sources), two sources
-  side by side across the wind are found even where their footprints join into one region,
-  and cells within ``source_exclusion`` (along, across the mean wind) of a chosen source are
-  not candidates. Once a route has taken a close look at its mapped sources (``close_since``,
-  set by the dynamic route's visits), each visited likelihood source is re-placed along its
-  own strip by the readings of that look alone (:meth:`DSMapper.refined`): readings taken
-  metres downwind of a source cannot tell where along those metres it lies, and, being many,
-  would otherwise place it just upwind of the nearest of them. The region rules read the
-  connected regions with ``m(S) >= source_min_mass``, one estimate each: ``peak`` the
-  region's strongest cell, ranked by the exactly stored doubt ``m(notS) + m(U)`` because long
-  runs of detections round ``m(S)`` to exactly 1.0; ``centroid`` the ``m(S)``-weighted
-  centroid; ``upwind`` the centroid of the region's upwind end. A region is the footprint of where the robot detected (the source plus
-  the plume downwind of it), so the centroid is pulled downwind, the peak may lie inside the
-  footprint, and two joined footprints give one estimate; the README compares the rules.
+  well they explain every fused reading: a reading detects with probability ``1 - (1 - eps)
+  prod_c (1 - alpha pi_c)`` over the chosen source cells ``c`` (a noisy-OR of the sources its
+  air-mass path ``pi`` passed, plus false alarms), and sources are added greedily, each the
+  occupied cell (``m(S) >= source_min_mass``) with the largest gain in log-likelihood given
+  those already chosen, until the gain falls below ``source_min_gain`` times the first one. A
+  cell whose detections an upwind source already explains gains little (plume footprints
+  downwind of a source are not sources), two sources side by side across the wind are found even
+  where their footprints join into one region, and cells within ``source_exclusion`` (along,
+  across the mean wind) of a chosen source are not candidates. Once a route has taken a close
+  look at its mapped sources (``close_since``, set by the dynamic route's visits), each visited
+  likelihood source is re-placed along its own strip by the readings of that look alone
+  (:meth:`DSMapper.refined`): readings taken metres downwind of a source cannot tell where along
+  those metres it lies, and, being many, would otherwise place it just upwind of the nearest of
+  them. The region rules read the connected regions with ``m(S) >= source_min_mass``, one
+  estimate each: ``peak`` the region's strongest cell, ranked by the exactly stored doubt
+  ``m(notS) + m(U)`` because long runs of detections round ``m(S)`` to exactly 1.0; ``centroid``
+  the ``m(S)``-weighted centroid; ``upwind`` the centroid of the region's upwind end. A region
+  is the footprint of where the robot detected (the source plus the plume downwind of it), so
+  the centroid is pulled downwind, the peak may lie inside the footprint, and two joined
+  footprints give one estimate; the README compares the rules.
 """
 
 from __future__ import annotations
