@@ -202,8 +202,8 @@ class DSMappingSearcher(Searcher):
         self.n_visits = 0
         self._visit: tuple[int, ...] | None = None
         self._visit_since = math.nan
-        self._done_visits: set[tuple[int, ...]] = set()
-        self._first_visit_reading = 0
+        # cells whose visit is over; the map re-places its sources by the visits' readings
+        self.visited = np.zeros(self.mapper.grid.grid.shape, bool)
 
     def _tests_mapped(self, patch: PathPatch) -> bool:
         """Whether a reading's air came over a mapped cell (``pi >= 0.5`` on a cell with
@@ -225,7 +225,7 @@ class DSMappingSearcher(Searcher):
         if not (x0 <= xy[0] <= x1 and y0 <= xy[1] <= y1):
             return None
         up = self._cell(xy)
-        if up == cell or up in self._done_visits:
+        if up == cell or self.visited[up]:
             return None
         if self.mapper.grid.m_s[up] < self.params.source_min_mass:
             return None
@@ -253,16 +253,14 @@ class DSMappingSearcher(Searcher):
                 self.motion.set_goal(plan.target)
                 return Action([self.motion.command(o.position)])
             self.stop_rule_at = o.t
-            self._first_visit_reading = self.mapper.n_readings
+            if self.params.visit_readings > 0:
+                # from now on the visited sources are placed by the visits' readings, also if
+                # the time limit ends the stage
+                self.mapper.close_since = self.mapper.n_readings
+                self.mapper.close_cells = self.visited
         target = self._next_visit(o)
         if target is None:
             self.finished_at = o.t
-            if self.n_visits:
-                self.mapper.close_since = self._first_visit_reading
-                visited = np.zeros(self.tests.shape, bool)
-                for cell in self._done_visits:
-                    visited[cell] = True
-                self.mapper.close_cells = visited
             decl = self.mapper.declaration()
             return Action([Command.hold()], declaration=_tag(decl, o.agent))
         if self._cell(target) == self._cell(o.position):
@@ -283,7 +281,7 @@ class DSMappingSearcher(Searcher):
                 and o.t - self._visit_since <= p.visit_dwell
             ):
                 return g.center(np.array(self._visit))[0]
-            self._done_visits.add(self._visit)
+            self.visited[self._visit] = True
             up = self._upwind_of(self._visit)
             if up is not None:
                 # walk on up the mapped plume: the next cell upwind is read in turn
@@ -294,8 +292,7 @@ class DSMappingSearcher(Searcher):
         pending = [
             xy
             for xy in self.mapper.source_positions()
-            if self.tests[self._cell(xy)] < p.visit_readings
-            and self._cell(xy) not in self._done_visits
+            if self.tests[self._cell(xy)] < p.visit_readings and not self.visited[self._cell(xy)]
         ]
         if not pending:
             self._visit = None
