@@ -359,14 +359,14 @@ class DSMapper:
     ) -> FloatArray:
         """``(K', 2)`` each likelihood source re-placed by the readings from index ``since`` on.
 
-        A source is moved to the mapped cell of its own strip (within ``source_exclusion[0]``
-        along the mean wind and half a cell across) that best explains those readings alone
-        (the same noisy-OR gain, one source); a source they do not bear on (no positive gain),
-        or whose own cell is not ``visited`` (``(nx, ny)`` mask, default every cell), stays.
-        Sources falling on one cell are merged. This is how the readings a route takes up a
-        mapped plume, close to where its source may lie, place that source, instead of being
-        outweighed by the many readings taken far downwind, which cannot tell where along the
-        plume it is.
+        A source is moved to the mapped cell of its own strip (within ``source_exclusion[0]`` along
+        the mean wind and half a cell across) that best explains those readings alone (the same
+        noisy-OR gain, one source); a source they do not bear on (no positive gain), or whose own
+        cell is not ``visited`` (``(nx, ny)`` mask, default every cell), stays. A source re-placed
+        within ``source_exclusion`` of a stronger one kept before it is dropped, as the greedy rule
+        would not have chosen it. This is how the readings a route takes up a mapped plume, close to
+        where its source may lie, place that source, instead of being outweighed by the many
+        readings taken far downwind, which cannot tell where along the plume it is.
 
         Parameters
         ----------
@@ -393,7 +393,8 @@ class DSMapper:
             )
             own = int(g.index(xy[None])[0] @ np.array([g.shape[1], 1]))
             if visited is not None and not visited.ravel()[own]:
-                out.append(xy)
+                if not any(_excluded(xy - v, u, p.source_exclusion) for v in out):
+                    out.append(xy)
                 continue
             cells, _ = self._log.greedy_sources(
                 (occupied & near).reshape(g.shape),
@@ -407,7 +408,7 @@ class DSMapper:
                 since=since,
             )
             new = centres[int(cells[0])] if len(cells) else xy
-            if not any(np.allclose(new, v) for v in out):
+            if not any(_excluded(new - v, u, p.source_exclusion) for v in out):
                 out.append(new)
         return np.array(out).reshape(-1, 2)
 
@@ -476,6 +477,14 @@ class DSMapper:
                     ij = tuple(g.index(np.asarray(xy)[None])[0])
                     out[f"mapped_mass_{k}"] = mass.get(int(labels[ij]), 0.0)
         return out
+
+
+def _excluded(d: FloatArray, wind: FloatArray, exclusion: tuple[float, float]) -> bool:
+    """Whether offset ``d`` (metres) lies within ``exclusion`` (along, across ``wind``)."""
+    return bool(
+        abs(float(d @ wind)) <= exclusion[0]
+        and abs(float(d[0] * -wind[1] + d[1] * wind[0])) <= exclusion[1]
+    )
 
 
 RULES = ("likelihood", "peak", "centroid", "upwind")
