@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from typing import Any
 
@@ -322,7 +323,9 @@ def _obs(t: float, det: bool = False) -> list[Observation]:
 def test_declares_exactly_when_the_planner_stops() -> None:
     rng = np.random.default_rng(0)
     # eta_E above any reachable fitness: the first real plan finds nothing worth visiting
-    s = DSMappingSearcher(DSMappingParams(cell_size=0.5, eta_e=1e6, dwell_periods=0))
+    s = DSMappingSearcher(
+        DSMappingParams(cell_size=0.5, eta_e=1e6, dwell_periods=0, visit_readings=0)
+    )
     s.reset(_ctx(), rng)
     a0 = s.act(_obs(0.0), rng)  # a single record: no path map yet, no decision
     assert not a0.declarations and s.last_plan.reason == "empty_path_map"
@@ -337,6 +340,96 @@ def test_declares_exactly_when_the_planner_stops() -> None:
     a = s2.act(_obs(0.5, det=True), rng)
     assert not a.declarations and a.commands[0].kind == "waypoint"
     assert math.hypot(*(a.commands[0].value - 3.0)) <= 0.5
+
+
+def _walk(s: DSMappingSearcher, source: tuple[float, float], n: int, rng) -> list[Any]:
+    """Drive ``s`` with perfect motion in a steady +x wind: a reading detects when the robot is
+    within 3 m downwind of ``source`` and within 0.5 m across. Returns every action."""
+    pos = np.array([3.0, 3.0])
+    out = []
+    for k in range(n):
+        det = 0.0 < pos[0] - source[0] <= 3.0 and abs(pos[1] - source[1]) <= 0.5
+        obs = _obs(0.5 * k, bool(det))
+        obs[0] = dataclasses.replace(obs[0], position=pos.copy())
+        a = s.act(obs, rng)
+        out.append(a)
+        if a.declarations:
+            break
+        if a.commands[0].kind == "waypoint":
+            pos = np.asarray(a.commands[0].value, float)[:2].copy()
+    return out
+
+
+def test_mapped_sources_are_visited_up_their_plume_before_declaring() -> None:
+    """When eq. 7's stop rule holds while a mapped source has not been read from, the route
+    goes there and reads standing in its cell, walks on upwind along the mapped cells, and only
+    then declares; with ``visit_readings=0`` it declares at the stop rule."""
+    rng = np.random.default_rng(0)
+    params = dict(cell_size=0.5, eta_e=1e6, dwell_periods=0, visit_readings=3, visit_time=60.0)
+    s = DSMappingSearcher(DSMappingParams(**params))
+    s.reset(_ctx(), rng)
+    acts = _walk(s, (1.0, 3.0), 400, rng)
+    assert acts[-1].declarations, "the visit stage must end"
+    assert s.stop_rule_at <= 1.0 and s.n_visits >= 1
+    assert s.finished_at > s.stop_rule_at  # the visits came first
+    assert s.finished_at - s.stop_rule_at <= 60.0 + 0.5
+    # the robot stood upwind of where it read at the stop rule, up the mapped plume
+    xs = [float(a.commands[0].value[0]) for a in acts if a.commands[0].kind == "waypoint"]
+    assert min(xs) < 3.0 - 1.0
+    s0 = DSMappingSearcher(DSMappingParams(**{**params, "visit_readings": 0}))
+    s0.reset(_ctx(), rng)
+    acts0 = _walk(s0, (1.0, 3.0), 10, rng)
+    assert acts0[-1].declarations and s0.finished_at == s0.stop_rule_at <= 1.0
+
+
+def test_close_readings_place_a_source_the_far_ones_put_downwind() -> None:
+    """Readings taken only far downwind of a source (path maps fading upwind) make the cell just
+    upwind of the nearest readings the likeliest source, metres downwind of it; the readings of
+    a walk up the plume (detections while the source is upwind, none past it) re-place it on
+    the source. An estimate whose cell was not visited, or readings that do not bear on it,
+    leave it where it was."""
+    from odorloc.inference.odor_path.estimator import PathPatch
+
+    p = DSMapperParams(cell_size=1.0, map_margin=0.0)
+    mp = DSMapper(p, ((0.0, 0.0), (20.0, 10.0)), 0.5)
+    grid = mp.grid.grid
+    src = (5, 3)
+
+    def read(x: int, k: int) -> None:
+        # the path covers the 8 cells upwind of the robot, fading upwind (0.8 per cell)
+        x0 = max(0, x - 8)
+        values = (0.8 ** np.arange(x - x0, 0, -1) / 0.8)[:, None]
+        covered = x0 <= src[0] < x
+        det = covered and k % 2 == 0  # intermittent plume
+        patch = PathPatch(x0, src[1], values, grid, np.array([x, src[1]]))
+        mp.grid.update(patch, det)
+        mp._log.add(patch, det)
+        mp.n_readings += 1
+        mp.wind_sum += np.array([1.0, 0.0])
+
+    k = 0
+    for _ in range(6):
+        for x in range(9, 14):  # far: 4-8 m downwind of the source
+            read(x, k)
+            k += 1
+    far = mp.source_positions()
+    assert far[0][0] >= 7.5, far  # the old estimate: downwind, inside the footprint
+    since = mp.n_readings
+    for x in range(8, 3, -1):  # the walk up the plume, past the source
+        for _ in range(6):
+            read(x, k)
+            k += 1
+    visited = np.zeros(grid.shape, bool)
+    visited[4:9, src[1]] = True
+    visited[int(far[0][0]), src[1]] = True
+    np.testing.assert_allclose(mp.refined(far[:1], since, visited), [[5.5, 3.5]])
+    # the estimate's own cell not visited, or no reading since: unchanged
+    np.testing.assert_allclose(mp.refined(far[:1], since, np.zeros(grid.shape, bool)), far[:1])
+    np.testing.assert_allclose(mp.refined(far[:1], mp.n_readings), far[:1])
+    # the mapper applies it once a route sets the close look's first reading
+    mp.close_since, mp.close_cells = since, visited
+    mp._likely = None
+    np.testing.assert_allclose(mp.source_positions()[0], [5.5, 3.5])
 
 
 def test_default_candidates_are_the_neighbours_not_the_own_cell() -> None:

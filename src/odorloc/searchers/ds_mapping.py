@@ -32,9 +32,28 @@ Readings of the paper (each configurable):
   default); that map is the maximum over window-normalised sub-windows and sums to far more
   than 1, so the route runs on until the map is nearly certain. ``"distribution"`` divides it
   by its sum for eq. 7 only.
+* Visiting the mapped sources. A detection marks every cell of its air-mass path, so the
+  cells upwind of the readings along a plume saturate at ``m(S) = 1`` whether they hold the
+  source or its footprint; their ``X`` is then about zero, eq. 7 never sends the robot closer,
+  and readings taken ``d`` metres downwind cannot tell where along those ``d`` metres the
+  source is (the likelihood estimate then lies just upwind of the nearest readings, metres
+  downwind of the source). The paper leaves this open ("some other methods should be
+  considered next to declare the mapped odor sources", section 4.4; "more exploration should
+  be performed for these cells", section 4.2). When eq. 7's stop rule holds, the route
+  therefore visits every mapped source whose cell has given fewer than ``visit_readings``
+  readings whose air came over mapped cells, nearest first: it reads standing in that cell
+  (its readings cover the cells just upwind), then in the next mapped cell upwind along the
+  mean recorded wind, and so on up the mapped plume until a cell is not mapped or the region
+  ends; a visit lasts at most ``visit_dwell``, the whole stage at most ``visit_time``. Then the
+  estimates are read again and any new unvisited one is visited. Before the declaration the
+  visited sources are re-placed by the readings of the visits alone
+  (:meth:`~odorloc.inference.evidence.mapper.DSMapper.refined`): a walk up a plume detects
+  while the source is upwind and stops detecting past it. The map update is unchanged; the
+  stage only adds readings.
 * Wave rounds: ``round_order="restart"`` (default; section 4.2) or ``"alternate"``.
-* Declaration. When the planner finds even the whole region below ``eta_E`` (dynamic route),
-  or after the last round (wave), the mapped sources are declared (placed by the map's
+* Declaration. When the planner finds even the whole region below ``eta_E`` and the mapped
+  sources have been visited (dynamic route), or after the last round (wave), the mapped
+  sources are declared (placed by the map's
   ``source_rule``, see :mod:`odorloc.inference.evidence.mapper`); if there is none the
   strongest cell is declared with confidence 0, so an episode always scores.
 """
@@ -56,6 +75,7 @@ from odorloc.core.types import Action, Command, Declaration, Observation, Search
 from odorloc.geometry.regions import resolve_region
 from odorloc.inference.belief import GridBelief
 from odorloc.inference.evidence.mapper import DSMapParams, DSMapper, as_distribution
+from odorloc.inference.odor_path.estimator import PathPatch
 from odorloc.planning.coverage import wave_waypoints
 from odorloc.planning.uncertainty_route import (
     RoutePlan,
@@ -109,6 +129,16 @@ class DSMappingParams(DSMapParams):
         Radius multiplier while the best fitness is below ``eta_e`` (> 1).
     eta_e : float
         ``eta_E`` of the stop rule (0.5, D-S paper section 3).
+    visit_readings : int
+        Readings taken in a mapped source's cell whose air came over mapped cells (``pi >=
+        0.5`` on a cell with ``m(S) >= source_min_mass``) before the mission may end (see the
+        module notes); 0 declares as soon as eq. 7's stop rule holds.
+    visit_dwell : float, seconds
+        Longest time one visit lasts (from the moment it is chosen), however few of its
+        readings came over mapped cells.
+    visit_time : float, seconds
+        Longest time spent visiting mapped sources after eq. 7's stop rule held; then the
+        sources mapped by then are declared.
     """
 
     dwell_periods: int = Field(1, ge=0, le=1000)
@@ -118,6 +148,9 @@ class DSMappingParams(DSMapParams):
     fitness_path: Literal["map", "distribution"] = "map"
     widen_factor: float = Field(2.0, gt=1.0)
     eta_e: NonNegative = 0.5
+    visit_readings: int = Field(10, ge=0, le=100_000)
+    visit_time: NonNegative = 900.0
+    visit_dwell: Positive = 120.0
 
 
 @register(
@@ -163,25 +196,113 @@ class DSMappingSearcher(Searcher):
         self.last_plan: RoutePlan | None = None
         self.n_plans = 0
         self.finished_at = math.nan
+        # readings taken in each cell whose air came over mapped cells (the visit stage's test)
+        self.tests = np.zeros(self.mapper.grid.grid.shape, np.int64)
+        self.stop_rule_at = math.nan
+        self.n_visits = 0
+        self._visit: tuple[int, ...] | None = None
+        self._visit_since = math.nan
+        # cells whose visit is over; the map re-places its sources by the visits' readings
+        self.visited = np.zeros(self.mapper.grid.grid.shape, bool)
+
+    def _tests_mapped(self, patch: PathPatch) -> bool:
+        """Whether a reading's air came over a mapped cell (``pi >= 0.5`` on a cell with
+        ``m(S) >= source_min_mass``): only such a reading tests where along a mapped plume its
+        source lies."""
+        occupied = self.mapper.grid.m_s[patch.slices] >= self.params.source_min_mass
+        return bool(np.any(occupied & (patch.values >= 0.5)))
+
+    def _upwind_of(self, cell: tuple[int, ...]) -> tuple[int, ...] | None:
+        """The mapped, not yet visited cell one cell upwind (mean recorded wind) of ``cell``
+        inside the region, or ``None``."""
+        g = self.mapper.grid.grid
+        u = self.mapper.wind_sum
+        norm = float(np.hypot(*u))
+        if norm <= 0:
+            return None
+        xy = g.center(np.array(cell))[0] - g.cell_size * u / norm
+        (x0, y0), (x1, y1) = self.mapper.region
+        if not (x0 <= xy[0] <= x1 and y0 <= xy[1] <= y1):
+            return None
+        up = self._cell(xy)
+        if up == cell or self.visited[up]:
+            return None
+        if self.mapper.grid.m_s[up] < self.params.source_min_mass:
+            return None
+        return up
+
+    def _cell(self, xy: np.ndarray) -> tuple[int, ...]:
+        return tuple(int(i) for i in self.mapper.grid.grid.index(np.asarray(xy, float)[:2])[0])
 
     def act(self, observations: Sequence[Observation], rng: np.random.Generator) -> Action:
         o = observations[0]
         patch = self.mapper.update(o.t, o.position, o.wind, o.detection, o.gas)
+        if patch is not None and patch.values.size and self._tests_mapped(patch):
+            self.tests[self._cell(o.position)] += 1
         if not self.motion.arrived(o.position):
             return Action([self.motion.command(o.position)])
         if patch is None:  # the first pre-processed reading is not due yet
             return Action([Command.hold()])
-        if self.params.fitness_path == "distribution":
-            patch = as_distribution(patch)
-        plan = self.planner.plan_detailed(self.mapper.grid, patch, o.position[:2], rng)
-        self.last_plan = plan
-        self.n_plans += 1
-        if plan.target is None:
+        if math.isnan(self.stop_rule_at):
+            if self.params.fitness_path == "distribution":
+                patch = as_distribution(patch)
+            plan = self.planner.plan_detailed(self.mapper.grid, patch, o.position[:2], rng)
+            self.last_plan = plan
+            self.n_plans += 1
+            if plan.target is not None:
+                self.motion.set_goal(plan.target)
+                return Action([self.motion.command(o.position)])
+            self.stop_rule_at = o.t
+            if self.params.visit_readings > 0:
+                # from now on the visited sources are placed by the visits' readings, also if
+                # the time limit ends the stage
+                self.mapper.close_since = self.mapper.n_readings
+                self.mapper.close_cells = self.visited
+        target = self._next_visit(o)
+        if target is None:
             self.finished_at = o.t
             decl = self.mapper.declaration()
             return Action([Command.hold()], declaration=_tag(decl, o.agent))
-        self.motion.set_goal(plan.target)
+        if self._cell(target) == self._cell(o.position):
+            return Action([Command.hold()])  # reading inside the visited cell
+        self.motion.set_goal(target)
         return Action([self.motion.command(o.position)])
+
+    def _next_visit(self, o: Observation) -> np.ndarray | None:
+        """The mapped source to read from next (its cell centre), or ``None`` when every one has
+        been read from ``visit_readings`` times or the stage's time is up."""
+        p = self.params
+        if p.visit_readings == 0 or o.t - self.stop_rule_at > p.visit_time:
+            return None
+        g = self.mapper.grid.grid
+        if self._visit is not None:
+            if (
+                self.tests[self._visit] < p.visit_readings
+                and o.t - self._visit_since <= p.visit_dwell
+            ):
+                return g.center(np.array(self._visit))[0]
+            self.visited[self._visit] = True
+            up = self._upwind_of(self._visit)
+            if up is not None:
+                # walk on up the mapped plume: the next cell upwind is read in turn
+                self._visit = up
+                self._visit_since = o.t
+                return g.center(np.array(up))[0]
+        # the visit is over (or none is under way): read the estimates again
+        pending = [
+            xy
+            for xy in self.mapper.source_positions()
+            if self.tests[self._cell(xy)] < p.visit_readings and not self.visited[self._cell(xy)]
+        ]
+        if not pending:
+            self._visit = None
+            return None
+        here = np.asarray(o.position, float)[:2]
+        xy = min(pending, key=lambda v: float(np.hypot(*(v - here))))
+        self._visit = self._cell(xy)
+        self._visit_since = o.t
+        self.n_visits += 1
+        return g.center(np.array(self._visit))[0]
 
     def belief(self) -> GridBelief:
         return self.mapper.grid.belief()
@@ -196,7 +317,12 @@ class DSMappingSearcher(Searcher):
 
     def final_metrics(self) -> dict[str, Any]:
         """Extra row fields (see :meth:`DSMapper.final_metrics`) plus the planner's count."""
-        return {**self.mapper.final_metrics(), "plans": float(self.n_plans)}
+        return {
+            **self.mapper.final_metrics(),
+            "plans": float(self.n_plans),
+            "stop_rule_time": float(self.stop_rule_at),
+            "source_visits": float(self.n_visits),
+        }
 
 
 # ------------------------------------------------------------------- rectangular wave

@@ -20,25 +20,29 @@ Readings of the paper (each configurable, :class:`DSMapParams`):
   the air velocity in the world frame (eq. 1, odor-path paper). Without ``preprocess`` the map
   of a reading is computed at its own record (the simulated sensor has no delay unless
   configured).
-* Source estimates. The paper leaves declaration open ("some other methods should be
-  considered next to declare the mapped odor sources"). The map is not changed by any of them;
+* Source estimates. The paper leaves declaration open ("some other methods should be considered
+  next to declare the mapped odor sources"). The map is not changed by any of them;
   ``source_rule`` only reads it. ``likelihood`` (default) scores candidate source cells by how
-  well they explain every fused reading: a reading detects with probability
-  ``1 - (1 - eps) prod_c (1 - alpha pi_c)`` over the chosen source cells ``c`` (a noisy-OR
-  of the sources its air-mass path ``pi`` passed, plus false alarms), and sources are added
-  greedily, each the occupied cell (``m(S) >= source_min_mass``) with the largest gain in
-  log-likelihood given those already chosen, until the gain falls below
-  ``source_min_gain`` times the first one. A cell whose detections an upwind source already
-  explains gains little (plume footprints downwind of a source are not sources), two sources
-  side by side across the wind are found even where their footprints join into one region,
-  and cells within ``source_exclusion`` (along, across the mean wind) of a chosen source are
-  not candidates. The region rules read the connected regions with ``m(S) >=
-  source_min_mass``, one estimate each: ``peak`` the region's strongest cell, ranked by the
-  exactly stored doubt ``m(notS) + m(U)`` because long runs of detections round ``m(S)`` to
-  exactly 1.0; ``centroid`` the ``m(S)``-weighted centroid; ``upwind`` the centroid of the
-  region's upwind end. A region is the footprint of where the robot detected (the source plus
-  the plume downwind of it), so the centroid is pulled downwind, the peak may lie inside the
-  footprint, and two joined footprints give one estimate; the README compares the rules.
+  well they explain every fused reading: a reading detects with probability ``1 - (1 - eps)
+  prod_c (1 - alpha pi_c)`` over the chosen source cells ``c`` (a noisy-OR of the sources its
+  air-mass path ``pi`` passed, plus false alarms), and sources are added greedily, each the
+  occupied cell (``m(S) >= source_min_mass``) with the largest gain in log-likelihood given
+  those already chosen, until the gain falls below ``source_min_gain`` times the first one. A
+  cell whose detections an upwind source already explains gains little (plume footprints
+  downwind of a source are not sources), two sources side by side across the wind are found even
+  where their footprints join into one region, and cells within ``source_exclusion`` (along,
+  across the mean wind) of a chosen source are not candidates. Once a route has taken a close
+  look at its mapped sources (``close_since``, set by the dynamic route's visits), each visited
+  likelihood source is re-placed along its own strip by the readings of that look alone
+  (:meth:`DSMapper.refined`): readings taken metres downwind of a source cannot tell where along
+  those metres it lies, and, being many, would otherwise place it just upwind of the nearest of
+  them. The region rules read the connected regions with ``m(S) >= source_min_mass``, one
+  estimate each: ``peak`` the region's strongest cell, ranked by the exactly stored doubt
+  ``m(notS) + m(U)`` because long runs of detections round ``m(S)`` to exactly 1.0; ``centroid``
+  the ``m(S)``-weighted centroid; ``upwind`` the centroid of the region's upwind end. A region
+  is the footprint of where the robot detected (the source plus the plume downwind of it), so
+  the centroid is pulled downwind, the peak may lie inside the footprint, and two joined
+  footprints give one estimate; the README compares the rules.
 """
 
 from __future__ import annotations
@@ -205,6 +209,9 @@ class DSMapper:
         self._pending: deque[tuple[float, np.ndarray]] = deque()
         self._log = ReadingLog(self.grid.grid.shape)
         self._likely: tuple[int, FloatArray, FloatArray] | None = None
+        # first reading of a route's close look at its mapped sources (see :meth:`refined`)
+        self.close_since: int | None = None
+        self.close_cells: NDArray[np.bool_] | None = None
 
     def update(
         self,
@@ -347,6 +354,68 @@ class DSMapper:
         self._likely = (self.n_readings, pos, gains)
         return pos, gains
 
+    def refined(
+        self, positions: FloatArray, since: int, visited: NDArray[np.bool_] | None = None
+    ) -> FloatArray:
+        """``(K', 2)`` each likelihood source re-placed by the readings from index ``since`` on.
+
+        A source is moved to the mapped cell of its own strip (within ``source_exclusion[0]`` along
+        the mean wind and half a cell across) that best explains those readings alone (the same
+        noisy-OR gain, one source); a source they do not bear on (no positive gain), or whose own
+        cell is not ``visited`` (``(nx, ny)`` mask, default every cell), stays. A source re-placed
+        within ``source_exclusion`` of a stronger one kept before it is dropped, as the greedy rule
+        would not have chosen it. This is how the readings a route takes up a mapped plume, close to
+        where its source may lie, place that source, instead of being outweighed by the many
+        readings taken far downwind, which cannot tell where along the plume it is.
+
+        Parameters
+        ----------
+        positions : (K, 2) ndarray, metres
+            Sources of the likelihood rule.
+        since : int
+            Index of the first reading of the close look.
+        visited : (nx, ny) bool ndarray, optional
+            Cells the route read from during the close look.
+        """
+        p = self.params
+        g = self.grid.grid
+        centres = g.centers().reshape(-1, 2)
+        occupied = ((self.grid.m_s >= p.source_min_mass) & g.region_mask(self.region)).ravel()
+        u = self._mean_wind()
+        across = np.array([-u[1], u[0]])
+        out: list[FloatArray] = []
+        for xy in np.asarray(positions, float).reshape(-1, 2):
+            d = centres - xy
+            # the source's own strip along the wind: readings a route took up a neighbouring
+            # plume must not pull it across
+            near = (np.abs(d @ u) <= p.source_exclusion[0]) & (
+                np.abs(d @ across) <= 0.5 * g.cell_size * (1.0 + 1e-9)
+            )
+            own = int(g.index(xy[None])[0] @ np.array([g.shape[1], 1]))
+            if visited is not None and not visited.ravel()[own]:
+                if not any(_excluded(xy - v, u, p.source_exclusion) for v in out):
+                    out.append(xy)
+                continue
+            cells, _ = self._log.greedy_sources(
+                (occupied & near).reshape(g.shape),
+                centres,
+                alpha=p.source_hit_rate,
+                eps=p.source_false_alarm,
+                min_gain=p.source_min_gain,
+                exclusion=p.source_exclusion,
+                wind=u,
+                max_sources=1,
+                since=since,
+            )
+            new = centres[int(cells[0])] if len(cells) else xy
+            if not any(_excluded(new - v, u, p.source_exclusion) for v in out):
+                out.append(new)
+        return np.array(out).reshape(-1, 2)
+
+    def _mean_wind(self) -> FloatArray:
+        norm = float(np.hypot(*self.wind_sum))
+        return self.wind_sum / norm if norm > 0 else np.array([1.0, 0.0])
+
     def source_positions(self) -> FloatArray:
         """``(K, 2)`` mapped source positions by ``source_rule`` (strongest first)."""
         return self.positions_by_rule(self.params.source_rule)
@@ -355,6 +424,8 @@ class DSMapper:
         """``(K, 2)`` mapped source positions under ``rule`` (one of ``source_rule``'s)."""
         if rule == "likelihood":
             pos = self.likelihood_sources()[0]
+            if self.close_since is not None:
+                pos = self.refined(pos, self.close_since, self.close_cells)
             # no reading explains a mapped region (e.g. masses set without readings): the
             # regions' own peaks rather than nothing
             return pos if len(pos) else self.peaks()
@@ -406,6 +477,14 @@ class DSMapper:
                     ij = tuple(g.index(np.asarray(xy)[None])[0])
                     out[f"mapped_mass_{k}"] = mass.get(int(labels[ij]), 0.0)
         return out
+
+
+def _excluded(d: FloatArray, wind: FloatArray, exclusion: tuple[float, float]) -> bool:
+    """Whether offset ``d`` (metres) lies within ``exclusion`` (along, across ``wind``)."""
+    return bool(
+        abs(float(d @ wind)) <= exclusion[0]
+        and abs(float(d[0] * -wind[1] + d[1] * wind[0])) <= exclusion[1]
+    )
 
 
 RULES = ("likelihood", "peak", "centroid", "upwind")
@@ -466,8 +545,11 @@ class ReadingLog:
         exclusion: tuple[float, float],
         wind: FloatArray,
         max_sources: int,
+        since: int = 0,
     ) -> tuple[NDArray[np.intp], FloatArray]:
         """Flat indices of the greedily chosen source cells and their gains (nats).
+
+        Only readings with index ``since`` or later count (default all).
 
         Each step adds the candidate cell ``c`` maximising
         ``sum_r log P(d_r | S + c) - log P(d_r | S)`` under the noisy-OR model of the module
@@ -481,7 +563,7 @@ class ReadingLog:
         pi = self._pi[: self.size].astype(float)
         rid = self._rid[: self.size]
         det = np.asarray(self._det, bool)[rid]
-        keep = candidates.ravel()[cells]
+        keep = candidates.ravel()[cells] & (rid >= since)
         cells, pi, rid, det = cells[keep], pi[keep], rid[keep], det[keep]
         miss = 1.0 - alpha * pi  # the chance a source at the cell leaves the reading clean
         nd_term = np.log(miss)

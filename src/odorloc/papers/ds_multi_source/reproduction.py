@@ -256,6 +256,7 @@ class DSReproduction(Reproduction):
             "distance_to_baseline_residual",
             "source_error_0",
             "source_error_1",
+            "stop_rule_time",
             *[f"map_false_sources{('_' + r) if r else ''}" for r in RULES],
             *[f"map_success{('_' + r) if r else ''}" for r in RULES],
             *[f"scene_residual_{k}" for k in range(3)],
@@ -296,6 +297,7 @@ class DSReproduction(Reproduction):
                     str(len(g)),
                     _count(g, "declared"),
                     _stopped(g),
+                    _ms(g.search_time - g.stop_rule_time, 0),
                     _ms(g.search_time),
                     _ms(g.path_length),
                     _ms(g.residual_uncertainty),
@@ -332,6 +334,7 @@ class DSReproduction(Reproduction):
                     "n",
                     "declared",
                     "stopped",
+                    "visits s",
                     "time s",
                     "distance m",
                     "residual ΣX",
@@ -341,6 +344,8 @@ class DSReproduction(Reproduction):
                     *[h for r in MAP_RULES for h in (f"both ({r})", f"false ({r})")],
                 ],
                 wide,
+                note="visits s: time from eq. 7's stop rule to the end of the mission (the dynamic "
+                "route's visits to its mapped sources)",
                 console=False,
             ),
         ]
