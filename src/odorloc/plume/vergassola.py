@@ -89,7 +89,7 @@ class VergassolaPlume(PlumeModel):
         self._sync()
 
     def step(self, dt: float, rng: np.random.Generator) -> None:
-        if self.wind.steady and all(s.modulation.kind == "constant" for s in self.sources):
+        if self.wind.steady and self._constant_release:
             # nothing the rate depends on changes with time: only the clock ticks
             TimeStepped.step(self, dt, rng)
             return
@@ -97,6 +97,7 @@ class VergassolaPlume(PlumeModel):
 
     def _sync(self) -> None:
         p = self.params
+        self._constant_release = all(s.modulation.kind == "constant" for s in self.sources)
         mean = self.wind.mean_velocity()
         # |mean| as numpy.linalg.norm computes it, without its call overhead (every world step)
         speed = math.sqrt(float(mean.dot(mean)))
