@@ -4,7 +4,8 @@ One member (``uav-pf``, :class:`UAVPlannerMember`) runs on each UAV of a ``per-a
 composes three parts named in its parameters:
 
 - ``model``: the measurement model (registry family ``model``; default the Vergassola Poisson
-  encounter model with the multi-UAV paper's Q = 5, V = 1 m/s, D = 1, tau = 100, eqs. 1-3);
+  encounter model with the multi-UAV paper's Q = 5, V = 1 m/s, D = 1, tau = 100, eqs. 1-3, and
+  the sensor radius :data:`SENSOR_RADIUS` of the ``muc-osl-3d`` world);
 - ``estimator``: a per-agent particle estimator (family ``team_estimator``: ``col-pf`` or
   ``standard-pf``, :mod:`odorloc.inference.particles.team_estimators`);
 - ``planner``: a lattice step planner (family ``step_planner``: ``adap-pp`` or
@@ -64,6 +65,7 @@ from odorloc.searchers.base import Searcher
 from odorloc.searchers.team import PerAgentTeam, TeamParams
 
 __all__ = [
+    "SENSOR_RADIUS",
     "ColInfParams",
     "ColPFSearchParams",
     "UAVBelief",
@@ -74,6 +76,15 @@ __all__ = [
 #: Bits per processed number (float64) in the computation energy of eq. 7.
 BITS_PER_NUMBER = 64
 
+#: Sensor radius ``a`` (metres) of the default model, the same as the ``muc-osl-3d`` world's.
+#: The paper gives no ``a`` (eq. 1 fixes only ``a Q``); this is the radius at which the baseline
+#: Col-Inf flies the paper's Table 2 (``examples/muc_osl_sensor_radius.py``).
+SENSOR_RADIUS = 3.5
+
+
+def _default_model() -> ComponentRef:
+    return ComponentRef(type="vergassola", sensor_radius=SENSOR_RADIUS)
+
 
 class UAVSearchParams(Params):
     """Parameters of :class:`UAVPlannerMember` (and of every team preset built on it).
@@ -81,7 +92,8 @@ class UAVSearchParams(Params):
     Parameters
     ----------
     model : dict
-        Measurement model, ``{type: vergassola, ...}`` (defaults: the multi-UAV paper's table).
+        Measurement model, ``{type: vergassola, ...}`` (defaults: the multi-UAV paper's table and
+        ``sensor_radius`` :data:`SENSOR_RADIUS`).
     estimator : dict
         Per-agent estimator, ``{type: col-pf | standard-pf, ...}``.
     planner : dict
@@ -95,7 +107,7 @@ class UAVSearchParams(Params):
         Wind direction of the model and of env-pu: the mean anemometer reading, or the model's.
     """
 
-    model: Ref("model") = Field(default_factory=lambda: ComponentRef(type="vergassola"))
+    model: Ref("model") = Field(default_factory=_default_model)
     estimator: Ref("team_estimator") = Field(default_factory=lambda: ComponentRef(type="col-pf"))
     planner: Ref("step_planner") = Field(default_factory=lambda: ComponentRef(type="adap-pp"))
     declare_spread: Positive = 3.0
