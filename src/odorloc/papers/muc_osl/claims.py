@@ -23,6 +23,8 @@ MUC-OSL still succeeds there (paper 24 %)              its success rate (above 0
                                                        24 % for sure: not held)
 MUC-OSL's E_M is below Col-Inf's (-8.44 %)             paired relative difference of the means
 ... with fewer hover and turning points                paired differences of hover and turn time
+without eq. 16 (ablation, default point): MUC-OSL      the same three quantities for the ablation
+best SR and MST; E_M below Col-Inf's                   ``muc-osl-no-env-pu`` (both worlds)
 filament world: ~90 % SR at 8 min (100x60x30)          MUC-OSL's SR at 8 min vs 75 %
 ... > 80 % at 8 min with more than 3 UAVs              MUC-OSL's SR at 8 min (5, 8 UAVs) vs 80 %
 ... MUC-OSL the best at every Fig. 9 setting           as the first row, filament world
@@ -48,14 +50,20 @@ from odorloc.papers.muc_osl.reference import (
     FILAMENT_SUCCESS_8MIN_MANY_UAVS,
     LARGEST_AREA_SUCCESS,
 )
-from odorloc.papers.muc_osl.sweeps import DEFAULT, Setting, SweepDef, cell_of
+from odorloc.papers.muc_osl.sweeps import DEFAULT, NO_ENV_PU, Setting, SweepDef, cell_of
 
 __all__ = ["Claim", "evaluate_claims"]
 
 #: "In the ballpark" of a success rate: at least this fraction of it (about 90 % -> 75 %).
 BALLPARK = 5.0 / 6.0
 
-LABELS = {"muc-osl": "MUC-OSL", "col-inf": "Col-Inf", "col-pf": "Col-PF", "adap-pp": "Adap-PP"}
+LABELS = {
+    "muc-osl": "MUC-OSL",
+    "col-inf": "Col-Inf",
+    "col-pf": "Col-PF",
+    "adap-pp": "Adap-PP",
+    NO_ENV_PU: "MUC-OSL without eq. 16",
+}
 
 
 @dataclass(frozen=True)
@@ -122,16 +130,21 @@ class _Data:
 
 
 def _best_everywhere(
-    data: _Data, settings: Sequence[Setting], column: str, rng: np.random.Generator
+    data: _Data,
+    settings: Sequence[Setting],
+    column: str,
+    rng: np.random.Generator,
+    method: str = "muc-osl",
 ) -> tuple[str, str]:
-    """MUC-OSL against every baseline at every setting: ``(ours, verdict)``."""
+    """``method`` (MUC-OSL or its ablation) against every baseline at every setting:
+    ``(ours, verdict)``."""
     higher = column == "success"
     baselines = [a for a in ALGORITHMS if a != "muc-osl"]
     best = lost = total = 0
     verdicts: list[str] = []
     worst: tuple[float, str] = (math.inf, "")
     for s in settings:
-        x = data.paired(s, ["muc-osl", *baselines], column)
+        x = data.paired(s, [method, *baselines], column)
         if len(x) == 0:
             verdicts.append("undecided")
             continue
@@ -155,7 +168,7 @@ def _best_everywhere(
     diff = f"{100 * worst[0]:+.0f} pts" if higher else f"{worst[0]:+.0f} s"
     ours = (
         f"{what} best at {best} of {total} points, significantly worse than a baseline at "
-        f"{lost}; least favourable: {worst[1]} (MUC-OSL {diff})"
+        f"{lost}; least favourable: {worst[1]} ({LABELS[method]} {diff})"
         if total
         else "no episodes"
     )
@@ -375,8 +388,10 @@ def _area_claims(data: _Data, sweep: SweepDef, rng: np.random.Generator) -> list
     return out
 
 
-def _energy_claims(data: _Data, rng: np.random.Generator) -> list[Claim]:
-    x = data.paired(DEFAULT, ["muc-osl", "col-inf"], "energy")
+def _energy_claims(
+    data: _Data, rng: np.random.Generator, method: str = "muc-osl", world: str = "rate"
+) -> list[Claim]:
+    x = data.paired(DEFAULT, [method, "col-inf"], "energy")
 
     def rel(a: list[np.ndarray]) -> np.ndarray:
         return a[0][..., 0].mean(axis=1) / a[0][..., 1].mean(axis=1) - 1.0
@@ -384,8 +399,8 @@ def _energy_claims(data: _Data, rng: np.random.Generator) -> list[Claim]:
     v, lo, hi = bootstrap(rel, [x], rng)
     out = [
         Claim(
-            "rate",
-            "MUC-OSL's movement energy E_M is below Col-Inf's",
+            world,
+            f"{LABELS[method]}: movement energy E_M below Col-Inf's",
             f"Table 2: {-100 * ENERGY_SAVING:+.2f} %",
             f"{_ci_text(v, lo, hi, 100.0, 1)} % over {len(x)} paired episodes",
             verdict(lo, hi, -1),
@@ -393,19 +408,35 @@ def _energy_claims(data: _Data, rng: np.random.Generator) -> list[Claim]:
     ]
     texts, verdicts = [], []
     for column, name in (("hover", "hover"), ("turn", "turn")):
-        y = data.paired(DEFAULT, ["muc-osl", "col-inf"], column)
+        y = data.paired(DEFAULT, [method, "col-inf"], column)
         d, d_lo, d_hi = bootstrap(lambda a: (a[0][..., 0] - a[0][..., 1]).mean(axis=1), [y], rng)
         texts.append(f"{name} time {_ci_text(d, d_lo, d_hi)} s")
         verdicts.append(verdict(d_lo, d_hi, -1))
     out.append(
         Claim(
-            "rate",
+            world,
             "... with less hovering and turning",
             "Table 2: -45 s hover, -33 s turn",
-            "MUC-OSL minus Col-Inf, team: " + "; ".join(texts),
+            f"{LABELS[method]} minus Col-Inf, team: " + "; ".join(texts),
             combine(verdicts),
         )
     )
+    return out
+
+
+def _ablation_claims(data: _Data, world: str, rng: np.random.Generator) -> list[Claim]:
+    """The paper's headline statements for MUC-OSL without eq. 16, at the default point
+    (where the ablation runs); nothing when it has no episodes there."""
+    if len(data.one(DEFAULT, NO_ENV_PU)) == 0:
+        return []
+    out = []
+    for column, text in (("success", "highest SR"), ("time", "lowest MST")):
+        ours, v = _best_everywhere(data, [DEFAULT], column, rng, NO_ENV_PU)
+        out.append(
+            Claim(world, f"{LABELS[NO_ENV_PU]}: the {text} (default point)", "Figs. 4-7", ours, v)
+        )
+    if world == "rate":
+        out += _energy_claims(data, rng, NO_ENV_PU, world)
     return out
 
 
@@ -532,6 +563,9 @@ def evaluate_claims(
     if "area" in by:
         out += _area_claims(rate, by["area"], rng)
     out += _energy_claims(rate, rng)
+    out += _ablation_claims(rate, "rate", rng)
     if filament_scenario is not None and filament_sweeps:
-        out += _filament_claims(_Data(cells, filament_scenario), rate, filament_sweeps, at, rng)
+        fil = _Data(cells, filament_scenario)
+        out += _filament_claims(fil, rate, filament_sweeps, at, rng)
+        out += _ablation_claims(fil, "filament", rng)
     return out

@@ -49,6 +49,7 @@ from odorloc.papers.muc_osl.claims import evaluate_claims
 from odorloc.papers.muc_osl.reference import ALGORITHMS, LARGEST_AREA_SUCCESS, TABLE2, TABLE3
 from odorloc.papers.muc_osl.sweeps import (
     DEFAULT,
+    NO_ENV_PU,
     SWEEPS,
     SweepDef,
     cell_of,
@@ -61,7 +62,6 @@ __all__ = ["MucOslReproduction", "add_uav_search_time", "record_episode"]
 SCENARIO = "muc-osl-3d"
 FILAMENT = "muc-osl-filament-3d"
 #: MUC-OSL without the upwind particle moves of eq. 16 (an ablation shown beside the four).
-NO_ENV_PU = "muc-osl-no-env-pu"
 NO_ENV_PU_PARAMS = {"estimator": {"type": "col-pf", "env_pu": "off"}}
 LABELS = {
     "muc-osl": "MUC-OSL",

@@ -50,6 +50,7 @@ __all__ = [
     "AREAS",
     "DEFAULT",
     "FIG9_VALUES",
+    "NO_ENV_PU",
     "SWEEPS",
     "Setting",
     "SweepDef",
@@ -74,6 +75,9 @@ AREAS: tuple[Area, ...] = (
 )
 #: Fig. 6 runs 4 UAVs.
 RADIUS_UAVS = 4
+#: Label of MUC-OSL without the upwind particle moves of eq. 16 (an ablation run beside the four
+#: at the default setting of each world).
+NO_ENV_PU = "muc-osl-no-env-pu"
 
 
 def source_position(area: Sequence[float]) -> tuple[float, float, float]:
