@@ -58,7 +58,7 @@ class Table:
     """A result table: a title, headers, formatted rows, and whether to print it.
 
     Wide tables (``console=False``) go only to CSV and the report. The first ``left`` columns
-    are aligned left on the console (text), the others right (numbers).
+    are aligned left on the console (text, wrapped when long), the others right (numbers).
     """
 
     name: str
@@ -69,6 +69,8 @@ class Table:
     note: str = ""
     left: int = 1
     """Leading text columns (left-aligned); the others are numbers (right-aligned)."""
+    widths: tuple[int, ...] = ()
+    """Console share of each text column when the table must wrap (empty: by content)."""
 
 
 @dataclass
@@ -364,9 +366,18 @@ def console_table(tab: Table) -> Any:
     from rich import box
     from rich.table import Table as RichTable
 
-    rt = RichTable(title=tab.title, box=box.SIMPLE_HEAD, show_edge=False, collapse_padding=True)
+    rt = RichTable(
+        title=tab.title,
+        box=box.SIMPLE_HEAD,
+        show_edge=False,
+        collapse_padding=True,
+        expand=bool(tab.widths),  # column ratios only act on a table as wide as the console
+    )
     for i, h in enumerate(tab.headers):
-        rt.add_column(h, justify="left" if i < tab.left else "right", no_wrap=True)
+        # text may wrap (a long statement stays readable); numbers never do
+        text = i < tab.left
+        ratio = tab.widths[i] if text and i < len(tab.widths) else None
+        rt.add_column(h, justify="left" if text else "right", no_wrap=not text, ratio=ratio)
     for r in tab.rows:
         rt.add_row(*r)
     return rt

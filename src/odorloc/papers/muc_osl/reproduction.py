@@ -224,6 +224,7 @@ class MucOslReproduction(Reproduction):
                         "side; undecided: it straddles it\n(pts: percentage points of success "
                         "rate; s: seconds of mean search time).",
                         left=4,
+                        widths=(5, 2, 9, 2),
                     )
                 )
         out.append(
