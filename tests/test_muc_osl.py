@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 import math
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -10,9 +13,11 @@ import pytest
 from odorloc.core.errors import ConfigError
 from odorloc.core.seeds import episode_seeds
 from odorloc.engine.episode import Episode, run_episode
+from odorloc.experiments.sweep import load_sweep
 from odorloc.inference.particles.regularised import RegularisedResampler, silverman_bandwidth
 from odorloc.papers.muc_osl.placement import PAPER_STARTS, uav_starts
-from odorloc.papers.muc_osl.reproduction import add_uav_search_time
+from odorloc.papers.muc_osl.reproduction import NO_ENV_PU_PARAMS, add_uav_search_time
+from odorloc.papers.muc_osl.sweeps import NO_ENV_PU
 from odorloc.scenarios import Scenario, get_scenario
 from odorloc.scenarios.build import build
 from odorloc.searchers.uav_team import SENSOR_RADIUS, UAVPlannerMember
@@ -217,3 +222,27 @@ def test_regularised_resampler_moves_copies_by_the_cloud_spread() -> None:
     got = out.std(axis=0)
     np.testing.assert_allclose(got[:2], np.array([10.0, 1.0]) * math.sqrt(1 + h * h), rtol=0.06)
     assert got[2] == pytest.approx(math.sqrt(0.1**2 + 0.1**2), rel=0.1)
+
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+
+
+def test_the_sensor_radius_example_prints_col_inf_beside_table_2() -> None:
+    r = subprocess.run(
+        [sys.executable, str(EXAMPLES / "muc_osl_sensor_radius.py"), "--radii", "3.5",
+         "--episodes", "2", "--workers", "1"],
+        capture_output=True, text=True, timeout=300,
+    )  # fmt: skip
+    assert r.returncode == 0, r.stderr
+    lines = r.stdout.splitlines()
+    assert lines[0].startswith("Col-Inf on muc-osl-3d, 2 episodes")
+    row = lines[2].split()
+    assert row[0] == "3.5" and len(row) == 8  # a, success (two tokens), MST, hover .. E_M
+    assert lines[3].split() == ["paper", "-", "-", "261", "223", "893", "1476"]
+
+
+def test_the_default_point_sweep_file_runs_the_four_and_the_ablation() -> None:
+    spec = load_sweep(EXAMPLES / "sweep-muc-osl-default.yaml")
+    assert [s.name for s in spec.scenarios] == ["muc-osl-3d"]
+    assert [s.display for s in spec.searchers] == [*ALGORITHMS, NO_ENV_PU]
+    assert spec.searchers[-1].params == NO_ENV_PU_PARAMS
