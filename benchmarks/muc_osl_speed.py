@@ -48,10 +48,11 @@ from odorloc.models.vergassola import (
 from odorloc.planning.adaptive import AdaptivePathPlanner, AdaptivePlannerParams
 from odorloc.planning.steps import lattice_offsets
 from odorloc.scenarios import get_scenario
+from odorloc.searchers.uav_team import SENSOR_RADIUS
 
 N = 160
 WIND = np.array([0.0, -1.0, 0.0])
-Q, V, D, TAU, A = 5.0, 1.0, 1.0, 100.0, 1.0
+Q, V, D, TAU, A = 5.0, 1.0, 1.0, 100.0, SENSOR_RADIUS
 ALGORITHMS = ("muc-osl", "col-inf", "col-pf", "adap-pp")
 TIMING = ("wall_time", "wall_per_step_ms", "world_fraction", "searcher_fraction")
 
@@ -234,7 +235,7 @@ def _episode_rows(name: str, backend: str, episodes: int) -> tuple[list[float], 
     planner = "adap-pp" if name in ("muc-osl", "adap-pp") else "fixed-step-infotaxis"
     searcher = {
         "type": name,
-        "model": {"type": "vergassola", "backend": backend},
+        "model": {"type": "vergassola", "sensor_radius": SENSOR_RADIUS, "backend": backend},
         "planner": {"type": planner, "backend": backend},
     }
     sc = get_scenario("muc-osl-3d").with_overrides({"searcher": searcher})

@@ -32,6 +32,7 @@ from odorloc.planning.adaptive import (
 )
 from odorloc.planning.fixed_step import FixedStepInfotaxis, FixedStepParams
 from odorloc.scenarios import get_scenario
+from odorloc.searchers.uav_team import SENSOR_RADIUS
 
 ARENA = ((0.0, 0.0, 0.0), (100.0, 60.0, 30.0))
 SOURCE = np.array([10.0, 30.0, 25.0])
@@ -218,7 +219,7 @@ def test_episodes_are_the_same_with_and_without_the_kernels(algorithm: str) -> N
         planner = "adap-pp" if algorithm in ("muc-osl", "adap-pp") else "fixed-step-infotaxis"
         searcher = {
             "type": algorithm,
-            "model": {"type": "vergassola", "backend": backend},
+            "model": {"type": "vergassola", "sensor_radius": SENSOR_RADIUS, "backend": backend},
             "planner": {"type": planner, "backend": backend},
         }
         res = run_episode(

@@ -93,7 +93,8 @@ class UAVSearchParams(Params):
     ----------
     model : dict
         Measurement model, ``{type: vergassola, ...}`` (defaults: the multi-UAV paper's table and
-        ``sensor_radius`` :data:`SENSOR_RADIUS`).
+        ``sensor_radius`` :data:`SENSOR_RADIUS`). A ``model`` given here replaces the default
+        whole: give its ``sensor_radius`` too.
     estimator : dict
         Per-agent estimator, ``{type: col-pf | standard-pf, ...}``.
     planner : dict
