@@ -313,7 +313,9 @@ def main(argv: list[str] | None = None) -> None:
     ctx = _ctx()
     rng = np.random.default_rng(1)
     backends = ("numpy", "numba") if HAVE_NUMBA else ("numpy",)
-    models = {b: VergassolaModel(VergassolaModelParams(backend=b)) for b in backends}
+    models = {
+        b: VergassolaModel(VergassolaModelParams(sensor_radius=A, backend=b)) for b in backends
+    }
     w0 = np.exp(case["lw"])
     mean0 = w0 @ case["x"]
     cov0 = ((case["x"] - mean0) * w0[:, None]).T @ (case["x"] - mean0)
