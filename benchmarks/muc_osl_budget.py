@@ -132,8 +132,8 @@ def main(argv: list[str] | None = None) -> None:
         f"same outcome in {sum(same)}/{len(same)}"
     )
     print(
-        f"(filament default episodes per point: {FILAMENT_EPISODES}; the lead re-runs these "
-        "timings on an idle machine)"
+        f"(filament default episodes per point: {FILAMENT_EPISODES}; CPU times hold on an idle "
+        "machine, wall times only there)"
     )
     print(
         f"RESULT default_min={default_min:.1f} full_rate_min={full_rate_min:.1f} "
