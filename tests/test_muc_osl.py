@@ -20,7 +20,7 @@ from odorloc.papers.muc_osl.reproduction import NO_ENV_PU_PARAMS, add_uav_search
 from odorloc.papers.muc_osl.sweeps import NO_ENV_PU
 from odorloc.scenarios import Scenario, get_scenario
 from odorloc.scenarios.build import build
-from odorloc.searchers.uav_team import SENSOR_RADIUS, UAVPlannerMember
+from odorloc.searchers.uav_team import SENSOR_RADIUS, UAVPlannerMember, default_model
 
 ALGORITHMS = ("muc-osl", "col-inf", "col-pf", "adap-pp")
 
@@ -53,10 +53,23 @@ def test_the_searchers_model_is_the_worlds_rate_model(name: str) -> None:
     radius (which the paper leaves open and the scenario calibrates) all agree."""
     sc = get_scenario("muc-osl-3d").with_overrides({"searcher": {"type": name}})
     world = sc.world.plume.params("plume")
-    model = build(sc).searcher.preset.model.params("model")  # type: ignore[attr-defined]
+    ref = build(sc).searcher.preset.model  # type: ignore[attr-defined]
+    assert ref is None  # the preset leaves the model to the member's default
+    model = default_model(3).params("model")
     assert world.sensor_radius == model.sensor_radius == SENSOR_RADIUS
     assert (world.V, world.D, world.tau) == (model.V, model.D, model.tau)
     assert sc.world.sources[0].rate == model.Q
+
+
+def test_default_model_fits_the_dimension() -> None:
+    """3-D takes the calibrated radius; 2-D keeps a below lambda (about 1.96 m), where the 2-D
+    rate of eq. 3 is defined, so the members run in 2-D worlds with their defaults."""
+    three = default_model(3).params("model")
+    two = default_model(2).params("model")
+    assert three.sensor_radius == SENSOR_RADIUS
+    lam = math.sqrt(two.D * two.tau / (1 + two.V**2 * two.tau / (4 * two.D)))
+    assert two.sensor_radius < lam < SENSOR_RADIUS
+    assert (two.Q, two.V, two.D, two.tau) == (three.Q, three.V, three.D, three.tau)
 
 
 def test_uav_placement_rule() -> None:

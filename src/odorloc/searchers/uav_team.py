@@ -5,7 +5,8 @@ composes three parts named in its parameters:
 
 - ``model``: the measurement model (registry family ``model``; default the Vergassola Poisson
   encounter model with the multi-UAV paper's Q = 5, V = 1 m/s, D = 1, tau = 100, eqs. 1-3, and
-  the sensor radius :data:`SENSOR_RADIUS` of the ``muc-osl-3d`` world);
+  in 3-D the sensor radius :data:`SENSOR_RADIUS` of the ``muc-osl-3d`` world, see
+  :func:`default_model`);
 - ``estimator``: a per-agent particle estimator (family ``team_estimator``: ``col-pf`` or
   ``standard-pf``, :mod:`odorloc.inference.particles.team_estimators`);
 - ``planner``: a lattice step planner (family ``step_planner``: ``adap-pp`` or
@@ -71,6 +72,7 @@ __all__ = [
     "UAVBelief",
     "UAVPlannerMember",
     "UAVSearchParams",
+    "default_model",
 ]
 
 #: Bits per processed number (float64) in the computation energy of eq. 7.
@@ -82,8 +84,16 @@ BITS_PER_NUMBER = 64
 SENSOR_RADIUS = 3.5
 
 
-def _default_model() -> ComponentRef:
-    return ComponentRef(type="vergassola", sensor_radius=SENSOR_RADIUS)
+def default_model(dim: int) -> ComponentRef:
+    """The measurement model a member uses when its ``model`` is not given.
+
+    The Vergassola model with the paper's table; ``sensor_radius`` :data:`SENSOR_RADIUS` in 3-D
+    and the model's own 1 m in 2-D, where the rate (eq. 3) needs ``a`` below ``lambda``
+    (about 1.96 m with the paper's V, D and tau).
+    """
+    if dim == 3:
+        return ComponentRef(type="vergassola", sensor_radius=SENSOR_RADIUS)
+    return ComponentRef(type="vergassola")
 
 
 class UAVSearchParams(Params):
@@ -91,10 +101,11 @@ class UAVSearchParams(Params):
 
     Parameters
     ----------
-    model : dict
-        Measurement model, ``{type: vergassola, ...}`` (defaults: the multi-UAV paper's table and
-        ``sensor_radius`` :data:`SENSOR_RADIUS`). A ``model`` given here replaces the default
-        whole: give its ``sensor_radius`` too.
+    model : dict or None
+        Measurement model, ``{type: vergassola, ...}``. ``None`` (the default) takes
+        :func:`default_model` of the world's dimension: the multi-UAV paper's table with
+        ``sensor_radius`` :data:`SENSOR_RADIUS` in 3-D. A ``model`` given here replaces the
+        default whole: give its ``sensor_radius`` too.
     estimator : dict
         Per-agent estimator, ``{type: col-pf | standard-pf, ...}``.
     planner : dict
@@ -108,7 +119,7 @@ class UAVSearchParams(Params):
         Wind direction of the model and of env-pu: the mean anemometer reading, or the model's.
     """
 
-    model: Ref("model") = Field(default_factory=_default_model)
+    model: Ref("model") | None = None
     estimator: Ref("team_estimator") = Field(default_factory=lambda: ComponentRef(type="col-pf"))
     planner: Ref("step_planner") = Field(default_factory=lambda: ComponentRef(type="adap-pp"))
     declare_spread: Positive = 3.0
@@ -149,7 +160,8 @@ class UAVPlannerMember(Searcher):
     def reset(self, ctx: SearchContext, rng: np.random.Generator) -> None:
         super().reset(ctx, rng)
         p = self.params
-        self.model = p.model.build("model", field="searcher.model")
+        ref = p.model if p.model is not None else default_model(ctx.dim)
+        self.model = ref.build("model", field="searcher.model")
         self.estimator: TeamEstimator = p.estimator.build(
             "team_estimator", field="searcher.estimator"
         )
