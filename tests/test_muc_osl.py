@@ -15,6 +15,7 @@ from odorloc.core.seeds import episode_seeds
 from odorloc.engine.episode import Episode, run_episode
 from odorloc.experiments.sweep import load_sweep
 from odorloc.inference.particles.regularised import RegularisedResampler, silverman_bandwidth
+from odorloc.models.vergassola import correlation_length
 from odorloc.papers.muc_osl.placement import PAPER_STARTS, uav_starts
 from odorloc.papers.muc_osl.reproduction import NO_ENV_PU_PARAMS, add_uav_search_time
 from odorloc.papers.muc_osl.sweeps import NO_ENV_PU
@@ -67,7 +68,7 @@ def test_default_model_fits_the_dimension() -> None:
     three = default_model(3).params("model")
     two = default_model(2).params("model")
     assert three.sensor_radius == SENSOR_RADIUS
-    lam = math.sqrt(two.D * two.tau / (1 + two.V**2 * two.tau / (4 * two.D)))
+    lam = correlation_length(two.V, two.D, two.tau)
     assert two.sensor_radius < lam < SENSOR_RADIUS
     assert (two.Q, two.V, two.D, two.tau) == (three.Q, three.V, three.D, three.tau)
 
