@@ -12,13 +12,18 @@ maths, with a check that they agree (the deterministic parts: the weights of eqs
 direction rewards and the chosen hover point); then
 3. the mean wall time of whole episodes of each algorithm on ``muc-osl-3d`` (3 UAVs,
    100 x 60 x 30 m), with the two backends one after the other in this process, and whether
-   their metric rows are equal bit for bit (they must be: same seeds, same episodes).
+   their metric rows are equal bit for bit (they must be: same seeds, same episodes); with
+   MUC-OSL without eq. 16 beside them. An episode's wall time is its simulated length times the
+   cost of one simulated second: the table shows both, because MUC-OSL as printed misses the
+   source in most episodes of our world and flies the whole 20 minutes, while the same parts
+   without eq. 16 end at the source.
 
 Targets: decision <= 2 ms, mean MUC-OSL episode <= 0.3 s (compiled kernels when numba is
 installed). The last line is machine-readable::
 
     RESULT colpf_update_ms=<x> adap_pp_decision_ms=<y> episode_s_mucosl=<z> episode_s_colinf=<w>
-           adap_pp_decision_ms_numpy=<a> episode_s_mucosl_numpy=<b> same_rows=<yes|no>
+           adap_pp_decision_ms_numpy=<a> episode_s_mucosl_numpy=<b> ms_per_sim_s_mucosl=<c>
+           episode_s_mucosl_no_eq16=<e> same_rows=<yes|no>
 
 Run: ``python benchmarks/muc_osl_speed.py [--repeat 200] [--episodes 6]``.
 """
@@ -54,6 +59,9 @@ N = 160
 WIND = np.array([0.0, -1.0, 0.0])
 Q, V, D, TAU, A = 5.0, 1.0, 1.0, 100.0, SENSOR_RADIUS
 ALGORITHMS = ("muc-osl", "col-inf", "col-pf", "adap-pp")
+#: MUC-OSL without the upwind moves of eq. 16 (the reproduction's ablation): the same parts and
+#: the same cost per simulated second, but its episodes end at the source
+NO_EQ16 = {"type": "col-pf", "env_pu": "off"}
 TIMING = ("wall_time", "wall_per_step_ms", "world_fraction", "searcher_fraction")
 
 
@@ -230,14 +238,19 @@ def _time(fn: Callable[[], object], repeat: int) -> float:
     return best * 1e3
 
 
-def _episode_rows(name: str, backend: str, episodes: int) -> tuple[list[float], list[dict]]:
-    """Wall times (s) and metric rows of ``episodes`` episodes of one algorithm."""
+def _episode_rows(
+    name: str, backend: str, episodes: int, estimator: dict | None = None
+) -> tuple[list[float], list[dict]]:
+    """Wall times (s) and metric rows of ``episodes`` episodes of one algorithm (``estimator``:
+    its estimator replaced, for the ablation)."""
     planner = "adap-pp" if name in ("muc-osl", "adap-pp") else "fixed-step-infotaxis"
     searcher = {
         "type": name,
         "model": {"type": "vergassola", "sensor_radius": SENSOR_RADIUS, "backend": backend},
         "planner": {"type": planner, "backend": backend},
     }
+    if estimator is not None:
+        searcher["estimator"] = estimator
     sc = get_scenario("muc-osl-3d").with_overrides({"searcher": searcher})
     walls, rows = [], []
     for e in range(episodes):
@@ -406,24 +419,29 @@ def main(argv: list[str] | None = None) -> None:
     # must be equal bit for bit)
     print(f"\nepisodes of muc-osl-3d (3 UAVs), {args.episodes} per algorithm, one process")
     print(
-        f"{'algorithm':<10} {'backend':>8} {'mean s':>8} {'per step ms':>12} "
+        f"{'algorithm':<17} {'backend':>8} {'mean s':>8} {'sim s':>6} {'per step ms':>12} "
         f"{'vs numpy':>9} {'reached':>8} {'same rows':>10}"
     )
     means: dict[tuple[str, str], float] = {}
+    per_step: dict[tuple[str, str], float] = {}
     same_all = True
-    for name in ALGORITHMS:
+    for name, label, estimator in (
+        *((a, a, None) for a in ALGORITHMS),
+        ("muc-osl", "muc-osl w/o eq.16", NO_EQ16),
+    ):
         rows = {}
         for b in backends:
-            walls, rows[b] = _episode_rows(name, b, args.episodes)
-            means[name, b] = float(np.mean(walls))
+            walls, rows[b] = _episode_rows(name, b, args.episodes, estimator)
+            means[label, b] = float(np.mean(walls))
             steps = sum(r["steps"] for r in rows[b])
+            per_step[label, b] = 1e3 * sum(walls) / max(steps, 1)
             reached = sum(int(r["success"]) for r in rows[b])
             same = _same(rows["numpy"], rows[b])
             same_all &= same
             print(
-                f"{name:<10} {b:>8} {means[name, b]:8.3f} {1e3 * sum(walls) / max(steps, 1):12.3f} "
-                f"{means[name, 'numpy'] / means[name, b]:8.1f}x {reached:>4}/{args.episodes} "
-                f"{'yes' if same else 'NO':>10}"
+                f"{label:<17} {b:>8} {means[label, b]:8.3f} {steps / args.episodes:6.0f} "
+                f"{per_step[label, b]:12.3f} {means[label, 'numpy'] / means[label, b]:8.1f}x "
+                f"{reached:>4}/{args.episodes} {'yes' if same else 'NO':>10}"
             )
     if HAVE_NUMBA:
         wall, parts = _time_split(args.episodes)
@@ -441,11 +459,21 @@ def main(argv: list[str] | None = None) -> None:
     m = means["muc-osl", best]
     target = "  (over the 0.3 s target)" if m > 0.3 else ""
     print(f"mean MUC-OSL episode ({best}) {m:.3f} s{target}")
+    # an episode's wall time is its simulated length times the cost of a simulated second; the
+    # second factor is the code's, the first the method's (episodes that miss the source fly
+    # the whole 1 200 s)
+    print(
+        f"per simulated second ({best}): MUC-OSL {per_step['muc-osl', best]:.3f} ms, without "
+        f"eq. 16 {per_step['muc-osl w/o eq.16', best]:.3f} ms, Col-Inf "
+        f"{per_step['col-inf', best]:.3f} ms"
+    )
     print(
         f"RESULT colpf_update_ms={t_colpf[best]:.3f} adap_pp_decision_ms={t_dec[best]:.3f} "
         f"episode_s_mucosl={m:.3f} episode_s_colinf={means['col-inf', best]:.3f} "
         f"adap_pp_decision_ms_numpy={t_dec['numpy']:.3f} "
         f"episode_s_mucosl_numpy={means['muc-osl', 'numpy']:.3f} "
+        f"ms_per_sim_s_mucosl={per_step['muc-osl', best]:.3f} "
+        f"episode_s_mucosl_no_eq16={means['muc-osl w/o eq.16', best]:.3f} "
         f"same_rows={'yes' if same_all else 'no'}"
     )
 
