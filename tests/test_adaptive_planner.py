@@ -24,7 +24,7 @@ from odorloc.planning.adaptive import (
     source_area_ratio,
     step_rewards,
 )
-from odorloc.planning.fixed_step import FixedStepInfotaxis, with_found_outcome
+from odorloc.planning.fixed_step import FixedStepInfotaxis, FixedStepParams, with_found_outcome
 from odorloc.planning.rewards import expected_entropy
 from odorloc.planning.steps import lattice_offsets
 
@@ -137,7 +137,14 @@ def test_l_max_from_the_source_area_ratio() -> None:
         max_step(0.0)
     model = VergassolaModel().bind(dt=1.0, direction=np.array([0.0, -1.0, 0.0]))
     zeta = source_area_ratio(model, np.zeros(3), np.array([100.0, 60.0, 30.0]), 2.0, 0.1)
-    assert 0.0 < zeta < 0.1
+    # eq. 26 by hand: the 2 m cells (centres 1, 3, ...) whose chance of at least one encounter
+    # in 1 s, 1 - exp(-R dt), reaches 0.1 for a source at the box's centre
+    axes = [np.arange(1.0, hi, 2.0) for hi in (100.0, 60.0, 30.0)]
+    cells = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+    rate = VergassolaModel().rate(cells, [[50.0, 30.0, 15.0]], direction=[0.0, -1.0, 0.0])
+    cue = 1.0 - np.exp(-rate[:, 0] * 1.0)
+    assert abs(zeta - np.mean(cue >= 0.1)) <= 1.0 / len(cells)  # a cell on the threshold
+    assert max_step(zeta) == 4  # the default world's l_max
     # a larger arena around the same plume: a smaller ratio, a longer l_max
     big = source_area_ratio(model, np.zeros(3), np.array([100.0, 200.0, 50.0]), 2.0, 0.1)
     assert big < zeta and max_step(big) > max_step(zeta)
@@ -188,10 +195,30 @@ def test_found_outcome_makes_a_probability_distribution() -> None:
     np.testing.assert_allclose(qf.sum(axis=1), 1.0)
     near = np.linalg.norm(targets[:, None] - x[None], axis=2) <= 2.0
     np.testing.assert_array_equal(qf[:, -1, :] == 1.0, near)
-    # a candidate sitting on all the mass has a small expected entropy
-    w = np.full(50, -math.log(50))
-    eh = expected_entropy(w, qf)
-    assert np.all(eh <= math.log(50) + 1e-12)
+    # expected posterior entropy against Bayes' rule class by class, from a non-uniform prior
+    lw = rng.normal(0.0, 1.0, 50)
+    lw -= math.log(np.exp(lw).sum())
+    eh = expected_entropy(lw, qf)
+    np.testing.assert_allclose(eh, _brute_expected_entropy(np.exp(lw), qf), rtol=1e-10)
+    # a found radius covering every particle: 'found' is certain and leaves the prior as it is
+    qall = with_found_outcome(q, targets, x, 100.0)
+    prior = -float(np.exp(lw) @ lw)
+    np.testing.assert_allclose(expected_entropy(lw, qall), prior, rtol=1e-12)
+    assert np.all(eh < prior)  # a measurement that can tell hypotheses apart informs
+
+
+def _brute_expected_entropy(w: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """``sum_z P(z) H(w | z)`` with explicit loops (Bayes' rule per outcome class)."""
+    out = []
+    for m in range(q.shape[0]):
+        acc = 0.0
+        for z in range(q.shape[1]):
+            joint = [w[n] * q[m, z, n] for n in range(len(w))]
+            pz = sum(joint)
+            if pz > 0:
+                acc += pz * -sum(j / pz * math.log(j / pz) for j in joint if j > 0)
+        out.append(acc)
+    return np.array(out)
 
 
 def test_fixed_step_infotaxis_takes_the_least_expected_entropy() -> None:
@@ -207,3 +234,19 @@ def test_fixed_step_infotaxis_takes_the_least_expected_entropy() -> None:
     assert plan.length == 1
     assert plan.scores[plan.direction] == pytest.approx(np.min(plan.scores), rel=1e-9)
     np.testing.assert_allclose(plan.target, pos + planner.steps[plan.direction])
+    # the scores themselves, from a belief that prefers one side, against Bayes' rule by hand:
+    # every count class (none merged) conditioned on not found, and the found class
+    for backend in ("numpy", "numba"):
+        exact = FixedStepInfotaxis(FixedStepParams(tail_mass=1e-300, ties="first", backend=backend))
+        exact.reset(ctx)
+        lw = -0.5 * np.sum((x - [30.0, 25.0, 20.0]) ** 2, axis=1) / 36.0
+        lw -= math.log(np.exp(lw).sum())
+        skewed = ParticleBelief(x, lw)
+        got = exact.plan(skewed, pos, model, np.array([pos]), rng)
+        targets = pos + exact.steps
+        q = model.outcome_probabilities(targets, x)
+        ref = _brute_expected_entropy(np.exp(lw), with_found_outcome(q, targets, x, 2.0))
+        np.testing.assert_allclose(got.scores, ref, rtol=1e-9)
+        assert got.direction == int(np.argmin(ref))
+        # the directions differ clearly, so the choice is the reward's and not a tie's
+        assert np.ptp(ref) > 0.1

@@ -294,8 +294,42 @@ def test_colpf_estimator_keeps_count_in_bounds_and_moves_particles() -> None:
         est.update(Measurement(count, pos, 1.0, k, down), {}, rng)
         assert 20 <= est.pf.n <= 160
         assert np.all(ctx.arena.is_free(est.pf.positions))
-        assert est.n_moved == moved_count(est.pf.n, k, 800)
     assert est.message()["fit"].size == 12
+
+
+@pytest.mark.parametrize("k", [1, 200, 400])
+def test_colpf_update_moves_n_s_particles_upwind(k: int) -> None:
+    """Inside one update, PUGL moves exactly N_s of eq. 15 particles, each straight upwind by at
+    most ``env_step`` (eq. 16, invariant reading); the others keep their positions. Without
+    resampling or a count change the particles before and after the update can be matched
+    one to one."""
+    ctx = SearchContext(
+        arena=Arena.box((0.0, 0.0, 0.0), (100.0, 60.0, 30.0), 2.0),
+        dt=1.0,
+        agent_ids=(0,),
+        start=[[10.0, 10.0, 5.0]],
+        speed_limits=[1.0],
+    )
+    rng = np.random.default_rng(11)
+    est = ColPFEstimator(
+        ColPFParams(resample_threshold=0.0, adaptive_count=False, env_step=2.0, n_max=160)
+    )
+    est.reset(ctx, VergassolaModel(), rng)
+    # particles away from the walls, so that no move is cut short by the arena
+    x0 = np.column_stack(
+        [rng.uniform(20, 80, 100), rng.uniform(10, 40, 100), rng.uniform(5, 25, 100)]
+    )
+    est.pf.replace(x0, np.full(100, -math.log(100)))
+    down = np.array([0.0, -1.0, 0.0])  # the wind blows towards -y: upwind is +y
+    est.update(Measurement(0.0, np.array([50.0, 5.0, 10.0]), 1.0, k, down), {}, rng)
+    d = est.pf.positions - x0
+    moved = np.flatnonzero(np.any(d != 0.0, axis=1))
+    n_s = round(100 * (1 - (k / 800) ** 1.8) ** 4)  # eq. 15 by hand
+    assert len(moved) == n_s == est.n_moved
+    assert np.all(d[moved, 0] == 0.0) and np.all(d[moved, 2] == 0.0)
+    assert np.all((d[moved, 1] > 0.0) & (d[moved, 1] <= 2.0))
+    # the steps are rand * env_step: spread over the whole interval, not one fixed length
+    assert d[moved, 1].std() > 0.3
 
 
 def test_standard_pf_pools_neighbour_particles() -> None:

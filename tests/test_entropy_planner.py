@@ -133,7 +133,18 @@ def test_entropy_with_the_pang_farrell_model_prefers_the_plume_axis() -> None:
         belief, np.zeros(2), bound, heading=math.pi
     )
     assert plan.expected_entropy[0] < plan.expected_entropy[1]
-    assert np.all(plan.expected_entropy <= belief.entropy + 1e-12)  # information never hurts
+    # information never hurts, in expectation: E[H(posterior)] <= H(prior). From the uniform
+    # prior above that bound (log 400) holds for any weights; from a non-uniform one it is the
+    # theorem's content
+    lw = rng.normal(0.0, 1.0, 400)
+    lw -= math.log(np.exp(lw).sum())
+    skewed = ParticleBelief(hyp, lw)
+    other = EntropyPlanner(EntropyPlannerParams(step_length=0.5)).plan(
+        skewed, np.zeros(2), bound, heading=math.pi
+    )
+    assert skewed.entropy < math.log(400) - 0.1
+    assert np.all(other.expected_entropy <= skewed.entropy + 1e-12)
+    assert np.all(other.expected_entropy < skewed.entropy - 1e-3)  # and each move informs
 
 
 # ---------------------------------------------------------------------- A*

@@ -57,10 +57,30 @@ def test_invariants(name: str) -> None:
     # Determinism per seed.
     out2, _ = r.resample(pos, lw, np.random.default_rng(1))
     np.testing.assert_array_equal(out, out2)
-    # Resampling concentrates the cloud where the weight was.
+    # Resampling moves the cloud to where the weight was: a peak off the middle of the square,
+    # so that ignoring the weights (the uniform cloud's mean is near (2, 2)) cannot pass.
+    pos = np.random.default_rng(3).uniform(0, 4, (300, 2))
+    lw = -0.5 * np.sum((pos - [3.0, 1.0]) ** 2, axis=1) / 0.3
     w = np.exp(lw - lw.max())
     w /= w.sum()
-    assert np.linalg.norm(out.mean(axis=0) - w @ pos) < 0.3
+    mean = w @ pos
+    var = w @ (pos - mean) ** 2
+    out, _ = r.resample(pos, lw, np.random.default_rng(4))
+    if name == "roulette":
+        # The paper's roulette lets a light particle survive with probability at least
+        # survival_floor = 0.5, so about half of the light cloud stays: the mean moves only part
+        # of the way (a scheme ignoring the weights stays at 1, an unbiased one near 0).
+        left = np.linalg.norm(out.mean(axis=0) - mean) / np.linalg.norm(pos.mean(axis=0) - mean)
+        assert 0.2 < left < 0.6, left
+        return
+    # the resampled mean is that of 300 draws from the weighted cloud: standard error
+    # sqrt(var / 300), about 0.03 m per axis; 4 standard errors allowed
+    np.testing.assert_array_less(np.abs(out.mean(axis=0) - mean), 4 * np.sqrt(var / len(pos)))
+    assert np.linalg.norm(out.mean(axis=0) - pos.mean(axis=0)) > 1.0
+    # and its spread: the weighted variance (about 0.3 m^2 per axis, the uniform square's is
+    # 1.33), within a factor allowing the sampling error and a regularising kernel
+    ratio = out.var(axis=0) / var
+    assert np.all((ratio > 0.7) & (ratio < 1.5)), ratio
 
 
 @pytest.mark.parametrize("name", ALL)

@@ -57,8 +57,13 @@ def test_per_agent_zigzag_team_runs_and_members_are_independent() -> None:
     res = run_episode(sc, 3, 4)
     pos = res.recording.positions
     assert pos.shape[1] == 2
-    assert not np.allclose(pos[:, 0], pos[:, 1])
     assert res.metrics["bytes"] == 0  # zigzag members say nothing
+    # independence: moving agent 1 elsewhere leaves agent 0's path as it was, to the bit (its
+    # member has its own random stream, and nothing passes between the members)
+    moved = run_episode(_team_scenario([[8.0, 1.0], [5.0, 3.0]], float("inf")), 3, 4)
+    other = moved.recording.positions
+    np.testing.assert_array_equal(other[:, 0], pos[:, 0])
+    assert not np.array_equal(other[:, 1], pos[:, 1])
 
 
 def test_unknown_member_is_a_field_error_when_the_scenario_loads() -> None:
