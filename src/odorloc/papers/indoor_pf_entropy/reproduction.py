@@ -248,10 +248,13 @@ def _fig8(summ: Any, path: Path) -> None:
     axes[1].set_ylim(0, 105)
     axes[1].axhline(90, color="0.6", ls=":", lw=1)
     for ax in axes:
-        ax.legend(fontsize=8)
         ax.grid(alpha=0.3)
+    # one legend below both panels: inside either one it hides points (the hybrid's success
+    # rates and the paper's times sit where a corner legend would go)
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="lower center", ncol=len(labels), fontsize=8, frameon=False)
     fig.suptitle("Indoor ventilated room: search time and success vs start distance (95 % CI)")
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, 0.07, 1, 1))
     fig.savefig(path, dpi=110)
     plt.close(fig)
 
