@@ -229,6 +229,8 @@ class Episode:
         self._wall0 = time.perf_counter()
         sc, b = self.scenario, self.built
         world, self._rng_world, self._rng_sense = prepare_world(sc, world_seed, b.world)
+        # the plume's warm-up is world time too (it is in the episode's wall time)
+        warmup = time.perf_counter() - self._wall0
         self.agent_rng = episode_generators(world_seed, agent_seed)[2]
         self.world = world
         self.sources = world.sources
@@ -266,7 +268,7 @@ class Episode:
         self._back_and_forth = np.zeros(self.n_agents, int)
         self._events: list[Event] = []
         self._termination = "running"
-        self._world_time = 0.0
+        self._world_time = warmup
         self._bytes = 0
         self._done = False
         self._started = True

@@ -296,17 +296,27 @@ def reference_detection_probability(
     else:
         sig2 = [max(float(v), p.min_wind_variance) for v in wind_var]
     rp = [float(x) for x in robot_pos]
+    # what does not depend on the particle, once per record l and axis a: the robot position
+    # shifted back by the wind since record l (eq. 10), twice the variance and the normaliser
+    # of eq. 11
+    per_record = []
+    for l in range(n_rec):  # noqa: E741 - the paper's record index
+        steps = n_rec - l  # k - l
+        axes = []
+        for a in range(dim):
+            s_a = sum(winds[j][a] * dt for j in range(l, n_rec))
+            var = p.initial_variance + sig2[a] * p.time_scale * steps * dt
+            axes.append((rp[a] - s_a, 2.0 * var, math.sqrt(2.0 * math.pi * var)))
+        per_record.append(axes)
     out = []
     for hyp in np.asarray(hypotheses, float):
+        h = [float(v) for v in hyp]
         prod_miss = 1.0
-        for l in range(n_rec):  # noqa: E741 - the paper's record index
-            steps = n_rec - l  # k - l
+        for axes in per_record:
             dens = 1.0
-            for a in range(dim):
-                s_a = sum(winds[j][a] * dt for j in range(l, n_rec))
-                var = p.initial_variance + sig2[a] * p.time_scale * steps * dt
-                delta = rp[a] - float(hyp[a]) - s_a
-                dens *= math.exp(-(delta**2) / (2.0 * var)) / math.sqrt(2.0 * math.pi * var)
+            for a, (shifted, two_var, norm) in enumerate(axes):
+                delta = shifted - h[a]
+                dens *= math.exp(-(delta * delta) / two_var) / norm
             prod_miss *= min(1.0, max(0.0, 1.0 - p.mu * p.sensor_area * dens))
         p1 = 1.0 - prod_miss
         out.append(min(max(p1, p.p_floor), 1.0 - p.p_floor))

@@ -600,11 +600,16 @@ class OdorPathEstimator:
         xc, yc = self.grid.x_centers(), self.grid.y_centers()
         for r in range(len(w.t_r)):
             var, k = w.var[r], w.k[r]
+            if k < 0.0:
+                continue  # eq. (12) keeps no cell (q >= 0)
             dx = xc - w.center[r, 0]
             dy = yc - w.center[r, 1]
-            q = (dx * dx / var[0])[:, None] + (dy * dy / var[1])[None, :]
+            qx, qy = dx * dx / var[0], dy * dy / var[1]
+            q = qx[:, None] + qy[None, :]
             if self.params.kernel == "point":
-                s = a * a / (2.0 * np.pi * np.sqrt(var[0] * var[1])) * np.exp(-0.5 * q)  # eq. 11
+                # eq. 11; the Gaussian is separable, so nx + ny exponentials instead of nx ny
+                c = a * a / (2.0 * np.pi * np.sqrt(var[0] * var[1]))
+                s = (c * np.exp(-0.5 * qx))[:, None] * np.exp(-0.5 * qy)[None, :]
             else:
                 sx, sy = np.sqrt(var)
                 fx = ndtr((dx + 0.5 * a) / sx) - ndtr((dx - 0.5 * a) / sx)
