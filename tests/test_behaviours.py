@@ -63,7 +63,8 @@ def test_zigzag_mirrors_at_walls_and_turns_after_max_leg() -> None:
     for _ in range(6):
         legs.direction(OPEN, np.array([5.0, 5.0]), up, 0.5, 0.5)
         sides.append(legs.side)
-    assert sides.count(1.0) > 1 and sides.count(-1.0) > 1  # turns every 1 m without walls
+    # without walls every leg is max_leg / advance = 1.0 / 0.5 = 2 steps long
+    assert sides == [1.0, 1.0, 1.0, -1.0, -1.0, 1.0, 1.0]
 
 
 def test_surge_then_widening_casts() -> None:

@@ -243,16 +243,23 @@ def test_vector_envs_run_8_copies() -> None:
     def make() -> object:
         return gym.make("odorloc/Search-v0", scenario=small(), action={"declare": "none"})
 
+    runs = []
     for cls in (gym.vector.SyncVectorEnv, gym.vector.AsyncVectorEnv):
         venv = cls([make] * 8)
         obs, _ = venv.reset(seed=list(range(8)))
         assert obs.shape == (8, 8)
-        for _ in range(5):
-            obs, rew, _term, _trunc, _ = venv.step(venv.action_space.sample())
+        actions = np.random.default_rng(3).uniform(-1.0, 1.0, (5, *venv.action_space.shape))
+        seen = [obs]
+        for act in actions.astype(venv.action_space.dtype):
+            obs, rew, _term, _trunc, _ = venv.step(act)
+            seen.append(obs)
         assert obs.shape == (8, 8) and rew.shape == (8,) and np.all(rew == -1.0)
-        # different seeds, different worlds; the same seeds give the same observations
+        # different seeds, different worlds
         assert len({tuple(o) for o in obs}) > 1
+        runs.append(np.stack(seen))
         venv.close()
+    # the same seeds and actions give the same observations, in one process or in eight
+    np.testing.assert_array_equal(runs[0], runs[1])
 
 
 # ---------------------------------------------------------------------- PettingZoo

@@ -187,11 +187,8 @@ def test_builtin_lattice_scenarios(name: str, args: tuple) -> None:
     assert sc.world.arena.upper == (float(pr["grid"]),) * args[0]
     a = run_episode(sc, *episode_seeds(0, name, 3), record=False)
     b = run_episode(sc, *episode_seeds(0, name, 3), record=False)
-    assert a.metrics["steps"] == b.metrics["steps"] and a.metrics["termination"] in (
-        "reached",
-        "stuck",
-        "time_limit",
-    )
+    # infotaxis misses the source in about 2 of 10 000 of these episodes: this one it reaches
+    assert a.metrics["steps"] == b.metrics["steps"] and a.metrics["termination"] == "reached"
 
 
 def test_episode_starts_from_the_first_hit() -> None:
@@ -248,4 +245,4 @@ def test_unknown_release_is_learnt() -> None:
     sc = sc.with_overrides({"searcher": spec})
     for ep in range(5):
         r = run_episode(sc, *episode_seeds(3, "release", ep), record=False)
-        assert r.metrics["termination"] in ("reached", "stuck", "time_limit")
+        assert r.metrics["termination"] == "reached"

@@ -318,10 +318,12 @@ def test_filament_mean_plume_matches_theory() -> None:
     conc /= n
     theory_var = 0.1**2 + (0.01 + q**2) * xs
     spread = np.array([np.var(y) + np.mean(s) for y, s in zip(ys, s2, strict=True)])
-    assert np.allclose(spread, theory_var, rtol=0.1), (spread, theory_var)
+    # 800 samples of a correlated series: over 20 seeds the spread and the concentration were
+    # within 5 % of theory; 8 % still rejects a kernel cut at 2 sigma (12 % of the mass lost)
+    assert np.allclose(spread, theory_var, rtol=0.08), (spread, theory_var)
     assert np.all(np.diff(spread) > 0)
     theory_c = rate * 1.0 / (1.0 * np.sqrt(2 * np.pi * theory_var))
-    assert np.allclose(conc, theory_c, rtol=0.15), (conc, theory_c)
+    assert np.allclose(conc, theory_c, rtol=0.08), (conc, theory_c)
     assert np.all(np.diff(conc) < 0)
 
 

@@ -67,10 +67,21 @@ def test_bag_gas_reduction_and_body_frame(tmp_path, episode) -> None:
     from odorloc.replay.bag import BagLog, write_bag
 
     rec = episode.recording
+    # three different readings per period: each reduction picks its own
+    base = rec.gas[:, 0]
+    samples = base[:, None] + np.array([[0.25, 0.75, -0.125]])
+    write_bag(tmp_path / "r", rec, MAPPING, gas_rate=3, gas_samples=samples)
+    for how, want in (
+        ("last", base - 0.125),
+        ("mean", base + 0.875 / 3),
+        ("max", base + 0.75),
+    ):
+        m = {**MAPPING, "gas": {**MAPPING["gas"], "reduce": how}}
+        g = [o.gas for o in BagLog(tmp_path / "r", m).observations()]
+        np.testing.assert_allclose(g, want, rtol=1e-6, atol=1e-6, err_msg=how)
+    with pytest.raises(ConfigError, match="gas_samples"):
+        write_bag(tmp_path / "bad", rec, MAPPING, gas_rate=2, gas_samples=samples)
     write_bag(tmp_path / "b", rec, MAPPING, gas_rate=2)
-    mean = {**MAPPING, "gas": {**MAPPING["gas"], "reduce": "mean"}}
-    g = [o.gas for o in BagLog(tmp_path / "b", mean).observations()]
-    np.testing.assert_allclose(g, rec.gas[:, 0], rtol=1e-6, atol=1e-6)
     body = {**MAPPING, "anemometer": {"topic": "/wind", "frame": "body"}}
     obs = list(BagLog(tmp_path / "b", body).observations())
     for o, w in zip(obs[:10], rec.wind[:10, 0], strict=True):

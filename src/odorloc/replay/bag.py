@@ -361,6 +361,7 @@ def write_bag(
     version: Literal[1, 2] = 2,
     gas_rate: int = 1,
     agent: int = 0,
+    gas_samples: np.ndarray | None = None,
 ) -> Path:
     """Write one agent of an odorloc :class:`~odorloc.engine.recorder.Recording` as a bag.
 
@@ -382,10 +383,22 @@ def write_bag(
         sensor sampling faster than the control period).
     agent : int
         Which agent of the recording.
+    gas_samples : (K, gas_rate) ndarray, optional
+        The readings within each recorded step, instead of the recorded one repeated (e.g. a
+        fast sensor's samples).
     """
     from rosbags.typesys import Stores, get_typestore
 
     m = load_mapping(mapping)
+    if gas_rate < 1:
+        raise ConfigError("gas_rate", f"must be >= 1, got {gas_rate}")
+    if gas_samples is not None:
+        gas_samples = np.asarray(gas_samples, float)
+        if gas_samples.shape != (len(recording.t), gas_rate):
+            raise ConfigError(
+                "gas_samples",
+                f"expected shape ({len(recording.t)}, {gas_rate}), got {gas_samples.shape}",
+            )
     if m.gas.field != "data" or m.anemometer.field != "vector" or m.pose.field != "pose":
         raise ConfigError("topics", "write_bag writes gas.data, anemometer.vector and pose.pose")
     p = Path(path)
@@ -448,6 +461,7 @@ def write_bag(
             writer.write(cw, ns, ser(wmsg, "geometry_msgs/msg/Vector3Stamped"))
             for j in range(gas_rate):
                 gns = ns + round(j * dt / gas_rate * 1e9)
-                msg = Float32(data=float(recording.gas[k, agent]))
+                value = recording.gas[k, agent] if gas_samples is None else gas_samples[k, j]
+                msg = Float32(data=float(value))
                 writer.write(cg, gns, ser(msg, "std_msgs/msg/Float32"))
     return p
