@@ -57,7 +57,7 @@ from scipy.special import ndtr
 from odorloc.core.errors import ConfigError
 from odorloc.core.params import NonNegative, Params, Positive
 from odorloc.geometry.grid import CellGrid
-from odorloc.inference.odor_path.kernel import HAVE_NUMBA, dw_kernel_fast
+from odorloc.inference.odor_path.kernel import HAVE_NUMBA, axis_kernel_fast, dw_kernel_fast
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.intp]
@@ -232,6 +232,21 @@ class WindowArrays:
     var: FloatArray  # (R, 2) m^2
     k: FloatArray  # (R,)
     ref_cell: IntArray  # (2,)
+
+
+@dataclass(frozen=True)
+class AxisTerms:
+    """Per sub-window: ``boxes`` ``(R, 4)`` and ``size`` ``(R, 2)`` (cells, 0 for an empty
+    window), the ellipse terms ``qx`` ``(R, Bx)`` and ``qy`` ``(R, By)`` of eq. (12), the kernel
+    factors ``fx``, ``fy`` of eq. (11) on the same cells, and ``lim = 2 k`` ``(R,)``."""
+
+    boxes: IntArray
+    size: IntArray
+    qx: FloatArray
+    qy: FloatArray
+    fx: FloatArray
+    fy: FloatArray
+    lim: FloatArray
 
 
 class OdorPathEstimator:
@@ -416,6 +431,78 @@ class OdorPathEstimator:
         )
 
     # --------------------------------------------------------------------------- kernels
+    def axis_terms(self, w: WindowArrays) -> AxisTerms:
+        """What both paths start from: each sub-window's box and, along each axis of it, the
+        ellipse term of eq. (12) and the kernel factor of eq. (11) (padded to a common size).
+
+        Computed here with NumPy for both the batch and the compiled loop, so that the two give
+        the same numbers to the bit (a compiled ``exp`` is the C library's, which differs from
+        NumPy's in the last bit for a few per cent of arguments).
+
+        Parameters
+        ----------
+        w : WindowArrays
+            From :meth:`window_arrays`.
+
+        Returns
+        -------
+        AxisTerms
+            The input of :func:`~odorloc.inference.odor_path.kernel.dw_kernel`.
+        """
+        if self.params.kernel == "point" and self._use_numba():
+            g = self.grid
+            boxes, size, qx, qy, arg_x, arg_y, coef = axis_kernel_fast(
+                w.center, w.var, w.k, g.lower[0], g.lower[1], g.cell_size, g.nx, g.ny
+            )
+            return AxisTerms(
+                boxes=boxes,
+                size=size,
+                qx=qx,
+                qy=qy,
+                fx=coef[:, 0, None] * np.exp(arg_x),
+                fy=coef[:, 1, None] * np.exp(arg_y),
+                lim=2.0 * w.k,
+            )
+        a = self.grid.cell_size
+        lo = np.asarray(self.grid.lower)
+        shape = np.asarray(self.grid.shape)
+        k = w.k
+        valid = k > 0
+        half = np.sqrt(2.0 * np.where(valid, k, 0.0)[:, None] * w.var)
+        # One spare cell per side: membership is decided by the exact ellipse test.
+        i0 = np.ceil((w.center - half - lo) / a - 0.5).astype(np.intp) - 1
+        i1 = np.floor((w.center + half - lo) / a - 0.5).astype(np.intp) + 2
+        i0 = np.clip(i0, 0, shape)
+        i1 = np.clip(i1, 0, shape)
+        size = np.where(valid[:, None], np.maximum(i1 - i0, 0), 0)
+        boxes = np.column_stack([i0[:, 0], i0[:, 0] + size[:, 0], i0[:, 1], i0[:, 1] + size[:, 1]])
+        n_r = len(k)
+        bx, by = (int(size[:, 0].max()), int(size[:, 1].max())) if n_r else (0, 0)
+        ax, ay = np.arange(bx), np.arange(by)
+        ix = np.minimum(i0[:, 0, None] + ax, shape[0] - 1)
+        iy = np.minimum(i0[:, 1, None] + ay, shape[1] - 1)
+        dx = self.grid.x_centers()[ix] - w.center[:, 0, None]  # (R, Bx)
+        dy = self.grid.y_centers()[iy] - w.center[:, 1, None]  # (R, By)
+        vx = w.var[:, 0, None]
+        vy = w.var[:, 1, None]
+        if self.params.kernel == "point":
+            # eq. (11), separable: a^2 / (2 pi sqrt(det Sigma)) exp(-q / 2)
+            fx = a / np.sqrt(2.0 * np.pi * vx) * np.exp(-0.5 * dx * dx / vx)
+            fy = a / np.sqrt(2.0 * np.pi * vy) * np.exp(-0.5 * dy * dy / vy)
+        else:
+            sx, sy = np.sqrt(vx), np.sqrt(vy)
+            fx = ndtr((dx + 0.5 * a) / sx) - ndtr((dx - 0.5 * a) / sx)
+            fy = ndtr((dy + 0.5 * a) / sy) - ndtr((dy - 0.5 * a) / sy)
+        return AxisTerms(
+            boxes=boxes,
+            size=size,
+            qx=dx * dx / vx,
+            qy=dy * dy / vy,
+            fx=fx,
+            fy=fy,
+            lim=2.0 * k,
+        )
+
     def _batch(self, w: WindowArrays) -> tuple[IntArray, FloatArray, IntArray]:
         """Every sub-window at once, each in its own bounding box padded to a common size.
 
@@ -429,52 +516,27 @@ class OdorPathEstimator:
         n_cells : (R,) int ndarray
             Cells of each window inside the grid (0: empty window).
         """
-        a = self.grid.cell_size
-        lo = np.asarray(self.grid.lower)
-        shape = np.asarray(self.grid.shape)
-        k = w.k
-        valid = k > 0
-        half = np.sqrt(2.0 * np.where(valid, k, 0.0)[:, None] * w.var)
-        # One spare cell per side: membership is decided by the exact ellipse test below.
-        i0 = np.ceil((w.center - half - lo) / a - 0.5).astype(np.intp) - 1
-        i1 = np.floor((w.center + half - lo) / a - 0.5).astype(np.intp) + 2
-        i0 = np.clip(i0, 0, shape)
-        i1 = np.clip(i1, 0, shape)
-        size = np.where(valid[:, None], np.maximum(i1 - i0, 0), 0)
-        boxes = np.column_stack([i0[:, 0], i0[:, 0] + size[:, 0], i0[:, 1], i0[:, 1] + size[:, 1]])
-        n_r = len(k)
-        bx, by = (int(size[:, 0].max()), int(size[:, 1].max())) if n_r else (0, 0)
+        t = self.axis_terms(w)
+        n_r = len(t.lim)
+        bx, by = t.qx.shape[1], t.qy.shape[1]
         if bx == 0 or by == 0:
-            return boxes, np.zeros((n_r, 0, 0)), np.zeros(n_r, np.intp)
-        ax, ay = np.arange(bx), np.arange(by)
-        ix = np.minimum(i0[:, 0, None] + ax, shape[0] - 1)
-        iy = np.minimum(i0[:, 1, None] + ay, shape[1] - 1)
-        dx = self.grid.x_centers()[ix] - w.center[:, 0, None]  # (R, Bx)
-        dy = self.grid.y_centers()[iy] - w.center[:, 1, None]  # (R, By)
-        vx = w.var[:, 0, None]
-        vy = w.var[:, 1, None]
+            return t.boxes, np.zeros((n_r, 0, 0)), np.zeros(n_r, np.intp)
         # eq. (12): ellipse membership, written exactly as in the full-grid reference
-        q = (dx * dx / vx)[:, :, None] + (dy * dy / vy)[:, None, :]
-        inside = q <= 2.0 * k[:, None, None]
-        inside &= (ax[None, :] < size[:, 0, None])[:, :, None]
-        inside &= (ay[None, :] < size[:, 1, None])[:, None, :]
-        if self.params.kernel == "point":
-            # eq. (11), separable: a^2 / (2 pi sqrt(det Sigma)) exp(-q / 2)
-            fx = a / np.sqrt(2.0 * np.pi * vx) * np.exp(-0.5 * dx * dx / vx)
-            fy = a / np.sqrt(2.0 * np.pi * vy) * np.exp(-0.5 * dy * dy / vy)
-        else:
-            sx, sy = np.sqrt(vx), np.sqrt(vy)
-            fx = ndtr((dx + 0.5 * a) / sx) - ndtr((dx - 0.5 * a) / sx)
-            fy = ndtr((dy + 0.5 * a) / sy) - ndtr((dy - 0.5 * a) / sy)
-        vals = fx[:, :, None] * fy[:, None, :]
+        q = t.qx[:, :, None] + t.qy[:, None, :]
+        inside = q <= t.lim[:, None, None]
+        inside &= (np.arange(bx)[None, :] < t.size[:, 0, None])[:, :, None]
+        inside &= (np.arange(by)[None, :] < t.size[:, 1, None])[:, None, :]
+        vals = t.fx[:, :, None] * t.fy[:, None, :]
         vals *= inside
         n_cells = np.count_nonzero(inside.reshape(n_r, -1), axis=1)
-        total = vals.reshape(n_r, -1).sum(axis=1)
+        # cell by cell in row order (a running sum, as the compiled loop adds them; the zeros
+        # outside the ellipse change nothing)
+        total = np.cumsum(vals.reshape(n_r, -1), axis=1)[:, -1]
         ok = total > 0
         n_cells = np.where(ok, n_cells, 0)
         if self.params.normalise:
             vals /= np.where(ok, total, 1.0)[:, None, None]
-        return boxes, vals, n_cells
+        return t.boxes, vals, n_cells
 
     def _use_numba(self) -> bool:
         b = self.params.backend
@@ -483,21 +545,11 @@ class OdorPathEstimator:
         return b == "numba" or (b == "auto" and HAVE_NUMBA)
 
     def _compiled(self, w: WindowArrays) -> tuple[IntArray, IntArray, FloatArray, int, int]:
-        g = self.grid
-        return dw_kernel_fast(
-            np.ascontiguousarray(w.center[:, 0]),
-            np.ascontiguousarray(w.center[:, 1]),
-            np.ascontiguousarray(w.var[:, 0]),
-            np.ascontiguousarray(w.var[:, 1]),
-            np.ascontiguousarray(w.k),
-            g.lower[0],
-            g.lower[1],
-            g.cell_size,
-            g.nx,
-            g.ny,
-            self.params.kernel == "cell",
-            self.params.normalise,
+        t = self.axis_terms(w)
+        n_cells, patch, ix0, iy0 = dw_kernel_fast(
+            t.boxes, t.qx, t.qy, t.fx, t.fy, t.lim, self.params.normalise
         )
+        return t.boxes, n_cells, patch, ix0, iy0
 
     # --------------------------------------------------------------------------- outputs
     def windows(self, t_c: float | None = None) -> list[SubWindow]:
