@@ -435,9 +435,12 @@ class OdorPathEstimator:
         """What both paths start from: each sub-window's box and, along each axis of it, the
         ellipse term of eq. (12) and the kernel factor of eq. (11) (padded to a common size).
 
-        Computed here with NumPy for both the batch and the compiled loop, so that the two give
-        the same numbers to the bit (a compiled ``exp`` is the C library's, which differs from
-        NumPy's in the last bit for a few per cent of arguments).
+        The exponentials (and the cell kernel's ``ndtr``) are NumPy's on both paths, so that the
+        batch and the compiled loop give the same numbers to the bit (a compiled ``exp`` is the
+        C library's, which differs from NumPy's in the last bit for a few per cent of
+        arguments); with numba the rest of the point kernel's prelude runs as
+        :func:`~odorloc.inference.odor_path.kernel.axis_kernel`, operation for operation as the
+        NumPy code below.
 
         Parameters
         ----------
