@@ -1,4 +1,4 @@
-"""Build every plume family, step it, and save a PNG of its concentration field.
+"""Build every continuous plume family, step it, and save a PNG of its concentration field.
 
 Run: ``python examples/plumes.py OUTDIR`` (writes ``OUTDIR/plume_<family>.png``).
 """
@@ -16,12 +16,12 @@ import numpy as np
 from matplotlib.colors import LogNorm
 
 from odorloc.geometry.arena import Arena
+from odorloc.models.gaussian import GaussianParams
 from odorloc.plume import (
     EulerianParams,
     EulerianPlume,
     FilamentParams,
     FilamentPlume,
-    GaussianParams,
     GaussianPlume,
     ReplayPlume,
     VergassolaParams,
