@@ -275,14 +275,19 @@ def test_particle_count_stays_within_bounds() -> None:
     assert c.next(100, [], 5, 50.0) > 100
 
 
-def test_colpf_estimator_keeps_count_in_bounds_and_moves_particles() -> None:
-    ctx = SearchContext(
+def _uav_context() -> SearchContext:
+    """One UAV in the paper's 100 x 60 x 30 m area, starting at (10, 10, 5)."""
+    return SearchContext(
         arena=Arena.box((0.0, 0.0, 0.0), (100.0, 60.0, 30.0), 2.0),
         dt=1.0,
         agent_ids=(0,),
         start=[[10.0, 10.0, 5.0]],
         speed_limits=[1.0],
     )
+
+
+def test_colpf_estimator_keeps_count_in_bounds_and_moves_particles() -> None:
+    ctx = _uav_context()
     rng = np.random.default_rng(7)
     est = ColPFEstimator()
     est.reset(ctx, VergassolaModel(), rng)
@@ -303,13 +308,7 @@ def test_colpf_update_moves_n_s_particles_upwind(k: int) -> None:
     most ``env_step`` (eq. 16, invariant reading); the others keep their positions. Without
     resampling or a count change the particles before and after the update can be matched
     one to one."""
-    ctx = SearchContext(
-        arena=Arena.box((0.0, 0.0, 0.0), (100.0, 60.0, 30.0), 2.0),
-        dt=1.0,
-        agent_ids=(0,),
-        start=[[10.0, 10.0, 5.0]],
-        speed_limits=[1.0],
-    )
+    ctx = _uav_context()
     rng = np.random.default_rng(11)
     est = ColPFEstimator(
         ColPFParams(resample_threshold=0.0, adaptive_count=False, env_step=2.0, n_max=160)
