@@ -236,12 +236,12 @@ class WindowArrays:
 
 @dataclass(frozen=True)
 class AxisTerms:
-    """Per sub-window: ``boxes`` ``(R, 4)`` and ``size`` ``(R, 2)`` (cells, 0 for an empty
-    window), the ellipse terms ``qx`` ``(R, Bx)`` and ``qy`` ``(R, By)`` of eq. (12), the kernel
-    factors ``fx``, ``fy`` of eq. (11) on the same cells, and ``lim = 2 k`` ``(R,)``."""
+    """Per sub-window: ``boxes`` ``(R, 4)`` (``(ix0, ix1, iy0, iy1)``, empty when
+    ``ix1 == ix0`` or ``iy1 == iy0``), the ellipse terms ``qx`` ``(R, Bx)`` and ``qy``
+    ``(R, By)`` of eq. (12), the kernel factors ``fx``, ``fy`` of eq. (11) on the same cells,
+    and ``lim = 2 k`` ``(R,)``."""
 
     boxes: IntArray
-    size: IntArray
     qx: FloatArray
     qy: FloatArray
     fx: FloatArray
@@ -454,12 +454,11 @@ class OdorPathEstimator:
         """
         if self.params.kernel == "point" and self._use_numba():
             g = self.grid
-            boxes, size, qx, qy, arg_x, arg_y, coef = axis_kernel_fast(
+            boxes, qx, qy, arg_x, arg_y, coef = axis_kernel_fast(
                 w.center, w.var, w.k, g.lower[0], g.lower[1], g.cell_size, g.nx, g.ny
             )
             return AxisTerms(
                 boxes=boxes,
-                size=size,
                 qx=qx,
                 qy=qy,
                 fx=coef[:, 0, None] * np.exp(arg_x),
@@ -498,7 +497,6 @@ class OdorPathEstimator:
             fy = ndtr((dy + 0.5 * a) / sy) - ndtr((dy - 0.5 * a) / sy)
         return AxisTerms(
             boxes=boxes,
-            size=size,
             qx=dx * dx / vx,
             qy=dy * dy / vy,
             fx=fx,
@@ -527,8 +525,9 @@ class OdorPathEstimator:
         # eq. (12): ellipse membership, written exactly as in the full-grid reference
         q = t.qx[:, :, None] + t.qy[:, None, :]
         inside = q <= t.lim[:, None, None]
-        inside &= (np.arange(bx)[None, :] < t.size[:, 0, None])[:, :, None]
-        inside &= (np.arange(by)[None, :] < t.size[:, 1, None])[:, None, :]
+        size = t.boxes[:, 1::2] - t.boxes[:, ::2]  # cells per axis
+        inside &= (np.arange(bx)[None, :] < size[:, 0, None])[:, :, None]
+        inside &= (np.arange(by)[None, :] < size[:, 1, None])[:, None, :]
         vals = t.fx[:, :, None] * t.fy[:, None, :]
         vals *= inside
         n_cells = np.count_nonzero(inside.reshape(n_r, -1), axis=1)

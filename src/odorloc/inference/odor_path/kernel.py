@@ -31,7 +31,7 @@ def axis_kernel(
     a: float,
     nx: int,
     ny: int,
-) -> tuple[IntArray, IntArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
+) -> tuple[IntArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
     """The windows' boxes and axis terms as the estimator's NumPy prelude computes them (point
     kernel), all but the exponentials.
 
@@ -41,7 +41,7 @@ def axis_kernel(
     Returns
     -------
     boxes : (R, 4) int ndarray
-    size : (R, 2) int ndarray
+        ``(ix0, ix1, iy0, iy1)`` (empty: ``ix1 == ix0`` or ``iy1 == iy0``).
     qx, arg_x : (R, Bx) ndarray
         ``d^2 / v`` (eq. 12) and ``-0.5 d^2 / v`` (eq. 11) at the cells of each box.
     qy, arg_y : (R, By) ndarray
@@ -50,7 +50,6 @@ def axis_kernel(
     """
     n_r = k.shape[0]
     boxes = np.zeros((n_r, 4), np.intp)
-    size = np.zeros((n_r, 2), np.intp)
     coef = np.empty((n_r, 2))
     lows = (lo_x, lo_y)
     shape = (nx, ny)
@@ -69,10 +68,9 @@ def axis_kernel(
             n = max(i1 - i0, 0) if valid else 0
             boxes[r, 2 * ax] = i0
             boxes[r, 2 * ax + 1] = i0 + n
-            size[r, ax] = n
             coef[r, ax] = a / np.sqrt(2.0 * np.pi * var[r, ax])
-        bx = max(bx, size[r, 0])
-        by = max(by, size[r, 1])
+        bx = max(bx, boxes[r, 1] - boxes[r, 0])
+        by = max(by, boxes[r, 3] - boxes[r, 2])
     qx = np.empty((n_r, bx))
     arg_x = np.empty((n_r, bx))
     qy = np.empty((n_r, by))
@@ -88,7 +86,7 @@ def axis_kernel(
                 d = (lows[ax] + (cell + 0.5) * a) - c
                 q[r, i] = d * d / v
                 arg[r, i] = -0.5 * d * d / v
-    return boxes, size, qx, qy, arg_x, arg_y, coef
+    return boxes, qx, qy, arg_x, arg_y, coef
 
 
 def dw_kernel(
