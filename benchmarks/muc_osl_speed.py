@@ -59,8 +59,8 @@ N = 160
 WIND = np.array([0.0, -1.0, 0.0])
 Q, V, D, TAU, A = 5.0, 1.0, 1.0, 100.0, SENSOR_RADIUS
 ALGORITHMS = ("muc-osl", "col-inf", "col-pf", "adap-pp")
-#: MUC-OSL without the upwind moves of eq. 16 (the reproduction's ablation): the same parts and
-#: the same cost per simulated second, but its episodes end at the source
+#: MUC-OSL without the upwind moves of eq. 16 (the reproduction's ablation): the same parts, but
+#: its episodes end at the source
 NO_EQ16 = {"type": "col-pf", "env_pu": "off"}
 TIMING = ("wall_time", "wall_per_step_ms", "world_fraction", "searcher_fraction")
 
