@@ -237,6 +237,47 @@ def test_bad_input_is_named() -> None:
     env.reset(seed=0)
     with pytest.raises(ValueError, match="velocity action"):
         env.step(np.array([np.nan, 0.0, 0.0]))
+    for bad in (float("nan"), float("inf")):
+        with pytest.raises(ConfigError) as ei:
+            SearchEnv(small(), reward={"step": bad})
+        assert ei.value.field == "reward.step"
+    with pytest.raises(ConfigError, match="world_key"):
+        SearchEnv(small(), world_key=5)
+    with pytest.raises(ConfigError, match="team_reward"):
+        parallel_env(scenario="muc-osl-3d", team_reward="no")
+
+
+def test_use_before_reset_is_refused() -> None:
+    env = SearchEnv(small(), render_mode="rgb_array")
+    with pytest.raises(RuntimeError, match="reset"):
+        env.step(np.zeros(3, np.float32))
+    with pytest.raises(RuntimeError, match="reset"):
+        env.render()
+    team = parallel_env(scenario="muc-osl-3d")
+    for call in (team.state, lambda: team.step({})):
+        with pytest.raises(RuntimeError, match="reset"):
+            call()
+
+
+def test_an_episode_over_at_reset_is_refused() -> None:
+    # every start lies within 50 m of the source of this small world
+    env = SearchEnv(small(**{"task.end": "reach", "task.reach_radius": 50.0}))
+    with pytest.raises(ConfigError) as ei:
+        env.reset(seed=0)
+    assert ei.value.field == "task.reach_radius"
+
+
+def test_spaces_do_not_keep_the_env_alive() -> None:
+    import gc
+    import weakref
+
+    env = parallel_env(scenario="muc-osl-3d")
+    assert env.observation_space("agent_0") is env.observation_space("agent_0")
+    assert env.action_space("agent_1") is env.action_space("agent_1")
+    ref = weakref.ref(env)
+    del env
+    gc.collect()
+    assert ref() is None
 
 
 def test_vector_envs_run_8_copies() -> None:
@@ -288,7 +329,6 @@ def test_messages_only_from_neighbours() -> None:
     assert (obs["agent_2"][h0], obs["agent_2"][h1]) == (0.0, 1.0)
     rel = names.index("nb0_rel_x")
     assert obs["agent_0"][rel] == pytest.approx(20.0)  # agent 1 seen from agent 0
-    assert env.episode.result is not None
 
 
 def test_team_reward_and_declaring_agent_credit() -> None:

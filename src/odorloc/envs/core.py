@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from odorloc.core.errors import ConfigError
-from odorloc.core.params import Params
+from odorloc.core.params import Finite, Params
 from odorloc.core.seeds import check_seed, episode_seeds
 from odorloc.core.types import Action, Event, Observation
 from odorloc.engine.episode import Episode, StepResult
@@ -43,10 +43,10 @@ class RewardParams(Params):
         When an agent comes within ``task.reach_radius`` of a source (scenarios with one).
     """
 
-    step: float = -1.0
-    found: float = 100.0
-    wrong: float = -100.0
-    reach: float = 100.0
+    step: Finite = -1.0
+    found: Finite = 100.0
+    wrong: Finite = -100.0
+    reach: Finite = 100.0
 
 
 def validated(model: type[Params], value: Any, field: str) -> Any:
@@ -101,6 +101,8 @@ class EnvCore:
         world_key: str | None = None,
     ) -> None:
         self.scenario, key = load_scenario(scenario)
+        if world_key is not None and not isinstance(world_key, str):
+            raise ConfigError("world_key", f"must be a string, got {type(world_key).__name__}")
         self.world_key = world_key if world_key is not None else key
         self.obs_params: ObservationParams = validated(
             ObservationParams, observation, "observation"
@@ -162,6 +164,13 @@ class EnvCore:
             self.root, self.world_key, self.episode_index
         )
         obs = self.episode.reset(self.world_seed, self.agent_seed)
+        if self.episode.done:
+            # Gymnasium has no way to hand back an episode that is over before its first step
+            raise ConfigError(
+                "task.reach_radius",
+                f"episode {self.episode_index} is over at reset: an agent starts within "
+                f"{self.scenario.task.reach_radius} m of a source",
+            )
         # The same stream the ``policy`` searcher gives its estimators (the first child of the
         # agent stream), created apart so the agent stream itself is never touched here.
         belief_rng = np.random.Generator(
@@ -189,8 +198,14 @@ class EnvCore:
                 decls.append(decl)
         return Action(cmds, messages=self.io.broadcasts(obs), declarations=decls)
 
+    def require_reset(self) -> None:
+        """:class:`RuntimeError` unless an episode has been started."""
+        if self.episode_index < 0:
+            raise RuntimeError("no episode yet: call reset() first")
+
     def step(self, action: Action) -> tuple[np.ndarray, np.ndarray, StepResult]:
         """Advance one control period: ``(observations (n, F), rewards (n,), step result)``."""
+        self.require_reset()
         if action.messages == {} and self.io.others > 0:
             # a native action without messages: the agents still broadcast their readings
             action = Action(
@@ -239,6 +254,7 @@ class EnvCore:
     # ------------------------------------------------------------------ rendering
     def render(self, width: int = 480) -> np.ndarray:
         """An RGB frame ``(H, W, 3)`` of the current scene (a horizontal slice in 3-D)."""
+        self.require_reset()
         ep = self.episode
         arena = ep.world.arena
         lo, hi = arena.lo, arena.hi

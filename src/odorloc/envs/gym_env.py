@@ -16,9 +16,9 @@ extra component or index declares a source (``action={"declare": "none"}`` remov
 Reward (:class:`~odorloc.envs.core.RewardParams`): -1 per control period, +100 per true source
 found by a declaration or on reaching one, -100 per wrong declaration. ``terminated``: the
 scenario's task ended the episode (its ``task.end`` rule: a declaration, or reaching a source);
-``truncated``: the time (or energy) limit. Seeds: :mod:`odorloc.envs.core`. ``step`` also accepts
-a native :class:`~odorloc.core.types.Action` (what :class:`~odorloc.envs.SearcherPolicy`
-returns).
+``truncated``: the time (or energy) limit, or ``task.stuck_limit``. Seeds:
+:mod:`odorloc.envs.core`. ``step`` also accepts a native :class:`~odorloc.core.types.Action`
+(what :class:`~odorloc.envs.SearcherPolicy` returns).
 """
 
 from __future__ import annotations
@@ -121,6 +121,7 @@ class SearchEnv(gym.Env):
         return obs[0], self.core.info()
 
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        self.core.require_reset()
         if self.core.episode.done:
             raise RuntimeError("the episode is over; call reset()")
         act = action if isinstance(action, Action) else self.core.action_for({0: action})

@@ -23,7 +23,6 @@ for all agents at once (the scenario's ``task.end`` rule or its limits).
 
 from __future__ import annotations
 
-import functools
 from pathlib import Path
 from typing import Any, ClassVar
 
@@ -76,8 +75,10 @@ class ParallelSearchEnv(ParallelEnv):
         self.core = EnvCore(
             scenario, observation, action, reward, record=record, world_key=world_key
         )
+        if not isinstance(team_reward, bool):
+            raise ConfigError("team_reward", f"must be true or false, got {team_reward!r}")
         self.render_mode = render_mode
-        self.team_reward = bool(team_reward)
+        self.team_reward = team_reward
         n = self.core.n_agents
         self.possible_agents = [f"agent_{k}" for k in range(n)]
         self.agents: list[str] = []
@@ -106,11 +107,10 @@ class ParallelSearchEnv(ParallelEnv):
         self._last = np.zeros((n, io.size), np.float32)
         self._rng = np.random.default_rng()
 
-    @functools.cache  # noqa: B019 - the same space object every call
     def observation_space(self, agent: str) -> spaces.Space:
+        # the same space object on every call (PettingZoo's expectation)
         return self._obs_spaces[agent]
 
-    @functools.cache  # noqa: B019
     def action_space(self, agent: str) -> spaces.Space:
         return self._act_spaces[agent]
 
@@ -145,6 +145,7 @@ class ParallelSearchEnv(ParallelEnv):
         )
 
     def step(self, actions: dict[str, Any] | Action) -> tuple[dict, dict, dict, dict, dict]:
+        self.core.require_reset()
         if not self.agents:
             raise RuntimeError("the episode is over; call reset()")
         if isinstance(actions, Action):
@@ -173,6 +174,7 @@ class ParallelSearchEnv(ParallelEnv):
 
     def state(self) -> np.ndarray:
         """Every agent's own features (no neighbour block) and the time, ``float32``."""
+        self.core.require_reset()
         own = self._last[:, : self._own].reshape(-1)
         t = np.float32(min(self.core.episode.t, self.core.scenario.limits.time))
         return np.concatenate([own, [t]]).astype(np.float32)
