@@ -119,6 +119,154 @@ def test_bag_errors_name_the_field(tmp_path, episode) -> None:
         BagLog(tmp_path / "junk.bag", MAPPING)
 
 
+def _bag(path, msgs) -> None:
+    """A ROS 2 bag of ``(topic, t s, payload)`` messages: ``/gas`` a float, ``/wind`` an
+    ``(x, y, z)`` vector, ``/pose`` ``((x, y, z), yaw)`` or ``/point`` ``(x, y, z)``."""
+    from rosbags.rosbag2 import Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    ts = get_typestore(Stores.ROS2_HUMBLE)
+    T = ts.types
+    kinds = {
+        "/gas": "std_msgs/msg/Float32",
+        "/wind": "geometry_msgs/msg/Vector3Stamped",
+        "/pose": "geometry_msgs/msg/PoseStamped",
+        "/point": "geometry_msgs/msg/PointStamped",
+    }
+
+    def header(ns: int):
+        stamp = T["builtin_interfaces/msg/Time"](sec=ns // 10**9, nanosec=ns % 10**9)
+        return T["std_msgs/msg/Header"](stamp=stamp, frame_id="map")
+
+    conns = {}
+    with Writer(path, version=9) as w:
+        for topic, t, v in sorted(msgs, key=lambda m: m[1]):
+            ns = 10**12 + round(t * 1e9)
+            if topic not in conns:
+                conns[topic] = w.add_connection(topic, kinds[topic], typestore=ts)
+            if topic == "/gas":
+                msg = T["std_msgs/msg/Float32"](data=float(v))
+            elif topic == "/wind":
+                vec = T["geometry_msgs/msg/Vector3"](x=v[0], y=v[1], z=v[2])
+                msg = T["geometry_msgs/msg/Vector3Stamped"](header=header(ns), vector=vec)
+            elif topic == "/point":
+                pt = T["geometry_msgs/msg/Point"](x=v[0], y=v[1], z=v[2])
+                msg = T["geometry_msgs/msg/PointStamped"](header=header(ns), point=pt)
+            else:
+                (x, y, z), yaw = v
+                q = T["geometry_msgs/msg/Quaternion"](
+                    x=0.0, y=0.0, z=np.sin(yaw / 2), w=np.cos(yaw / 2)
+                )
+                pt = T["geometry_msgs/msg/Point"](x=x, y=y, z=z)
+                pose = T["geometry_msgs/msg/Pose"](position=pt, orientation=q)
+                msg = T["geometry_msgs/msg/PoseStamped"](header=header(ns), pose=pose)
+            w.write(conns[topic], ns, ts.serialize_cdr(msg, kinds[topic]))
+
+
+LINE = {
+    "period": 0.5,
+    "gas": {"topic": "/gas", "reduce": "last"},
+    "anemometer": {"topic": "/wind"},
+    "pose": {"topic": "/pose"},
+}
+
+
+def _line(k: int, offset: float, gas: bool = True) -> list:
+    """A robot at x = k m at t = k/2 s; the reading taken there (value k), ``offset`` s late."""
+    msgs = [("/pose", 0.5 * k, ((float(k), 0.0, 0.0), 0.0)), ("/wind", 0.5 * k, (1.0, 0, 0))]
+    return msgs + ([("/gas", 0.5 * k + offset, float(k))] if gas else [])
+
+
+@pytest.mark.parametrize("offset", [0.0, 0.01, -0.01, 0.2, -0.2])
+def test_bag_pairs_each_reading_with_where_it_was_taken(tmp_path, offset: float) -> None:
+    pytest.importorskip("rosbags")
+    from odorloc.replay.bag import BagLog
+
+    _bag(tmp_path / "b", [m for k in range(12) for m in _line(k, offset)])
+    obs = list(BagLog(tmp_path / "b", LINE).observations())
+    assert len(obs) >= 10
+    # the value of a reading is the x where it was taken: the pose at the reading's time (a
+    # reading after the last pose is placed at it)
+    late = offset > 0 and obs[-1].gas == 11
+    inner = obs[:-1] if late else obs
+    np.testing.assert_allclose([o.position[0] - o.gas for o in inner], 2 * offset, atol=1e-6)
+    assert not late or obs[-1].position[0] == 11.0
+    np.testing.assert_array_equal([o.t for o in obs], 0.5 * np.arange(len(obs)))
+
+
+def test_bag_headings_follow_the_path(tmp_path, episode) -> None:
+    pytest.importorskip("rosbags")
+    from types import SimpleNamespace
+
+    from odorloc.replay.bag import BagLog, _yaw, write_bag
+
+    rec = episode.recording
+    write_bag(tmp_path / "b", rec, MAPPING)
+    obs = list(BagLog(tmp_path / "b", MAPPING).observations())
+    steps = np.diff(rec.positions[:, 0], axis=0)
+    moving = np.hypot(steps[:, 0], steps[:, 1]) > 1e-9
+    want = np.arctan2(steps[:, 1], steps[:, 0])[moving]
+    got = np.array([o.heading for o in obs[:-1]])[moving]
+    assert moving.sum() > 10
+    np.testing.assert_allclose(np.angle(np.exp(1j * (got - want))), 0.0, atol=1e-6)
+    # a quaternion that is not normalised has the same heading
+    q = SimpleNamespace(x=0.0, y=0.0, z=2 * np.sin(np.pi / 4), w=2 * np.cos(np.pi / 4))
+    assert _yaw(q) == pytest.approx(np.pi / 2)
+
+
+def test_bag_bad_data_is_named_before_any_estimator_runs(tmp_path, episode) -> None:
+    pytest.importorskip("rosbags")
+    from odorloc.replay.bag import BagLog, write_bag
+
+    # the gas sensor falls silent after 3 periods
+    _bag(tmp_path / "quiet", [m for k in range(10) for m in _line(k, 0.0, gas=k < 3)])
+    log = BagLog(tmp_path / "quiet", LINE)
+    with pytest.raises(ConfigError, match="no reading in period 3") as ei:
+        log.context()
+    assert ei.value.field == "gas.topic"
+    held = list(
+        BagLog(
+            tmp_path / "quiet", {**LINE, "gas": {**LINE["gas"], "missing": "hold"}}
+        ).observations()
+    )
+    assert [o.gas for o in held][:5] == [0.0, 1.0, 2.0, 2.0, 2.0]
+    # non-finite values
+    for name, bad in (
+        ("gas", ("/gas", 1.0, float("nan"))),
+        ("pose", ("/pose", 1.0, ((np.inf, 0, 0), 0.0))),
+    ):
+        msgs = [m for k in range(6) for m in _line(k, 0.0) if m[:2] != bad[:2]] + [bad]
+        _bag(tmp_path / name, msgs)
+        with pytest.raises(ConfigError, match="not finite") as ei:
+            BagLog(tmp_path / name, LINE).context()
+        assert ei.value.field == f"{name}.field"
+    # a body-frame wind needs an orientation to turn it by
+    pts = [(t, s, v[0]) if t == "/pose" else (t, s, v) for k in range(4) for t, s, v in _line(k, 0)]
+    _bag(tmp_path / "pt", [("/point" if t == "/pose" else t, s, v) for t, s, v in pts])
+    body = {**LINE, "pose": {"topic": "/point", "field": "point"}}
+    assert len(list(BagLog(tmp_path / "pt", body).observations())) == 4
+    with pytest.raises(ConfigError) as ei:
+        BagLog(tmp_path / "pt", {**body, "anemometer": {"topic": "/wind", "frame": "body"}})
+    assert ei.value.field == "anemometer.frame"
+    # sources and arena that do not fit the log
+    write_bag(tmp_path / "ok", episode.recording, MAPPING)
+    with pytest.raises(ConfigError) as ei:
+        BagLog(tmp_path / "ok", {**MAPPING, "sources": [[1.5, 3.0, 1.0]]})
+    assert ei.value.field == "sources[0]"
+    with pytest.raises(ConfigError, match="units") as ei:  # millimetres read as metres
+        BagLog(
+            tmp_path / "ok", {**MAPPING, "arena": {"lower": [0, 0], "upper": [0.01, 0.006]}}
+        ).context()
+    assert ei.value.field == "arena"
+    with pytest.raises(ConfigError) as ei:
+        BagLog(tmp_path / "ok", {**MAPPING, "sources": [[15.0, 3.0]]}).context()
+    assert ei.value.field == "sources[0]"
+    # a bag written at another period than the mapping says
+    with pytest.raises(ConfigError) as ei:
+        write_bag(tmp_path / "p", episode.recording, {**MAPPING, "period": 0.25})
+    assert ei.value.field == "period"
+
+
 @pytest.mark.parametrize("estimator", ["pf-entropy", "ds-rectangular-wave", "odor-path"])
 def test_estimators_replay_over_a_bag(tmp_path, episode, estimator: str) -> None:
     pytest.importorskip("rosbags")
@@ -299,6 +447,14 @@ def test_gaden_bad_files_give_one_line_errors(gaden_dir, tmp_path) -> None:
         other = tmp_path / "occ.csv"
         write_occupancy(other, np.zeros((3, 3, 3), np.uint8), (0, 0, 0), 0.25)
         GadenSimulation(gaden_dir, occupancy=other)
+
+
+def test_gaden_missing_iteration_is_named(gaden_dir, tmp_path) -> None:
+    d = _copy(gaden_dir, tmp_path / "gap")
+    (d / "iteration_2").unlink()  # a partial copy: later frames would show too early
+    with pytest.raises(ConfigError, match="iteration_2 is missing"):
+        GadenSimulation(d)
+    assert GadenSimulation(d, first_iteration=3).iterations[0] == 3
 
 
 def test_gaden_frames_are_decoded_lazily(gaden_dir) -> None:

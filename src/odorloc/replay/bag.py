@@ -23,10 +23,21 @@ A small YAML maps the bag's topics and message fields onto what odorloc reads::
     sources: [[1.5, 3.0]]        # optional true sources (scored and drawn)
 
 :class:`BagLog` checks the topics, their message types and fields when opened (one clear line
-naming the mapping field on a missing topic, a wrong message type or a missing field) and then
-streams the bag: :meth:`BagLog.observations` yields one
-:class:`~odorloc.core.types.Observation` per period, holding the latest pose and wind and the
-period's gas readings reduced by ``gas.reduce``; the bag is never loaded whole.
+naming the mapping field on a missing topic, a wrong message type, a missing field, a type the
+bag cannot decode, or a body-frame wind without an orientation to turn it by) and then streams
+the bag; it is never loaded whole.
+
+Periods: period ``k`` covers ``[s + k T, s + (k + 1) T)`` of bag time, ``s`` the time at which
+every topic has spoken once and ``T`` the ``period``. :meth:`BagLog.observations` yields one
+:class:`~odorloc.core.types.Observation` per period: the period's gas readings reduced by
+``gas.reduce``, the position where that value was read (the pose interpolated linearly in time
+at the reading's stamp: the last reading's for ``last``, the largest's for ``max``, the mean
+stamp for ``mean``; the heading of the nearer pose), and the latest wind of the period. Pairing
+by time keeps a reading with the place it was taken whichever topic speaks first. A period
+without a gas reading is an error naming it (``gas.missing: error``), or holds the last reading
+(``gas.missing: hold``, for a sensor slower than the period). :meth:`BagLog.context` reads the
+whole bag once first, so that a non-finite value, a gap or a path outside the arena is reported
+before any estimator runs.
 :func:`write_bag` writes an odorloc recording as such a bag (ROS 1 or ROS 2), so data moves both
 ways.
 """
@@ -60,6 +71,7 @@ class GasTopic(Params):
     msgtype: str | None = None
     threshold: float = 0.0
     reduce: Literal["last", "mean", "max"] = "last"
+    missing: Literal["error", "hold"] = "error"
 
 
 class WindTopic(Params):
@@ -102,6 +114,17 @@ class BagMapping(Params):
     sources: list[tuple[float, ...]] = Field(default_factory=list)
     max_speed: Positive = 1.0
 
+    @pydantic.model_validator(mode="after")
+    def _check_sources(self) -> BagMapping:
+        for i, src in enumerate(self.sources):
+            if len(src) != self.dim:
+                raise ConfigError(
+                    f"sources[{i}]", f"has {len(src)} components, the log is {self.dim}-D"
+                )
+            if not all(math.isfinite(v) for v in src):
+                raise ConfigError(f"sources[{i}]", "must be finite")
+        return self
+
 
 def load_mapping(source: str | Path | dict[str, Any] | BagMapping) -> BagMapping:
     """A :class:`BagMapping` from a YAML file, a dict or itself; :class:`ConfigError` if bad."""
@@ -138,8 +161,9 @@ def _vector(v: Any) -> np.ndarray:
 
 
 def _yaw(q: Any) -> float:
-    """Heading (rad) of a quaternion (ZYX yaw)."""
-    return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
+    """Heading (rad) of a quaternion (ZYX yaw); the quaternion need not be normalised."""
+    w, x, y, z = float(q.w), float(q.x), float(q.y), float(q.z)
+    return math.atan2(2.0 * (w * z + x * y), w * w + x * x - y * y - z * z)
 
 
 class BagLog:
@@ -164,6 +188,7 @@ class BagLog:
         self._typestore = get_typestore(Stores.ROS2_HUMBLE)
         self._reader_cls = AnyReader
         with self._open() as reader:
+            self._t_origin = reader.start_time * 1e-9
             topics = {c.topic: c for c in reader.connections}
             self.connections = {}
             for key, spec in (("gas", m.gas), ("anemometer", m.anemometer), ("pose", m.pose)):
@@ -184,7 +209,21 @@ class BagLog:
                 first = next(reader.messages(connections=[conn]), None)
                 if first is None:
                     raise ConfigError(f"{key}.topic", f"{conn.topic} has no messages")
-                self._extract(key, reader.deserialize(first[2], conn.msgtype), conn.msgtype)
+                try:
+                    msg = reader.deserialize(first[2], conn.msgtype)
+                except Exception as exc:  # rosbags: unknown type, no stored definition, bad data
+                    raise ConfigError(
+                        f"{key}.topic",
+                        f"{conn.topic}: cannot decode {conn.msgtype} ({type(exc).__name__}: "
+                        f"{exc}); a custom type needs its definition stored in the bag",
+                    ) from None
+                value = self._extract(key, msg, conn.msgtype, first[1] * 1e-9)
+                if key == "pose" and m.anemometer.frame == "body" and not math.isfinite(value[1]):
+                    raise ConfigError(
+                        "anemometer.frame",
+                        f"'body' turns the wind by the heading, but pose.field "
+                        f"{m.pose.field!r} of {conn.msgtype} is a point without an orientation",
+                    )
             self.start_time = reader.start_time
             self.end_time = reader.end_time
 
@@ -198,8 +237,21 @@ class BagLog:
         return _Closing(r)
 
     # ------------------------------------------------------------------ fields
-    def _extract(self, key: str, msg: Any, msgtype: str) -> Any:
-        """The value a topic contributes; :class:`ConfigError` naming the mapping field."""
+    def _extract(self, key: str, msg: Any, msgtype: str, t: float) -> Any:
+        """The value a topic contributes (message stamped ``t``, s); :class:`ConfigError` naming
+        the mapping field on a missing field or a value that is not a finite number."""
+        value = self._value(key, msg, msgtype)
+        parts = [value] if key == "gas" else [value] if key == "anemometer" else [value[0]]
+        if not all(np.all(np.isfinite(v)) for v in parts):
+            spec = getattr(self.mapping, key)
+            fld = "speed" if key == "anemometer" and spec.speed is not None else "field"
+            raise ConfigError(
+                f"{key}.{fld}",
+                f"{spec.topic} at t = {t - self._t_origin:.3f} s: value is not finite ({value})",
+            )
+        return value
+
+    def _value(self, key: str, msg: Any, msgtype: str) -> Any:
         m = self.mapping
         try:
             if key == "gas":
@@ -235,52 +287,84 @@ class BagLog:
 
     # ------------------------------------------------------------------ streaming
     def observations(self) -> Iterator[Observation]:
-        """One observation per ``period``, streamed from the bag (time 0 = first full period
-        after every topic has spoken)."""
-        T = self.mapping.period
+        """One observation per ``period``, streamed from the bag (module docstring: periods,
+        and how each reading is paired with a position)."""
+        m = self.mapping
+        T = m.period
         names = {c.topic: k for k, c in self.connections.items()}
-        pose: tuple[np.ndarray, float] | None = None
+        poses: list[tuple[float, np.ndarray, float]] = []  # (t, position, heading), recent ones
         wind: np.ndarray | None = None
-        heading = 0.0
-        readings: list[float] = []
-        last_gas: float | None = None
-        t0: float | None = None
+        last_gas: tuple[float, float] | None = None
+        readings: list[tuple[float, float]] = []  # (t, value) of the current period
+        pending: list[tuple[int, float, float, np.ndarray]] = []  # (k, t read, value, wind)
+        start: float | None = None
         k = 0
+
+        def close_period() -> None:
+            nonlocal readings
+            if readings:
+                t_read, value = _reduce(readings, m.gas.reduce)
+            elif m.gas.missing == "hold" and last_gas is not None:
+                t_read, value = start + k * T, last_gas[1]
+            else:
+                t = start + k * T - self._t_origin
+                raise ConfigError(
+                    "gas.topic",
+                    f"{m.gas.topic}: no reading in period {k} ([{t:.3f}, {t + T:.3f}) s); use a "
+                    "longer period, or gas.missing: hold to repeat the last reading",
+                )
+            assert wind is not None
+            pending.append((k, t_read, value, wind))
+            readings = []
+
+        def ready(final: bool) -> Iterator[Observation]:
+            # a period is out once a pose at or after its reading has arrived (or the bag ended)
+            while pending and (final or poses[-1][0] >= pending[0][1]):
+                kk, t_read, value, w = pending.pop(0)
+                pos, heading = _pose_at(poses, t_read)
+                yield self._observation(kk, pos, heading, value, w)
+            # keep the last pose before the oldest reading still to place, and all after it
+            t_need = pending[0][1] if pending else poses[-1][0]
+            while len(poses) > 1 and poses[1][0] <= t_need:
+                poses.pop(0)
+
         with self._open() as reader:
             # connections belong to the reader that opened them: select this one's by topic
             conns = [c for c in reader.connections if c.topic in names]
             for conn, stamp, raw in reader.messages(connections=conns):
                 t = stamp * 1e-9
-                if t0 is not None:
-                    while t >= t0 + k * T - 1e-9 and pose is not None and wind is not None:
-                        yield self._observation(
-                            k, pose[0], heading, readings if readings else [last_gas], wind
-                        )
-                        readings = []
-                        k += 1
                 key = names[conn.topic]
-                value = self._extract(key, reader.deserialize(raw, conn.msgtype), conn.msgtype)
+                msg = reader.deserialize(raw, conn.msgtype)
+                value = self._extract(key, msg, conn.msgtype, t)
+                if start is not None:
+                    while t >= start + (k + 1) * T - 1e-9:
+                        close_period()
+                        k += 1
                 if key == "gas":
-                    readings.append(value)
-                    last_gas = value
+                    last_gas = (t, value)
+                    if start is not None:
+                        readings.append((t, value))
                 elif key == "anemometer":
                     wind = value
                 else:
-                    pose = value
-                    if math.isfinite(value[1]):
-                        heading = value[1]
-                if t0 is None and pose is not None and wind is not None and last_gas is not None:
-                    t0 = t + T  # the first period starts once every topic has spoken
-                    readings = [last_gas]
-        if t0 is not None and readings and pose is not None and wind is not None:
-            yield self._observation(k, pose[0], heading, readings, wind)
+                    poses.append((t, value[0], value[1]))
+                if start is None and poses and wind is not None and last_gas is not None:
+                    # the first period starts once every topic has spoken
+                    start = t
+                    if last_gas[0] >= t - 1e-9:
+                        readings.append(last_gas)
+                if poses and pending:
+                    yield from ready(final=False)
+        if start is not None and readings:
+            close_period()
+        if pending:
+            yield from ready(final=True)
 
     def _observation(
-        self, k: int, position: np.ndarray, heading: float, readings: list[Any], wind: np.ndarray
+        self, k: int, position: np.ndarray, heading: float, gas: float, wind: np.ndarray
     ) -> Observation:
         m = self.mapping
         d = m.dim
-        g = _reduce(readings, m.gas.reduce)
         w = wind.copy()
         if m.anemometer.frame == "body":
             c, s = math.cos(heading), math.sin(heading)
@@ -290,34 +374,55 @@ class BagLog:
             t=k * m.period,
             position=position[:d].copy(),
             heading=heading,
-            gas=g,
-            detection=bool(g >= m.gas.threshold),
+            gas=gas,
+            detection=bool(gas >= m.gas.threshold),
             wind=w[:d],
         )
 
     def context(self) -> SearchContext:
         """What an estimator may know: the arena (the mapping's, else the path's extent plus
-        1 m, streamed once), the period, the speed limit and the gas threshold."""
+        1 m), the period, the speed limit and the gas threshold.
+
+        Reads the whole bag once, so that every problem of the data (a value that is not
+        finite, a period without a gas reading, a path or a source outside the arena) is
+        reported before an estimator runs.
+        """
         m = self.mapping
         d = m.dim
+        lo = np.full(d, np.inf)
+        hi = np.full(d, -np.inf)
+        first: Observation | None = None
+        outside: Observation | None = None
+        box = None
         if m.arena is not None:
             if len(m.arena.lower) != d or len(m.arena.upper) != d:
                 raise ConfigError("arena.lower", f"needs {d} components")
-            arena = Arena(tuple(m.arena.lower), tuple(m.arena.upper), m.arena.resolution)
-        else:
-            lo = np.full(d, np.inf)
-            hi = np.full(d, -np.inf)
-            start = None
-            for o in self.observations():
-                lo = np.minimum(lo, o.position)
-                hi = np.maximum(hi, o.position)
-                start = o.position if start is None else start
-            if start is None:
-                raise ConfigError("bag", f"{self.path}: not one full period of data")
-            arena = Arena(tuple(lo - 1.0), tuple(hi + 1.0), 0.1)
-        first = next(self.observations(), None)
+            box = (np.asarray(m.arena.lower, float), np.asarray(m.arena.upper, float))
+        for o in self.observations():
+            lo = np.minimum(lo, o.position)
+            hi = np.maximum(hi, o.position)
+            first = o if first is None else first
+            if (
+                box is not None
+                and outside is None
+                and (np.any(o.position < box[0] - 1e-9) or np.any(o.position > box[1] + 1e-9))
+            ):
+                outside = o
         if first is None:
             raise ConfigError("bag", f"{self.path}: not one full period of data")
+        if outside is not None:
+            raise ConfigError(
+                "arena",
+                f"the path leaves it at t = {outside.t:g} s ({np.round(outside.position, 3)} "
+                f"outside {m.arena.lower}..{m.arena.upper}): are the units the same?",
+            )
+        if box is not None:
+            arena = Arena(tuple(m.arena.lower), tuple(m.arena.upper), m.arena.resolution)
+        else:
+            arena = Arena(tuple(lo - 1.0), tuple(hi + 1.0), 0.1)
+        for i, src in enumerate(m.sources):
+            if not arena.contains(np.asarray(src, float)[None, :])[0]:
+                raise ConfigError(f"sources[{i}]", f"{src} lies outside the arena")
         return SearchContext(
             arena=arena,
             dt=m.period,
@@ -327,6 +432,20 @@ class BagLog:
             sensor=SensorInfo("concentration", m.gas.threshold, "reading", False),
             search_region=(tuple(arena.lower[:2]), tuple(arena.upper[:2])),
         )
+
+
+def _pose_at(poses: list[tuple[float, np.ndarray, float]], t: float) -> tuple[np.ndarray, float]:
+    """Position interpolated linearly at ``t`` between the poses around it (held beyond the
+    last), and the heading of the nearer pose."""
+    i = 0
+    while i + 1 < len(poses) and poses[i + 1][0] <= t:
+        i += 1
+    t0, p0, h0 = poses[i]
+    if i + 1 == len(poses) or t <= t0:
+        return p0, h0
+    t1, p1, h1 = poses[i + 1]
+    f = (t - t0) / (t1 - t0)
+    return p0 + f * (p1 - p0), (h0 if f <= 0.5 else h1)
 
 
 class _Closing:
@@ -342,15 +461,17 @@ class _Closing:
         self.reader.close()
 
 
-def _reduce(vals: list[Any], how: str) -> float:
-    v = [float(x) for x in vals if x is not None]
-    if not v:
-        return 0.0
+def _reduce(readings: list[tuple[float, float]], how: str) -> tuple[float, float]:
+    """``(stamp, value)`` of one period's ``(stamp, value)`` readings: the last, the largest
+    (its stamp) or the mean (the mean stamp)."""
     if how == "mean":
-        return float(np.mean(v))
+        return (
+            float(np.mean([r[0] for r in readings])),
+            float(np.mean([r[1] for r in readings])),
+        )
     if how == "max":
-        return float(np.max(v))
-    return v[-1]
+        return max(readings, key=lambda r: r[1])
+    return readings[-1]
 
 
 def write_bag(
@@ -434,6 +555,9 @@ def write_bag(
 
     base = 1_000_000_000_000  # 1000 s after the epoch: bag times must be positive
     dt = float(np.median(np.diff(recording.t))) if len(recording.t) > 1 else m.period
+    if abs(dt - m.period) > 1e-9 * max(dt, 1.0):
+        # read back with this mapping, each step would become a different number of periods
+        raise ConfigError("period", f"is {m.period} s but the recording's step is {dt:g} s")
     with writer:
         cg = writer.add_connection(m.gas.topic, "std_msgs/msg/Float32", typestore=ts)
         cw = writer.add_connection(

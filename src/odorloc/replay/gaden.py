@@ -272,6 +272,11 @@ class GadenSimulation:
         self.iterations = sorted(i for i in found if i >= first_iteration)
         if not self.iterations:
             raise _fail(self.folder, f"no iteration_<i> files from iteration {first_iteration}")
+        # frame j is shown at j * dt: a gap would shift every later frame in time
+        gap = next((i for j, i in enumerate(self.iterations) if i != self.iterations[0] + j), None)
+        if gap is not None:
+            missing = self.iterations[0] + self.iterations.index(gap)
+            raise _fail(self.folder, f"iteration_{missing} is missing (iterations must follow on)")
         self._files = found
         self.header, first = parse_frame(self._files[self.iterations[0]], self._read(0))
         self._cache: tuple[int, GadenFrame] = (0, first)
