@@ -129,6 +129,25 @@ def test_batch_records_failing_episode_and_goes_on(tmp_path) -> None:
     assert "Traceback" in (out / "errors.log").read_text()
 
 
+def test_batch_refuses_options_the_sweep_file_sets(tmp_path) -> None:
+    f = tmp_path / "sweep.yaml"
+    f.write_text(
+        yaml.safe_dump(
+            {
+                "seed": 1,
+                "episodes": 2,
+                "scenarios": [{"name": "indoor-ventilated"}],
+                "searchers": [{"name": "zigzag"}],
+            }
+        )
+    )
+    for opt in (["--episodes", "1"], ["--seed", "99"]):
+        r = runner.invoke(app, ["batch", str(f), *opt, "--out", str(tmp_path / "o")])
+        assert r.exit_code == 2
+        assert r.stderr.strip() == f"error: {opt[0]}: the sweep file sets it; edit the file instead"
+    assert not (tmp_path / "o").exists()
+
+
 def test_batch_with_an_invalid_searcher_parameter_runs_nothing(tmp_path) -> None:
     """A parameter that stops a cell from running (a wave margin that leaves no area) is found
     by the validation pass: exit 2 naming the sweep field, no store written."""

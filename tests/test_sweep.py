@@ -109,6 +109,21 @@ def test_yaml_file_expands_deterministically(tmp_path):
             {"searchers": [{"name": "a", "params": {"k": 1}, "grid": {"k": [1, 2]}}]},
             "searchers[0].grid.k",
         ),
+        ({"seed": True}, "seed"),
+        (
+            {"searchers": [{"name": "a", "agent_grid": {"start_index": [0, 1]}}]},
+            "searchers[0].agent_grid",
+        ),
+        ({"adaptive": {"target_width": 0.1, "max_episodes": 5}}, "adaptive.max_episodes"),
+        (  # two cells written out the same way
+            {
+                "scenarios": [
+                    {"name": "toy", "label": "L[scale=2.0]", "params": {"scale": 3.0}},
+                    {"name": "toy", "label": "L", "grid": {"scale": [2.0]}},
+                ]
+            },
+            "scenarios[1].label",
+        ),
     ],
 )
 def test_invalid_sweep_names_the_field_in_one_line(patch, field):
@@ -192,6 +207,26 @@ def test_config_hash_stable_and_sensitive(tmp_path):
     h1 = config_hash(load_sweep(sweep))
     scen.write_text("wind: 2.0\n")
     assert config_hash(load_sweep(sweep)) != h1
+    # ... whatever the file's name
+    bare = tmp_path / "room"
+    bare.write_text("wind: 1.0\n")
+    sweep.write_text("seed: 1\nepisodes: 2\nscenarios: [{name: ./room}]\nsearchers: [{name: a}]\n")
+    h2 = config_hash(load_sweep(sweep))
+    bare.write_text("wind: 2.0\n")
+    assert config_hash(load_sweep(sweep)) != h2
+    # ... and so does editing a file a searcher or a scenario names (weights, a map)
+    (tmp_path / "w.npz").write_bytes(b"one")
+    (tmp_path / "map.csv").write_text("0 0\n")
+    sweep.write_text(
+        "seed: 1\nepisodes: 2\n"
+        "scenarios: [{name: room.yaml, params: {world.arena.obstacles.file: map.csv}}]\n"
+        "searchers: [{name: a, params: {args: {weights: w.npz}}}]\n"
+    )
+    h3 = config_hash(load_sweep(sweep))
+    (tmp_path / "w.npz").write_bytes(b"two")
+    h4 = config_hash(load_sweep(sweep))
+    (tmp_path / "map.csv").write_text("1 1\n")
+    assert len({h3, h4, config_hash(load_sweep(sweep))}) == 3
 
 
 # ----------------------------------------------------------------------------- running
@@ -500,3 +535,30 @@ def test_invalid_grid_cell_runs_nothing_and_leaves_the_store_identical(tmp_path)
     assert ei.value.field == "scenarios[0].grid.limits.time"
     assert {p.name: p.read_bytes() for p in store.parent.iterdir()} == files
     assert calls == []
+
+
+def test_replay_of_a_flow_with_drawn_sources_is_refused() -> None:
+    from odorloc.experiments.sweep_check import check_names
+
+    for scen in ({"name": "lattice-isotropic-2d"},):
+        spec = load_sweep(
+            {
+                "seed": 1,
+                "episodes": 2,
+                "scenarios": [scen],
+                "searchers": [{"name": "infotaxis"}],
+                "replay": True,
+            }
+        )
+        with pytest.raises(ConfigError) as ei:
+            check_names(spec)
+        assert ei.value.field == "replay"
+    ok = load_sweep(
+        {
+            "seed": 1,
+            "episodes": 2,
+            "scenarios": [{"name": "lattice-isotropic-2d"}],
+            "searchers": [{"name": "infotaxis"}],
+        }
+    )
+    check_names(ok)

@@ -270,8 +270,12 @@ def batch(
         list[str] | None,
         typer.Option("--searcher", "-a", help="Searcher(s), without a sweep file."),
     ] = None,
-    episodes: Annotated[int, typer.Option(help="Episodes per cell, without a sweep file.")] = 10,
-    seed: Annotated[int, typer.Option(help="Root seed, without a sweep file.")] = 0,
+    episodes: Annotated[
+        int | None, typer.Option(help="Episodes per cell, without a sweep file [default: 10].")
+    ] = None,
+    seed: Annotated[
+        int | None, typer.Option(help="Root seed, without a sweep file [default: 0].")
+    ] = None,
     out: Annotated[Path, typer.Option(help="Output folder (store, CSV, Parquet).")] = Path(
         "odorloc-batch"
     ),
@@ -296,7 +300,12 @@ def batch(
         check_output_dir(out, "--out")
         if sweep is not None and (scenario or searcher):
             raise ConfigError("--scenario", "give a sweep file or --scenario/--searcher, not both")
+        if sweep is not None and (episodes is not None or seed is not None):
+            opt = "--episodes" if episodes is not None else "--seed"
+            raise ConfigError(opt, "the sweep file sets it; edit the file instead")
         if sweep is None:
+            episodes = 10 if episodes is None else episodes
+            seed = 0 if seed is None else seed
             if not scenario:
                 raise ConfigError("batch", "give a sweep file or at least one --scenario")
             _check_count(episodes, "--episodes", 1, MAX_EPISODES)

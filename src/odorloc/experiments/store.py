@@ -79,7 +79,13 @@ _TAIL_COLUMNS = ["status", "error", "wall_time", "extra", "finished_at"]
 COLUMNS = _ID_COLUMNS + list(STANDARD_METRICS) + _TAIL_COLUMNS
 """Columns of the ``episodes`` table, in order."""
 
-VOLATILE_COLUMNS = ("wall_time", "finished_at")
+VOLATILE_COLUMNS = (
+    "wall_time",
+    "finished_at",
+    "wall_per_step_ms",
+    "world_fraction",
+    "searcher_fraction",
+)
 """Columns that legitimately differ between two runs of the same sweep."""
 
 _RESERVED = {"status", "error", "wall_time", "arrays", "traceback"}

@@ -75,7 +75,7 @@ import pydantic
 from pydantic import Field, field_validator, model_validator
 from pydantic_core import PydanticCustomError
 
-from odorloc.core.errors import ConfigError, format_validation_error
+from odorloc.core.errors import ConfigError, OdorlocError, format_validation_error
 from odorloc.core.loading import load_yaml_mapping
 from odorloc.core.params import Params
 from odorloc.core.seeds import episode_seeds
@@ -235,8 +235,26 @@ class SweepSpec(Params):
                 raise ValueError(f"episode index {e} is not in [0, {MAX_EPISODES})")
         return v
 
+    @field_validator("seed", mode="before")
+    @classmethod
+    def _seed_not_bool(cls, v: Any) -> Any:
+        if isinstance(v, bool):
+            raise ValueError(f"must be an integer, got {v}")
+        return v
+
     @model_validator(mode="after")
     def _labels_and_size(self) -> SweepSpec:
+        for j, se in enumerate(self.searchers):
+            if se.agent_grid:
+                raise _field_error(
+                    f"searchers[{j}].agent_grid", "only scenarios take an agent_grid"
+                )
+        if self.adaptive is not None and self.adaptive.max_episodes < self.episodes:
+            raise _field_error(
+                "adaptive.max_episodes",
+                f"is {self.adaptive.max_episodes}, below the {self.episodes} episodes every "
+                "cell starts with",
+            )
         for fam in ("scenarios", "searchers"):
             labels = [c.display for c in getattr(self, fam)]
             for i, lab in enumerate(labels):
@@ -255,6 +273,22 @@ class SweepSpec(Params):
                 key=lambda fi: points(getattr(self, fi[0])[fi[1]]),
             )
             raise _field_error(f"{fam}[{i}].grid", f"the grids make {n} cells; at most {MAX_CELLS}")
+        # cell ids are labels and points written out: two cells must not share one (the store
+        # keys episodes by it, and the cells would share their worlds)
+        seen: dict[str, str] = {}
+        for i, sc in enumerate(self.scenarios):
+            for sp in _grid_points({**sc.grid, **sc.agent_grid}):
+                for j, se in enumerate(self.searchers):
+                    for ep in _grid_points(se.grid):
+                        cid = f"{sc.display}{_fmt_point(sp)}/{se.display}{_fmt_point(ep)}"
+                        where = f"scenarios[{i}] x searchers[{j}]"
+                        if cid in seen:
+                            raise _field_error(
+                                f"scenarios[{i}].label",
+                                f"{where} makes the cell {cid!r} again ({seen[cid]}): "
+                                "give a distinct 'label'",
+                            )
+                        seen[cid] = where
         return self
 
 
@@ -308,14 +342,47 @@ def _canon(obj: Any) -> str:
 
 def _scenario_file_digest(name: str, base_dir: str | None) -> str | None:
     """SHA-256 of a scenario given as a file path (so editing the file changes the hash)."""
-    if not name.endswith((".yaml", ".yml", ".json", ".toml")):
-        return None
-    p = Path(name)
-    if not p.is_absolute() and base_dir is not None:
-        p = Path(base_dir) / p
+    from odorloc.scenarios.loading import resolve_ref
+
+    p = Path(resolve_ref(name, base_dir))
     if not p.is_file():
         return None
     return hashlib.sha256(p.read_bytes()).hexdigest()
+
+
+def _file_digest(p: Path) -> str:
+    """SHA-256 of a file's bytes, or of a folder's listing (relative names and sizes: a
+    simulation folder may hold gigabytes)."""
+    h = hashlib.sha256()
+    if p.is_file():
+        h.update(p.read_bytes())
+    else:
+        for f in sorted(p.rglob("*"))[:100_000]:
+            if f.is_file():
+                h.update(f"{f.relative_to(p).as_posix()}\0{f.stat().st_size}\n".encode())
+    return h.hexdigest()
+
+
+def _referenced_files(obj: Any, base_dir: str | None) -> dict[str, str]:
+    """Digests of the files and folders that strings in ``obj`` name (a scenario's obstacle map
+    or recorded plume, a policy's weights), so that editing one changes the hash."""
+    out: dict[str, str] = {}
+
+    def walk(v: Any) -> None:
+        if isinstance(v, dict):
+            for x in v.values():
+                walk(x)
+        elif isinstance(v, list | tuple):
+            for x in v:
+                walk(x)
+        elif isinstance(v, str) and 0 < len(v) < 4096 and ("/" in v or "." in v):
+            for cand in (Path(v), Path(base_dir or ".") / v):
+                if cand.exists():
+                    out[v] = _file_digest(cand)
+                    break
+
+    walk(obj)
+    return out
 
 
 def hashed_content(spec: SweepSpec) -> dict[str, Any]:
@@ -328,11 +395,27 @@ def hashed_content(spec: SweepSpec) -> dict[str, Any]:
         if not d["agent_grid"]:
             del d["agent_grid"]  # sweeps without one keep the hash they always had
         d["file_sha256"] = _scenario_file_digest(s.name, spec.base_dir)
+        try:
+            from odorloc.scenarios.loading import load_scenario
+
+            data = [load_scenario(s.name, spec.base_dir).to_dict(), s.params, s.grid]
+        except OdorlocError:  # refused by name later (check_names)
+            data = [s.params, s.grid]
+        files = _referenced_files(data, spec.base_dir)
+        if files:
+            d["files_sha256"] = files  # sweeps without such files keep the hash they had
         scen.append(d)
+    searchers = []
+    for se in spec.searchers:
+        d = se.model_dump()
+        files = _referenced_files([se.params, se.grid], spec.base_dir)
+        if files:
+            d["files_sha256"] = files
+        searchers.append(d)
     out = {
         "seed": spec.seed,
         "scenarios": scen,
-        "searchers": [s.model_dump() for s in spec.searchers],
+        "searchers": searchers,
         "odorloc": __version__,
     }
     if spec.replay:

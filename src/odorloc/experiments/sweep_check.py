@@ -119,6 +119,17 @@ def check_names(spec: SweepSpec) -> None:
         drawn = base.world.source_draw is not None or any(
             k.startswith("world.source_draw") for k in (*sc.params, *sc.grid)
         )
+        plume_start = base.world.plume.values.get("start")
+        for key in (*sc.params, *sc.grid):
+            if key == "world.plume.start":
+                plume_start = "swept"
+        if spec.replay and (drawn or plume_start in ("initial-hit", "swept")):
+            # a replayed flow keeps the sources it was recorded with, not a drawn one
+            raise ConfigError(
+                "replay",
+                f"scenarios[{i}] ({sc.name}) draws its source per episode "
+                "(world.source_draw or a lattice plume's initial hit): run it without replay",
+            )
         if sc.agent_grid and drawn:
             # drawn sources keep a distance from the starts: the placements would not share
             # one world
