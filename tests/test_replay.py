@@ -244,7 +244,7 @@ def test_bag_bad_data_is_named_before_any_estimator_runs(tmp_path, episode) -> N
     pts = [(t, s, v[0]) if t == "/pose" else (t, s, v) for k in range(4) for t, s, v in _line(k, 0)]
     _bag(tmp_path / "pt", [("/point" if t == "/pose" else t, s, v) for t, s, v in pts])
     body = {**LINE, "pose": {"topic": "/point", "field": "point"}}
-    assert len(list(BagLog(tmp_path / "pt", body).observations())) == 4
+    assert [o.heading for o in BagLog(tmp_path / "pt", body).observations()] == [0.0] * 4
     with pytest.raises(ConfigError) as ei:
         BagLog(tmp_path / "pt", {**body, "anemometer": {"topic": "/wind", "frame": "body"}})
     assert ei.value.field == "anemometer.frame"

@@ -241,8 +241,7 @@ class BagLog:
         """The value a topic contributes (message stamped ``t``, s); :class:`ConfigError` naming
         the mapping field on a missing field or a value that is not a finite number."""
         value = self._value(key, msg, msgtype)
-        parts = [value] if key == "gas" else [value] if key == "anemometer" else [value[0]]
-        if not all(np.all(np.isfinite(v)) for v in parts):
+        if not np.all(np.isfinite(value[0] if key == "pose" else value)):
             spec = getattr(self.mapping, key)
             fld = "speed" if key == "anemometer" and spec.speed is not None else "field"
             raise ConfigError(
@@ -347,7 +346,8 @@ class BagLog:
                 elif key == "anemometer":
                     wind = value
                 else:
-                    poses.append((t, value[0], value[1]))
+                    # a point pose has no heading: 0 (a body-frame wind is refused for it)
+                    poses.append((t, value[0], value[1] if math.isfinite(value[1]) else 0.0))
                 if start is None and poses and wind is not None and last_gas is not None:
                     # the first period starts once every topic has spoken
                     start = t
