@@ -9,7 +9,7 @@ import pytest
 
 from odorloc.core.errors import ConfigError
 from odorloc.core.registry import make_params
-from odorloc.core.types import Observation, SearchContext
+from odorloc.core.types import Observation, SearchContext, SensorInfo
 from odorloc.geometry.arena import Arena
 from odorloc.inference.belief import ParticleBelief
 from odorloc.models.pang_farrell import PangFarrellModel, PangFarrellParams
@@ -268,6 +268,29 @@ def test_gradient_bionic_reaches_the_peak() -> None:
     t, est = _loop(s, arena, (4.5, 2.5), 1200, _blob_world, np.array([0.4, 0.0]))
     assert t is not None
     assert np.linalg.norm(est - [1.0, 1.0]) < 0.5
+
+
+def test_gradient_bionic_follows_a_horizontal_gradient_in_3d() -> None:
+    ctx = SearchContext(
+        arena=Arena.box((0, 0, 0), (10, 10, 5), 0.1),
+        dt=1.0,
+        agent_ids=(0,),
+        start=np.array([[5.0, 5.0, 2.0]]),
+        speed_limits=np.array([0.5]),
+        sensor=SensorInfo("concentration", 0.1, "reading"),
+    )
+    s = GradientBionicSearcher(GradientBionicParams(fit_readings=8))
+    s.reset(ctx, np.random.default_rng(0))
+    rng = np.random.default_rng(1)
+    wind = np.array([1.0, 0.0, 0.0])  # upwind is -x; the concentration rises towards +y
+    for k, (x, y) in enumerate(rng.uniform(4.0, 6.0, (8, 2))):
+        pos = np.array([x, y, 2.0])
+        c = 1.0 + 0.5 * y
+        o = Observation(0, float(k), pos, 0.0, c, True, wind, k == 7)
+        a = s.act([o], rng)
+    step = a.commands[0].value
+    np.testing.assert_allclose(s._gradient, [0.0, 0.5, 0.0], atol=1e-9)
+    np.testing.assert_allclose(step / np.linalg.norm(step), [0.0, 1.0, 0.0], atol=1e-9)
 
 
 def test_fit_gradient() -> None:

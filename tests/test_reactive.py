@@ -114,6 +114,18 @@ def test_anemotaxis_goes_upwind_only_while_every_reading_exceeds() -> None:
     assert abs(d[0]) < 1e-9 and s.diagnostics()["phase"] == 0.0
 
 
+def test_taxis_rules_count_a_reading_at_the_sensor_threshold_as_odor() -> None:
+    # a hit counter: threshold 1 hit, one encounter is a detection, and for the taxis rules it is
+    # a reading that exceeds rho_T (the default rho_T is the sensor's detection threshold)
+    s = _build(AnemotaxisSearcher, memory=2, cast_angle_deg=90.0)
+    s.act([_obs([10.0, 10.0], 1.0)], np.random.default_rng(0))
+    np.testing.assert_allclose(_move(s, _obs([10.0, 10.0], 1.0)), [-0.5, 0.0], atol=1e-12)
+    # an explicit rho_T keeps the paper's strict "exceeds"
+    s = _build(AnemotaxisSearcher, memory=2, cast_angle_deg=90.0, threshold=1.0)
+    s.act([_obs([10.0, 10.0], 1.0)], np.random.default_rng(0))
+    assert abs(_move(s, _obs([10.0, 10.0], 1.0))[0]) < 1e-9
+
+
 def test_fluxotaxis_heads_for_the_inflow() -> None:
     s = _build(FluxotaxisSearcher, memory=4)
     # samples around (10, 10); wind towards +x: the sample on the upwind side (x = 9) has the

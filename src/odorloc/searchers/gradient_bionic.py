@@ -5,6 +5,7 @@ equations, so this is the standard combination from the literature it cites):
 
 - **Gradient** (signal present): the concentration gradient is estimated by a least-squares
   plane fit ``c ≈ a + g · (x - x̄)`` of the last ``fit_readings`` (position, reading) pairs.
+  In 3-D the fit is horizontal (the robot moves horizontally; the vertical component is 0).
   When the fit is well posed (positions spread over at least ``min_spread`` metres along both
   principal axes) and ``|g| >= min_gradient``, the robot steps along ``g / |g| + b u`` (``u`` the
   upwind unit vector, ``b = upwind_bias``); otherwise it steps upwind (anemotaxis).
@@ -145,7 +146,13 @@ class GradientBionicSearcher(Searcher):
         if len(self._readings) >= 3:
             xs = np.array([r[0] for r in self._readings])
             cs = np.array([r[1] for r in self._readings])
-            self._gradient = fit_gradient(xs, cs, p.min_spread)
+            if xs.shape[1] == 3:
+                # the robot moves horizontally: its heights do not spread, so fit the plane in
+                # x, y (a 3-D fit would never be well posed)
+                g = fit_gradient(xs[:, :2], cs, p.min_spread)
+                self._gradient = None if g is None else np.append(g, 0.0)
+            else:
+                self._gradient = fit_gradient(xs, cs, p.min_spread)
 
         # Peak confirmation.
         self._recent.append((pos.copy(), float(o.gas), bool(o.detection)))

@@ -239,7 +239,11 @@ class GridPolicySearcher(Searcher):
         old = self._table_wind
         assert old is not None
         na, nb = float(np.linalg.norm(old)), float(np.linalg.norm(mean))
-        if na < 1e-9 or nb < 1e-9:
+        if nb < 1e-9:
+            return  # calm now: keep the tables of the last wind
+        if na < 1e-9:
+            # tables made in calm air have no wind direction: make them as soon as there is one
+            self._tabulate(mean)
             return
         cos = float(np.clip(old @ mean / (na * nb), -1.0, 1.0))
         if math.degrees(math.acos(cos)) > self.params.retabulate_deg:

@@ -28,7 +28,9 @@ casting (:class:`~odorloc.behaviours.surge_cast.SurgeCast`: crosswind legs that 
   samples around their centroid (odor flowing in through that side) while all readings exceed
   the threshold.
 
-The threshold ``rho_T`` is ``threshold`` (default: the gas sensor's detection threshold).
+The threshold ``rho_T`` is ``threshold``; by default the gas sensor's detection threshold, and
+then a reading at it counts as exceeding it, as it counts as a detection (one encounter of a hit
+counter whose threshold is one hit).
 """
 
 from __future__ import annotations
@@ -118,6 +120,11 @@ class ReactiveSearcher(Searcher):
         p = self.params
         self.step = p.step_length if p.step_length is not None else ctx.max_speed * ctx.dt
         self.threshold = p.threshold if p.threshold is not None else ctx.gas_threshold
+        # rho_T of "every reading exceeds rho_T" (eqs. 4-6): with the sensor's own threshold a
+        # reading counts as it does for a detection (>= threshold; one encounter of a counter)
+        self.rho_t = (
+            p.threshold if p.threshold is not None else math.nextafter(ctx.gas_threshold, -math.inf)
+        )
         self.wind = WindAverage(p.wind_average)
         self.caster = SurgeCast(p.surge_cast())
         self.mode = "cast"
@@ -337,7 +344,7 @@ class AnemotaxisSearcher(_TaxisSearcher):
     params: AnemotaxisParams  # type: ignore[assignment]
 
     def rule(self) -> np.ndarray | None:
-        d = anemotaxis(np.array(self.winds), np.array(self.readings), self.threshold)
+        d = anemotaxis(np.array(self.winds), np.array(self.readings), self.rho_t)
         if d is not None and d.size == 3:
             d = d.copy()
             d[2] = 0.0  # upwind in the horizontal plane
@@ -353,5 +360,5 @@ class FluxotaxisSearcher(_TaxisSearcher):
     def rule(self) -> np.ndarray | None:
         x = np.array(self.positions)
         return fluxotaxis(
-            x.mean(axis=0), x, np.array(self.readings), np.array(self.winds), self.threshold
+            x.mean(axis=0), x, np.array(self.readings), np.array(self.winds), self.rho_t
         )
