@@ -66,7 +66,8 @@ def test_bootstrap_mean_interval():
     assert hi == pytest.approx(x.mean() + t * se, abs=0.25 * se)
     # seeded: same generator seed, same interval
     assert stats.bootstrap_ci(x, np.random.default_rng(0), "mean") == (lo, hi)
-    assert stats.bootstrap_ci([3.0], np.random.default_rng(0)) == (3.0, 3.0)
+    # one value says nothing of the spread: no interval rather than one of zero width
+    assert all(math.isnan(v) for v in stats.bootstrap_ci([3.0], np.random.default_rng(0)))
     assert all(math.isnan(v) for v in stats.bootstrap_ci([], np.random.default_rng(0)))
     mlo, mhi = stats.bootstrap_ci(x, np.random.default_rng(0), "median")
     # the sample median's standard error is sqrt(pi / 2) sigma / sqrt(n) = 0.125, so the 95 %
@@ -131,6 +132,29 @@ def test_paired_comparison_uses_pairs():
     # an episode in error is dropped from the pairs
     df.loc[(df["cell_id"] == "w/b") & (df["episode"] == 0), "status"] = "error"
     assert stats.paired_comparison(df, "w/a", "w/b")["n_pairs"] == 39
+
+
+def test_newcombe_paired_interval() -> None:
+    # A succeeded and B failed in all 3 pairs: Wilson gives [w, 1] for 3/3 and [0, 1 - w] for
+    # 0/3, the correlation is undefined (0), so the lower end is 1 - sqrt(2) (1 - w)
+    w, _ = stats.wilson_interval(3, 3)
+    lo, hi = stats.paired_proportion_ci(0, 3, 0, 0)
+    assert lo == pytest.approx(1 - math.sqrt(2) * (1 - w)) and hi == 1.0
+    assert 0.1 < lo < 0.4  # far from the zero-width [1, 1] a bootstrap gives
+    # antisymmetric in A and B, and empty without pairs
+    lo2, hi2 = stats.paired_proportion_ci(4, 1, 6, 9)
+    assert stats.paired_proportion_ci(4, 6, 1, 9) == pytest.approx((-hi2, -lo2))
+    assert all(math.isnan(v) for v in stats.paired_proportion_ci(0, 0, 0, 0))
+    # coverage near the nominal 95 % for 30 correlated pairs
+    rng = np.random.default_rng(3)
+    probs = np.array([0.45, 0.2, 0.1, 0.25])  # both, only A, only B, neither
+    true = probs[1] - probs[2]
+    hits = 0
+    for _ in range(2000):
+        c = rng.multinomial(30, probs)
+        lo, hi = stats.paired_proportion_ci(*c)
+        hits += lo <= true <= hi
+    assert 0.93 <= hits / 2000 <= 0.985
 
 
 def test_paired_success_mcnemar_and_world_check():

@@ -227,6 +227,9 @@ def test_config_hash_stable_and_sensitive(tmp_path):
     h4 = config_hash(load_sweep(sweep))
     (tmp_path / "map.csv").write_text("1 1\n")
     assert len({h3, h4, config_hash(load_sweep(sweep))}) == 3
+    # prose that is no path (a long description with dots) is no file
+    prose = "A long description. " * 40
+    config_hash(load_sweep(_spec(searchers=[{"name": "a", "params": {"note": prose}}])))
 
 
 # ----------------------------------------------------------------------------- running

@@ -189,8 +189,10 @@ def _paired_section(df: Any, level: float, seed: int) -> str:
     return (
         "<h2>Paired comparisons</h2>"
         '<p class="note">Episode i of every searcher faced the same world, so differences are '
-        "paired by episode; time differences use every episode without error (failures count "
-        "at the time limit).</p>" + _table(headers, rows, left=3)
+        "paired by episode. Success differences have Newcombe's interval for paired proportions. "
+        "Time differences use every episode without error, a failure at the time it ended (the "
+        "time limit, or earlier when a searcher got stuck or declared wrongly): read them beside "
+        "the success difference.</p>" + _table(headers, rows, left=3)
     )
 
 

@@ -10,8 +10,13 @@
   continuous metrics and the exact McNemar test for success.
 
 Search time is averaged over successful episodes by default (``time_over="success"``, the usual
-convention of the source-localisation literature; failed episodes are censored at the time
-limit); pass ``time_over="all"`` to include every episode that ran without error.
+convention of the source-localisation literature); pass ``time_over="all"`` to include every
+episode that ran without error, a failure at the time it ended (the time limit, or earlier when
+a searcher got stuck or declared wrongly: read such times beside the success rate).
+
+The paired difference of success rates gets Newcombe's interval for paired proportions (method
+10, built on Wilson's intervals): a bootstrap of a handful of identical 0/1 differences would
+give an interval of zero width.
 """
 
 from __future__ import annotations
@@ -105,12 +110,12 @@ def bootstrap_ci(
     Returns
     -------
     lo, hi : float
-        ``(nan, nan)`` for an empty sample; a single value gives a zero-width interval.
+        ``(nan, nan)`` for fewer than two values (one value says nothing of the spread).
     """
     _z(level)
     x = np.asarray(x, float)
     x = x[~np.isnan(x)]
-    if x.size == 0:
+    if x.size < 2:
         return math.nan, math.nan
     fn = _stat_fn(statistic)
     idx = rng.integers(0, x.size, size=(n_boot, x.size))
@@ -118,6 +123,43 @@ def bootstrap_ci(
     alpha = (1 - level) / 2
     lo, hi = np.quantile(reps, [alpha, 1 - alpha])
     return float(lo), float(hi)
+
+
+def paired_proportion_ci(
+    both: int, only_a: int, only_b: int, neither: int, level: float = 0.95
+) -> tuple[float, float]:
+    """Interval of ``p_a - p_b`` for paired successes (Newcombe 1998, method 10).
+
+    Parameters
+    ----------
+    both, only_a, only_b, neither : int
+        Pairs where both succeeded, only A, only B, neither.
+    level : float
+        Confidence level.
+
+    Returns
+    -------
+    lo, hi : float
+        In ``[-1, 1]``; ``(nan, nan)`` without pairs. With ``(l_i, u_i)`` the Wilson intervals
+        of ``p_a`` and ``p_b`` and ``phi`` the correlation of the pairs (0 where undefined):
+        ``lo = d - sqrt((p_a - l_a)^2 - 2 phi (p_a - l_a)(u_b - p_b) + (u_b - p_b)^2)`` and
+        ``hi = d + sqrt((u_a - p_a)^2 - 2 phi (u_a - p_a)(p_b - l_b) + (p_b - l_b)^2)``.
+    """
+    a, b, c, d = (int(v) for v in (both, only_a, only_b, neither))
+    if min(a, b, c, d) < 0:
+        raise ConfigError("pairs", "counts must be >= 0")
+    n = a + b + c + d
+    if n == 0:
+        return math.nan, math.nan
+    pa, pb = (a + b) / n, (a + c) / n
+    la, ua = wilson_interval(a + b, n, level)
+    lb, ub = wilson_interval(a + c, n, level)
+    den = (a + b) * (c + d) * (a + c) * (b + d)
+    phi = (a * d - b * c) / math.sqrt(den) if den > 0 else 0.0
+    diff = pa - pb
+    dl = math.sqrt(max((pa - la) ** 2 - 2 * phi * (pa - la) * (ub - pb) + (ub - pb) ** 2, 0.0))
+    du = math.sqrt(max((ua - pa) ** 2 - 2 * phi * (ua - pa) * (pb - lb) + (pb - lb) ** 2, 0.0))
+    return max(diff - dl, -1.0), min(diff + du, 1.0)
 
 
 def _ok(df: Any) -> Any:
@@ -261,9 +303,12 @@ def mcnemar_exact(b: int, c: int) -> float:
 
 
 def paired_test(a: Any, b: Any, test: Literal["wilcoxon", "t"] = "wilcoxon") -> tuple[float, float]:
-    """``(statistic, p_value)`` of a paired test of ``a - b`` (equal-length arrays)."""
+    """``(statistic, p_value)`` of a paired test of ``a - b`` (equal-length arrays); the p value
+    is NaN with fewer than two pairs and 1 when every difference is 0."""
     d = np.asarray(a, float) - np.asarray(b, float)
-    if d.size < 2 or np.all(d == 0):
+    if d.size < 2:
+        return math.nan, math.nan
+    if np.all(d == 0):
         return math.nan, 1.0
     if test == "wilcoxon":
         r = sps.wilcoxon(d)
@@ -295,7 +340,8 @@ def paired_comparison(
     -------
     dict
         ``cell_a, cell_b, metric, n_pairs, mean_a, mean_b, mean_diff, diff_lo, diff_hi, test,
-        statistic, p_value`` (``diff_lo/hi``: bootstrap interval of the mean difference).
+        statistic, p_value`` (``diff_lo/hi``: Newcombe's interval of the difference of success
+        rates, or the bootstrap interval of the mean difference; ``p_value`` NaN without pairs).
     """
     ga = _ok(df[df["cell_id"] == cell_a]).set_index("episode")
     gb = _ok(df[df["cell_id"] == cell_b]).set_index("episode")
@@ -311,12 +357,16 @@ def paired_comparison(
     keep = ~(np.isnan(a) | np.isnan(b))
     a, b = a[keep], b[keep]
     d = a - b
-    lo, hi = bootstrap_ci(d, np.random.default_rng(seed), "mean", level, n_boot)
     if metric == "success":
         bb = int(np.sum((a == 1) & (b == 0)))
         cc = int(np.sum((a == 0) & (b == 1)))
+        both = int(np.sum((a == 1) & (b == 1)))
+        lo, hi = paired_proportion_ci(both, bb, cc, d.size - both - bb - cc, level)
         name, stat, p = "mcnemar", float(bb - cc), mcnemar_exact(bb, cc)
+        if d.size == 0:
+            p = math.nan
     else:
+        lo, hi = bootstrap_ci(d, np.random.default_rng(seed), "mean", level, n_boot)
         name = test
         stat, p = paired_test(a, b, test)
     return {

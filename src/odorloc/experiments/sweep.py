@@ -377,7 +377,11 @@ def _referenced_files(obj: Any, base_dir: str | None) -> dict[str, str]:
                 walk(x)
         elif isinstance(v, str) and 0 < len(v) < 4096 and ("/" in v or "." in v):
             for cand in (Path(v), Path(base_dir or ".") / v):
-                if cand.exists():
+                try:
+                    found = cand.exists()
+                except (OSError, ValueError):  # prose, not a path (too long, a NUL byte)
+                    found = False
+                if found:
                     out[v] = _file_digest(cand)
                     break
 
