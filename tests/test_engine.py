@@ -224,7 +224,7 @@ def test_reach_rule_ends_when_an_agent_comes_close() -> None:
     with pytest.raises(ConfigError, match="reach_radius"):
         Scenario.from_dict({**d, "task": {"end": "reach"}})
     # Driven by hand: before the last move the robot is outside the radius, after it inside,
-    # and the episode ends at that step's time (the recording stops before the last move).
+    # and the episode ends at that step's time (the recording ends where the robot stopped).
     from odorloc.engine.episode import Episode
 
     ep = Episode(sc)
@@ -239,11 +239,14 @@ def test_reach_rule_ends_when_an_agent_comes_close() -> None:
         obs = step.observations
     assert before > 1.2 >= float(np.linalg.norm(ep.platforms[0].position - src))
     assert step.termination == "reached" and step.t == m["search_time"]
-    assert np.linalg.norm(res.recording.positions[-1, 0] - src) > 1.2
+    assert np.linalg.norm(res.recording.positions[-1, 0] - src) <= 1.2
+    assert np.linalg.norm(res.recording.positions[-2, 0] - src) > 1.2
+    assert res.recording.t[-1] == m["search_time"]
     # An agent that starts within the radius has reached the source at t = 0.
     d["agents"]["starts"] = [[1.5, 2.5]]
-    at_start = run_episode(Scenario.from_dict(d), 1, 2).metrics
-    assert at_start["termination"] == "reached" and at_start["search_time"] == 0.0
+    at_start = run_episode(Scenario.from_dict(d), 1, 2, record=True)
+    assert at_start.metrics["termination"] == "reached" and at_start.metrics["search_time"] == 0.0
+    np.testing.assert_array_equal(at_start.recording.positions[:, 0], [[1.5, 2.5]])
 
 
 def test_time_limit_shorter_than_a_period_is_refused() -> None:

@@ -275,6 +275,8 @@ class Episode:
         self._obs = self._observe(self._events)
         self._recent = [np.array([o.position for o in self._obs])]
         if self._task_done():
+            if self._rec is not None:
+                self._rec.final_pose(self._t, self._obs, None)
             self._finish("reached", self._events)
         return self._obs
 
@@ -373,10 +375,11 @@ class Episode:
         # Exact step arithmetic: summing dt would drift (9.999999 s instead of 10 s).
         self._t = self._step * self._T
         self._obs = self._observe(events)
-        if self._task_done():
-            return self._finish("reached", events, probe)
-        if self._stuck():
-            return self._finish("stuck", events, probe)
+        ended = "reached" if self._task_done() else "stuck" if self._stuck() else None
+        if ended is not None:
+            if self._rec is not None:
+                self._rec.final_pose(self._t, self._obs, probe)
+            return self._finish(ended, events, probe)
         return StepResult(self._obs, events, False, False, "running", self._t)
 
     # ------------------------------------------------------------------ internals

@@ -175,6 +175,23 @@ class Recorder:
         self._grid_shape = (nx, ny)
         self._extent = np.array([lo[0], hi[0], lo[1], hi[1]])
 
+    def _row(self, t: float, obs: list[Any], probe: Any) -> None:
+        self._t.append(t)
+        self._pos.append(np.array([o.position for o in obs]))
+        self._gas.append([o.gas for o in obs])
+        self._det.append([o.detection for o in obs])
+        self._wind.append(np.array([o.wind for o in obs]))
+        diag = probe.diagnostics() if probe is not None else {}
+        for k in set(self._diag) | set(diag):
+            col = self._diag.setdefault(k, [np.nan] * (len(self._t) - 1))
+            col.append(float(diag.get(k, np.nan)))
+
+    def final_pose(self, t: float, obs: list[Any], probe: Any) -> None:
+        """Record the observations an episode ended on after moving (a source reached, agents
+        stuck), whatever the stride: the path ends where the agents stopped."""
+        if not self._t or self._t[-1] < t:
+            self._row(t, obs, probe)
+
     def record(
         self,
         step: int,
@@ -190,15 +207,7 @@ class Recorder:
         records neither.
         """
         if step % self.cfg.stride == 0:
-            self._t.append(t)
-            self._pos.append(np.array([o.position for o in obs]))
-            self._gas.append([o.gas for o in obs])
-            self._det.append([o.detection for o in obs])
-            self._wind.append(np.array([o.wind for o in obs]))
-            diag = probe.diagnostics() if probe is not None else {}
-            for k in set(self._diag) | set(diag):
-                col = self._diag.setdefault(k, [np.nan] * (len(self._t) - 1))
-                col.append(float(diag.get(k, np.nan)))
+            self._row(t, obs, probe)
         if step % self.cfg.belief_stride == 0 and probe is not None:
             self._snapshot(t, probe)
         if step % self.cfg.plume_stride == 0:
