@@ -78,3 +78,21 @@ def test_determinism_check_catches_differing_runs() -> None:
 def test_small_scenario_is_a_valid_scenario() -> None:
     sc = checks.small_scenario({"type": "zigzag"}, dim=3, n_agents=2)
     assert isinstance(sc, Scenario) and len(sc.agents.starts) == 2
+
+
+def test_components_by_import_path_must_belong_to_the_family() -> None:
+    from odorloc.core import registry
+    from odorloc.core.errors import ConfigError
+
+    e = registry.entry("plume", "odorloc.replay.gaden:GadenPlume", field="world.plume.type")
+    assert e.name == "odorloc.replay.gaden:GadenPlume"
+    for family, ref, words in (
+        ("searcher", "odorloc.planning.fixed_step:FixedStepInfotaxis", "not a searcher"),
+        ("wind", "odorloc.searchers.uav_team:ColInfTeam", "not a wind"),
+        ("searcher", ":", "package.module:Class"),
+        ("searcher", ".x:Y", "cannot import"),
+        ("searcher", "odorloc.nothing_here:X", "cannot import"),
+    ):
+        with pytest.raises(ConfigError, match=words) as ei:
+            registry.entry(family, ref, field="x.type")
+        assert ei.value.field == "x.type"

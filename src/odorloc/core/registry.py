@@ -121,15 +121,35 @@ def _load_all() -> None:
         raise
 
 
+def family_base(family: str) -> type | None:
+    """The most specific class every registered member of ``family`` derives from (``None``
+    when they share nothing but ``object``)."""
+    _load_all()
+    members = [e.build for e in _REGISTRY.get(family, {}).values() if isinstance(e.build, type)]
+    if not members:
+        return None
+    # one member says nothing of what the family requires beyond its parents
+    mro = members[0].__mro__[1:] if len(members) == 1 else members[0].__mro__
+    for base in mro:
+        if base is not object and all(issubclass(m, base) for m in members):
+            return base
+    return None
+
+
 def _from_path(family: str, ref: str, field: str) -> Entry:
     mod_name, _, attr = ref.partition(":")
+    if not mod_name or not attr:
+        raise ConfigError(field, f"{ref!r} is not 'package.module:Class'")
     try:
         obj = getattr(importlib.import_module(mod_name), attr)
-    except (ImportError, AttributeError) as exc:
+    except (ImportError, AttributeError, TypeError, ValueError) as exc:
         raise ConfigError(field, f"cannot import {ref!r} ({exc})") from None
     params = getattr(obj, "Params", None)
     if not (isinstance(params, type) and issubclass(params, Params)):
         raise ConfigError(field, f"{ref!r} has no parameter model (a class attribute 'Params')")
+    base = family_base(family)
+    if base is not None and not (isinstance(obj, type) and issubclass(obj, base)):
+        raise ConfigError(field, f"{ref!r} is not a {family} (not a {base.__name__})")
     doc = ((obj.__doc__ or "").strip().splitlines() or [""])[0]
     return Entry(family, ref, params, obj, doc)
 
