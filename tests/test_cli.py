@@ -6,6 +6,7 @@ import os
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 import yaml
 from typer.testing import CliRunner
@@ -164,3 +165,36 @@ def test_batch_with_an_invalid_searcher_parameter_runs_nothing(tmp_path) -> None
     assert r.exit_code == 2
     assert r.stderr.strip() == "error: searchers[1].params.margin: leaves no area to cover"
     assert not (tmp_path / "out").exists()
+
+
+def test_run_repeats_an_episode_from_its_saved_scenario(tmp_path) -> None:
+    r = runner.invoke(
+        app,
+        [
+            "run",
+            "lattice-isotropic-2d",
+            "--out",
+            str(tmp_path / "a"),
+            "--no-animation",
+            "--episode",
+            "2",
+        ],
+    )
+    assert r.exit_code == 0, r.output
+    saved = tmp_path / "a" / "scenario.yaml"
+    first = saved.read_text().splitlines()[0]
+    assert first.startswith("# odorloc run ") and "--world-key lattice-isotropic-2d" in first
+    args = first.removeprefix("# odorloc run ").split()
+    args[0] = str(saved)  # the saved file, wherever the test runs
+    r = runner.invoke(app, ["run", *args, "--out", str(tmp_path / "b"), "--no-animation"])
+    assert r.exit_code == 0, r.output
+    a = np.load(tmp_path / "a" / "recording.npz")
+    b = np.load(tmp_path / "b" / "recording.npz")
+    np.testing.assert_array_equal(a["positions"], b["positions"])
+    np.testing.assert_array_equal(a["gas"], b["gas"])
+    for bad, field in (
+        ([""], "scenario"),
+        (["lattice-isotropic-2d", "--world-key", " "], "--world-key"),
+    ):
+        r = runner.invoke(app, ["run", *bad, "--out", str(tmp_path / "c")])
+        assert r.exit_code == 2 and r.stderr.startswith(f"error: {field}: "), r.stderr

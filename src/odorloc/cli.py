@@ -9,6 +9,7 @@ Command-line usage errors (an unknown option, a value of the wrong type) are one
 from __future__ import annotations
 
 import math
+import shlex
 import sys
 from pathlib import Path
 from typing import Annotated, Any
@@ -138,11 +139,18 @@ def run(
         bool, typer.Option(help="Write the animation (GIF, and MP4 with ffmpeg).")
     ] = True,
     frames: Annotated[int, typer.Option(help="Maximum number of animation frames.")] = 120,
+    world_key: Annotated[
+        str | None,
+        typer.Option(
+            help="Key of the episode's seeds (default: the scenario argument as given); the "
+            "summary and scenario.yaml name it, to repeat the episode from the saved file."
+        ),
+    ] = None,
 ) -> None:
     """Run one episode, print a summary and write the figures and the animation.
 
     Episode I of root seed R is exactly episode I of ``odorloc batch`` with ``--seed R`` and the
-    same scenario (given the same way, name or file path).
+    same scenario (given the same way, name or file path: the text is the seeds' world key).
     """
     from odorloc.experiments.sweep import MAX_EPISODES
 
@@ -162,8 +170,15 @@ def run(
     from odorloc.scenarios.loading import check_scenario, load_scenario
     from odorloc.viz.episode import animate, ffmpeg_available, plot_traces, plot_trajectory
 
-    ref = scenario or DEFAULT_SCENARIO
+    ref = scenario if scenario is not None else DEFAULT_SCENARIO
     try:
+        if not ref.strip():
+            raise ConfigError("scenario", "is empty (give a built-in name or a file)")
+        if searcher is not None and not searcher.strip():
+            raise ConfigError("--searcher", "is empty")
+        if world_key is not None and not world_key.strip():
+            raise ConfigError("--world-key", "is empty")
+        key = world_key if world_key is not None else ref
         sc = load_scenario(ref)
         if searcher:
             from odorloc.core import registry
@@ -174,10 +189,11 @@ def run(
         if seed is not None:
             sc = sc.model_copy(update={"seed": seed})
         check_scenario(sc)
-        world_seed, agent_seed = episode_seeds(sc.seed, ref, episode)
+        world_seed, agent_seed = episode_seeds(sc.seed, key, episode)
         console.print(
             f"running [bold]{escape(sc.name)}[/] with searcher "
-            f"[bold]{escape(sc.searcher.type)}[/], root seed {sc.seed}, episode {episode}"
+            f"[bold]{escape(sc.searcher.type)}[/], root seed {sc.seed}, episode {episode}, "
+            f"world key {escape(repr(key))}"
         )
         # numba's one-off runtime start belongs to the process, not to the episode's time
         from odorloc.core.jit import start
@@ -221,7 +237,12 @@ def run(
 
             plot_team_3d(rec, out / "view_3d.png")
             written.append(out / "view_3d.png")
-        sc.to_yaml(out / "scenario.yaml")
+        again = (
+            f"# odorloc run {shlex.quote(str(out / 'scenario.yaml'))} --seed {sc.seed} "
+            f"--episode {episode} --world-key {shlex.quote(key)}\n"
+            "# repeats this episode (the seeds derive from the world key)\n"
+        )
+        (out / "scenario.yaml").write_text(again + sc.to_yaml())
         written.append(out / "scenario.yaml")
         if animation:
             written.append(animate(rec, out / "episode.gif", max_frames=frames))

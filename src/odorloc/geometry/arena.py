@@ -212,9 +212,13 @@ class Arena:
         for k, (blo, bhi) in enumerate(boxes):
             blo_a, bhi_a = np.asarray(blo, float), np.asarray(bhi, float)
             if blo_a.shape != (self.dim,) or bhi_a.shape != (self.dim,):
-                raise ConfigError(f"obstacles[{k}]", f"box corners need {self.dim} components")
+                raise ConfigError(
+                    f"obstacles.boxes[{k}]", f"box corners need {self.dim} components"
+                )
+            if not (np.all(np.isfinite(blo_a)) and np.all(np.isfinite(bhi_a))):
+                raise ConfigError(f"obstacles.boxes[{k}]", "box corners must be finite")
             if np.any(bhi_a <= blo_a):
-                raise ConfigError(f"obstacles[{k}]", "box upper corner must exceed lower")
+                raise ConfigError(f"obstacles.boxes[{k}]", "box upper corner must exceed lower")
             inside = np.ones(self.grid_shape, bool)
             for a in range(self.dim):
                 inside &= (centers[a] >= blo_a[a]) & (centers[a] <= bhi_a[a])
@@ -232,7 +236,9 @@ class Arena:
         for k, poly in enumerate(polygons):
             v = np.asarray(poly, float)
             if v.ndim != 2 or v.shape[1] != 2 or len(v) < 3:
-                raise ConfigError(f"polygons[{k}]", "need at least 3 (x, y) vertices")
+                raise ConfigError(f"obstacles.polygons[{k}]", "need at least 3 (x, y) vertices")
+            if not np.all(np.isfinite(v)):
+                raise ConfigError(f"obstacles.polygons[{k}]", "vertices must be finite")
             inside = MplPath(v).contains_points(xy).reshape(gx.shape)
             occ |= inside[..., None] if self.dim == 3 else inside
         return Arena(self.lower, self.upper, self.resolution, occ)

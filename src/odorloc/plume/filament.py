@@ -17,6 +17,7 @@ import numpy as np
 from pydantic import Field
 from scipy.spatial import cKDTree
 
+from odorloc.core.errors import ConfigError
 from odorloc.core.jit import HAVE_NUMBA, jit
 from odorloc.core.params import NonNegative, Params, Positive
 from odorloc.core.registry import register
@@ -422,6 +423,15 @@ class FilamentPlume(PlumeModel):
         p = self.params
         arena = self.arena
         rates = np.array([s.rate_at(self.t + 0.5 * dt) for s in self.sources]) * dt
+        if rates.size and not rates.max() <= p.max_filaments:
+            # more in one step than may ever be alive: the arrays of one step alone would be
+            # huge (or the count overflows), so refuse the rate at the first step
+            k = int(np.argmax(rates))
+            raise ConfigError(
+                f"world.sources[{k}].rate",
+                f"releases {rates[k]:.3g} filaments in one {dt:g} s step; at most "
+                f"world.plume.max_filaments ({p.max_filaments})",
+            )
         if p.release == "poisson":
             counts = rng.poisson(rates)
         else:

@@ -39,10 +39,13 @@ def build_arena(cfg: ArenaConfig) -> Arena:
                 f"grid {grid.grid_shape} does not match the arena's {arena.grid_shape}",
             )
         arena = grid
-    if obs.boxes:
-        arena = arena.with_boxes(obs.boxes)
-    if obs.polygons:
-        arena = arena.with_polygons(obs.polygons)
+    try:
+        if obs.boxes:
+            arena = arena.with_boxes(obs.boxes)
+        if obs.polygons:
+            arena = arena.with_polygons(obs.polygons)
+    except ConfigError as exc:
+        raise ConfigError(f"world.arena.{exc.field}", exc.problem) from None
     return arena
 
 

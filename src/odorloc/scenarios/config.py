@@ -171,10 +171,11 @@ class AgentsConfig(_Strict):
                     raise ConfigError(f"groups[{k}].agents", f"agent {a} is in two groups")
                 seen.add(a)
         for name, pts in self.start_sets.items():
-            if self.groups and len(pts) != len(self.groups):
-                raise ConfigError(
-                    f"start_sets.{name}", f"has {len(pts)} points for {len(self.groups)} groups"
-                )
+            # without groups the agents move as one group (their centroid onto the point)
+            n_groups = len(self.groups) or 1
+            if len(pts) != n_groups:
+                what = f"{n_groups} groups" if self.groups else "the agents (one group)"
+                raise ConfigError(f"start_sets.{name}", f"has {len(pts)} points for {what}")
         return self
 
 
@@ -294,8 +295,23 @@ class Scenario(_Strict):
                     raise ConfigError(f"agents.start_sets.{name}[{k}]", f"needs {d} components")
         if self.task.region is not None and len(self.task.region[0]) > d:
             raise ConfigError("task.region", f"has more components than the {d}D arena")
+        if self.task.region is not None:
+            rlo, rhi = self.task.region
+            alo, ahi = self.world.arena.lower, self.world.arena.upper
+            if any(
+                r1 <= a0 or r0 >= a1 for r0, r1, a0, a1 in zip(rlo, rhi, alo, ahi, strict=False)
+            ):
+                raise ConfigError("task.region", "does not overlap the arena")
         if self.world.dt > self.limits.control_dt:
             raise ConfigError("world.dt", "must not exceed limits.control_dt")
+        ratio = self.limits.control_dt / self.world.dt
+        if abs(ratio - round(ratio)) > 1e-9 * ratio:
+            # the engine steps the world a whole number of times per control period
+            raise ConfigError(
+                "world.dt",
+                f"{self.world.dt:g} s does not divide limits.control_dt "
+                f"({self.limits.control_dt:g} s) into whole steps",
+            )
         self._check_sizes(d)
         self._check_knobs()
         return self
@@ -333,6 +349,9 @@ class Scenario(_Strict):
                 f"{world_steps:.3g} world steps; at most {MAX_WORLD_STEPS}",
             )
         a = self.world.arena
+        for name, bound in (("lower", a.lower), ("upper", a.upper)):
+            if not all(math.isfinite(x) for x in bound):
+                raise ConfigError(f"world.arena.{name}", "bounds must be finite")
         size = [hi - lo for lo, hi in zip(a.lower, a.upper, strict=True)]
         if all(math.isfinite(x) and x > 0 for x in size):
             check_cell_count(
