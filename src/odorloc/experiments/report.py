@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import base64
 import html
+import inspect
 import io
 import math
 import time
@@ -41,7 +42,7 @@ th{background:#f6f8fa}td.l,th.l{text-align:left}tr:nth-child(even) td{background
 .sig{font-weight:600;color:#0a6b2d}.bad{color:#b42318}
 figure{display:inline-block;margin:8px 12px 16px 0;vertical-align:top}
 figcaption{font-size:.85em;color:#57606a;max-width:560px}
-img{border:1px solid #e1e4e8}.note{color:#57606a;font-style:italic}
+img{border:1px solid #e1e4e8;max-width:100%;height:auto}.note{color:#57606a;font-style:italic}
 """
 
 _SCRIPT = """
@@ -309,17 +310,35 @@ def _param_figures(summ: Any, level: float) -> list[str]:
 
 
 def _box_figure(df: Any) -> str | None:
-    ok = df[(df["status"] != "error") & df["success"].fillna(False).astype(bool)]
+    ran = df[df["status"] != "error"]
+    ok = ran[ran["success"].fillna(False).astype(bool)]
     if len(ok) == 0:
         return None
-    cells = list(dict.fromkeys(ok["cell_id"]))
+    # every cell keeps its row, so that a cell without a success shows as one
+    cells = list(dict.fromkeys(ran["cell_id"]))
     data = [ok.loc[ok["cell_id"] == c, "search_time"].dropna().to_numpy(float) for c in cells]
-    fig = _new_fig(max(6.0, 0.9 * len(cells) + 2), 3.8)
+    fig = _new_fig(7.5, max(2.5, 0.35 * len(cells) + 1.2))
     ax = fig.subplots()
-    ax.boxplot(data, showmeans=True)
-    ax.set_xticks(range(1, len(cells) + 1), cells, rotation=30, ha="right", fontsize=7)
-    ax.set_ylabel("search time, s")
-    ax.grid(axis="y", alpha=0.3)
+    # horizontal boxes: long cell labels read along the axis instead of crowding it
+    pos = np.arange(len(cells), 0, -1)
+    if "orientation" in inspect.signature(ax.boxplot).parameters:
+        ax.boxplot(data, positions=pos, showmeans=True, orientation="horizontal")
+    else:  # matplotlib < 3.10
+        ax.boxplot(data, positions=pos, showmeans=True, vert=False)
+    ax.set_yticks(pos, cells, fontsize=7)
+    for y, d in zip(pos, data, strict=True):
+        if d.size == 0:
+            ax.text(
+                0.01,
+                y,
+                "no success",
+                transform=ax.get_yaxis_transform(),
+                va="center",
+                fontsize=7,
+                color="#b42318",
+            )
+    ax.set_xlabel("search time, s")
+    ax.grid(axis="x", alpha=0.3)
     return _figure(
         fig, "Search time of successful episodes per cell (box: quartiles; triangle: mean)."
     )
@@ -335,10 +354,22 @@ def _distance_figure(df: Any, level: float, bins: int = 5) -> str | None:
         return None
     fig = _new_fig(6.5, 3.8)
     ax = fig.subplots()
-    # One curve per method (scenario + searcher): start distance is what varies along it.
+    # One curve per configuration (scenario, searcher and every swept setting but the start):
+    # start distance is what varies along it
     keys = [c for c in ("scenario", "searcher") if c in ok.columns] or ["cell_id"]
-    for lab, g in ok.groupby(keys, sort=False):
-        lab = " / ".join(map(str, lab)) if isinstance(lab, tuple) else str(lab)
+    swept = [
+        c
+        for c in ok.columns
+        if c.startswith(("scenario.", "searcher."))
+        and not c.split(".", 1)[1].startswith(("start_", "agents."))
+        and ok[c].nunique(dropna=False) > 1
+    ]
+    for lab, g in ok.groupby(keys + swept, sort=False, dropna=False):
+        parts = lab if isinstance(lab, tuple) else (lab,)
+        lab = " / ".join(map(str, parts[: len(keys)]))
+        lab += "".join(
+            f" {c.split('.', 1)[1]}={v}" for c, v in zip(swept, parts[len(keys) :], strict=True)
+        )
         gd = g["start_distance"].to_numpy(float)
         gs = g["success"].fillna(False).astype(bool).to_numpy()
         idx = np.clip(np.searchsorted(edges, gd, side="right") - 1, 0, edges.size - 2)
@@ -360,7 +391,8 @@ def _distance_figure(df: Any, level: float, bins: int = 5) -> str | None:
     ax.set_ylabel("success %")
     ax.set_ylim(-3, 103)
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=7)
+    # beside the axes: a legend inside would hide curves (and with long labels, the axes)
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0)
     return _figure(
         fig,
         f"Success rate against start distance (quantile bins, Wilson {round(100 * level)} % CI).",
@@ -413,6 +445,13 @@ def _viewer_section(
             if len(chosen) >= 4:
                 break
         episodes = chosen
+        if not episodes:
+            return (
+                "<h2>Episode viewer</h2>"
+                '<p class="note">No episode of this run kept its trajectory: set '
+                "<code>keep_arrays: true</code> or <code>keep_episodes: [0, ...]</code> in the "
+                "sweep file to see episodes here.</p>"
+            )
     if not episodes:
         return ""
     parts = ["<h2>Episode viewer</h2>"]
