@@ -164,8 +164,9 @@ class Recorder:
         n_per_m = self.cfg.plume_grid
         nx = int(np.clip(np.ceil((hi[0] - lo[0]) * n_per_m), 20, 300))
         ny = int(np.clip(np.ceil((hi[1] - lo[1]) * n_per_m), 20, 300))
-        xs = np.linspace(lo[0], hi[0], nx)
-        ys = np.linspace(lo[1], hi[1], ny)
+        # cell centres: the frames are drawn as nx x ny cells over the arena's extent
+        xs = lo[0] + (np.arange(nx) + 0.5) * (hi[0] - lo[0]) / nx
+        ys = lo[1] + (np.arange(ny) + 0.5) * (hi[1] - lo[1]) / ny
         gx, gy = np.meshgrid(xs, ys, indexing="ij")
         pts = [gx.ravel(), gy.ravel()]
         if arena.dim == 3:
