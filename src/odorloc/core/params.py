@@ -7,9 +7,9 @@ not a silently ignored setting) and every value error names the field.
 from __future__ import annotations
 
 import math
-from typing import Annotated
+from typing import Annotated, Any
 
-from pydantic import AfterValidator, BaseModel, ConfigDict
+from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict
 
 
 class Params(BaseModel):
@@ -48,5 +48,14 @@ Positive = Annotated[float, AfterValidator(_positive)]
 """A finite float > 0."""
 NonNegative = Annotated[float, AfterValidator(_nonneg)]
 """A finite float >= 0."""
-Vector = Annotated[tuple[float, ...], AfterValidator(_finite_vec)]
+
+
+def no_bools(v: Any) -> Any:
+    """Refuse true/false among a point's components (YAML would make them 1 and 0)."""
+    if isinstance(v, list | tuple) and any(isinstance(x, bool) for x in v):
+        raise ValueError("components must be numbers, not true/false")
+    return v
+
+
+Vector = Annotated[tuple[float, ...], BeforeValidator(no_bools), AfterValidator(_finite_vec)]
 """A tuple of finite floats (a point or a vector; 2 or 3 components)."""

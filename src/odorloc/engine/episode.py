@@ -272,7 +272,8 @@ class Episode:
         self._bytes = 0
         self._done = False
         self._started = True
-        self._obs = self._observe(self._events)
+        # _observe files its events in self._events itself
+        self._obs = self._observe([])
         self._recent = [np.array([o.position for o in self._obs])]
         if self._task_done():
             if self._rec is not None:

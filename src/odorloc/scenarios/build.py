@@ -27,7 +27,8 @@ def build_arena(cfg: ArenaConfig) -> Arena:
     if obs.file:
         path = Path(obs.file)
         if not path.is_file():
-            raise ConfigError("world.arena.obstacles.file", f"{path} does not exist")
+            what = "is a folder, not a file" if path.is_dir() else "does not exist"
+            raise ConfigError("world.arena.obstacles.file", f"{path} {what}")
         loader = Arena.from_csv if path.suffix.lower() == ".csv" else Arena.from_image
         try:
             grid = loader(path, cfg.resolution, cfg.lower)

@@ -26,15 +26,15 @@ import json
 import math
 import re
 from pathlib import Path
-from typing import Any, Literal
+from typing import Annotated, Any, Literal
 
 import pydantic
 import yaml
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, model_validator
 
 from odorloc.core.errors import ConfigError, format_validation_error
 from odorloc.core.loading import load_yaml_mapping
-from odorloc.core.params import Finite, NonNegative, Positive
+from odorloc.core.params import Finite, NonNegative, Positive, no_bools
 from odorloc.core.registry import ComponentRef
 from odorloc.geometry.regions import check_region
 from odorloc.plume.sources import Source
@@ -124,7 +124,13 @@ class GroupConfig(_Strict):
     agents: list[int] = Field(min_length=1)
 
 
-Point = tuple[float, ...]
+Point = Annotated[tuple[float, ...], BeforeValidator(no_bools)]
+
+
+def _no_bool_seed(v: Any) -> Any:
+    if isinstance(v, bool):
+        raise ValueError(f"must be an integer, got {str(v).lower()}")
+    return v
 
 
 class AgentsConfig(_Strict):
@@ -267,7 +273,7 @@ class Scenario(_Strict):
     searcher: Component = Component(type="zigzag")
     task: TaskConfig = TaskConfig()
     limits: LimitsConfig = LimitsConfig()
-    seed: int = Field(0, ge=0, lt=2**63)
+    seed: Annotated[int, BeforeValidator(_no_bool_seed)] = Field(0, ge=0, lt=2**63)
     recording: RecordingConfig = RecordingConfig()
     knobs: dict[str, list[str]] = {}
 
