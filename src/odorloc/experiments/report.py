@@ -166,8 +166,9 @@ def _paired_section(df: Any, level: float, seed: int) -> str:
         rows.append(
             [
                 _e(wk),
-                _e(a.split("/", 1)[-1]),
-                _e(b.split("/", 1)[-1]),
+                # a world key may itself hold "/" (a scenario file's path)
+                _e(a.removeprefix(f"{wk}/")),
+                _e(b.removeprefix(f"{wk}/")),
                 str(s.n_pairs),
                 f"{_f(100 * s.mean_diff)} [{_f(100 * s.diff_lo)}, {_f(100 * s.diff_hi)}]",
                 f"<span{sig_s}>{_p(s.p_value)}</span>",
