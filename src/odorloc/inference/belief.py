@@ -113,8 +113,14 @@ class GridBelief:
         return float(1.0 / np.sum(self.prob**2))
 
     def snapshot(self) -> dict[str, np.ndarray]:
-        """Arrays for recording."""
-        return {"prob": self.prob.copy(), **{k: v.copy() for k, v in self.extra.items()}}
+        """Arrays for recording: ``prob``, the extra arrays, and the grid's extent (``lower``,
+        ``upper``, metres) so that a figure can place it."""
+        return {
+            "prob": self.prob.copy(),
+            **{k: v.copy() for k, v in self.extra.items()},
+            "lower": np.asarray(self.lower, float),
+            "upper": np.asarray(self.upper, float),
+        }
 
 
 def histogram_entropy(

@@ -36,24 +36,48 @@ def beliefs_at(rec: Recording, t: float) -> dict[int, dict[str, np.ndarray]]:
 
 
 def key_moments(rec: Recording) -> list[tuple[float, str]]:
-    """Four moments like the paper's Fig. 3, ``(time s, label)``: the start, the first cue,
-    every UAV cue-captured (or half-way to the end when that never happens), and the end."""
+    """Four moments like the paper's Fig. 3: the start, the first cue, every UAV cue-captured,
+    and the end.
+
+    A moment that never happens is replaced by a time between its neighbours, labelled by its
+    fraction of the episode and by how many UAVs had a cue by then: with no cue at all, 50 %
+    and 75 % of the episode, each "no cue".
+
+    Parameters
+    ----------
+    rec : Recording
+        A team episode.
+
+    Returns
+    -------
+    list of (float, str)
+        ``(time s, label)`` of each moment, in time order.
+    """
     t = rec.t
     end = float(t[-1]) if len(t) else 0.0
     det = rec.detection
     first = [float(t[np.argmax(det[:, a])]) for a in range(det.shape[1]) if det[:, a].any()]
-    t_first = min(first) if first else 0.5 * end
+
+    def fraction(moment: float) -> str:
+        pct = 100.0 * moment / end if end > 0 else 0.0
+        cued = sum(f <= moment for f in first)
+        if cued == 0:
+            return f"{pct:.0f} % of the episode, no cue"
+        if cued < det.shape[1]:
+            return f"{pct:.0f} % of the episode, {cued} of {det.shape[1]} UAVs cued"
+        return f"{pct:.0f} % of the episode"
+
+    if first:
+        t_first, first_label = min(first), "first cue"
+    else:
+        t_first = 0.5 * end
+        first_label = fraction(t_first)
     all_cued = bool(first) and len(first) == det.shape[1]
-    t_all = max(first) if all_cued else 0.5 * (t_first + end)
-    label = "every UAV has a cue"
+    t_all, all_label = max(first) if all_cued else 0.0, "every UAV has a cue"
     if not (all_cued and t_first < t_all < end):
-        t_all, label = 0.5 * (t_first + end), "half-way"
-    return [
-        (0.0, "start"),
-        (t_first, "first cue" if first else "half-way"),
-        (t_all, label),
-        (end, "end"),
-    ]
+        t_all = 0.5 * (t_first + end)
+        all_label = fraction(t_all)
+    return [(0.0, "start"), (t_first, first_label), (t_all, all_label), (end, "end")]
 
 
 def _draw(ax: Any, rec: Recording, t: float, legend: bool = False) -> None:
@@ -62,6 +86,7 @@ def _draw(ax: Any, rec: Recording, t: float, legend: bool = False) -> None:
     k = max(k, 1)
     snaps = beliefs_at(rec, t)
     n_agents = rec.positions.shape[1]
+    cue_label = "cue" if legend else None
     for a in range(n_agents):
         col = AGENT_COLORS[a % len(AGENT_COLORS)]
         p = rec.positions[:k, a]
@@ -88,8 +113,10 @@ def _draw(ax: Any, rec: Recording, t: float, legend: bool = False) -> None:
                 s=30,
                 linewidth=1.2,
                 depthshade=False,
-                label="cue" if legend and a == 0 else None,
+                label=cue_label,
             )
+            # One legend entry, from the first UAV with a cue (not only when UAV 1 has one).
+            cue_label = None
     s = rec.sources
     ax.scatter(s[:, 0], s[:, 1], s[:, 2], marker="*", color="k", s=160, label="source")
     ax.set_xlim(b[0, 0], b[1, 0])
@@ -161,11 +188,20 @@ def animate_team_3d(
     ax = fig.add_subplot(1, 1, 1, projection="3d")
     steps = np.unique(np.linspace(0, len(rec.t) - 1, min(max_frames, len(rec.t))).astype(int))
 
+    legend: list[Any] = []
+
     def draw(i: int) -> list[Any]:
         ax.cla()
         t = float(rec.t[steps[i]])
         _draw(ax, rec, t, legend=True)
-        ax.legend(fontsize=6, loc="upper left")
+        # Under the axes, where it cannot hide a UAV; redrawn as the cue entry may appear.
+        for leg in legend:
+            leg.remove()
+        handles, labels = ax.get_legend_handles_labels()
+        legend[:] = [
+            fig.legend(handles, labels, loc="lower center", ncol=len(labels), fontsize=7,
+                       frameon=False)
+        ]  # fmt: skip
         ax.set_title(f"t = {t:6.0f} s", fontsize=9)
         return []
 

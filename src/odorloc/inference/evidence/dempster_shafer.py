@@ -387,5 +387,11 @@ class DSGrid:
         )
 
     def snapshot(self) -> dict[str, np.ndarray]:
-        """Arrays for recording: the three masses."""
-        return {"m_s": self.m_s.copy(), "m_n": self.m_n.copy(), "m_u": self.m_u.copy()}
+        """Arrays for recording: the three masses and the grid's extent (``lower``, ``upper``)."""
+        return {
+            "m_s": self.m_s.copy(),
+            "m_n": self.m_n.copy(),
+            "m_u": self.m_u.copy(),
+            "lower": np.asarray(self.grid.lower, float),
+            "upper": np.asarray(self.grid.upper, float),
+        }
