@@ -491,6 +491,21 @@ def test_vergassola_3d_matches_eq1_by_hand() -> None:
     assert plume.encounter_rate((10, 25, 25))[0] > plume.encounter_rate((10, 35, 25))[0]
 
 
+def test_vergassola_one_point_rate_follows_a_moved_source() -> None:
+    # a source drawn anew for an episode (set_sources) with the same release rate: the sensors'
+    # one-point path must use the new position as the array path does
+    arena = Arena.box((0, 0, 0), (100, 60, 30), resolution=2.0)
+    wind = UniformWind(UniformWindParams(velocity=(0.0, -1.0, 0.0)), arena)
+    plume = VergassolaPlume(VergassolaParams(), arena, wind, [Source(position=(10.0, 30.0, 5.0))])
+    p = np.array([10.0, 25.0, 5.0])
+    before = plume.encounter_rate(p)[0]
+    plume.set_sources([Source(position=(30.0, 30.0, 5.0))])
+    plume.reset(np.random.default_rng(0))
+    many = plume.encounter_rate(np.tile(p, (9, 1)))  # the array path
+    assert plume.encounter_rate(p)[0] == pytest.approx(many[0], rel=1e-12)
+    assert plume.encounter_rate(p)[0] < 1e-3 * before
+
+
 def test_vergassola_one_point_rate_is_the_array_rate_to_the_bit() -> None:
     """A sensor asks for one point per step; that path (Python floats) must give exactly what
     vergassola_rate gives for the point, for any wind direction and several sources."""

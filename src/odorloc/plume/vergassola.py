@@ -77,7 +77,7 @@ class VergassolaPlume(PlumeModel):
         if params.wind_direction is not None and len(params.wind_direction) != self.dim:
             raise ConfigError("plume.wind_direction", f"needs {self.dim} components")
         self._src = self.source_positions
-        self._rate_key: tuple[float, bytes, bytes] | None = None
+        self._rate_key: tuple[float, bytes, bytes, bytes] | None = None
         self._sync()
         if self.dim == 2 and self.length <= params.sensor_radius:
             raise ConfigError(
@@ -111,9 +111,10 @@ class VergassolaPlume(PlumeModel):
             e[1] = -1.0
         self.direction = e / math.sqrt(float(e.dot(e)))
         self._q = self.source_rates()
-        key = (self.V, self.direction.tobytes(), self._q.tobytes())
+        key = (self.V, self.direction.tobytes(), self._q.tobytes(), self._src.tobytes())
         if key != self._rate_key:
-            # the constants of the rate, recomputed only when the wind or a release rate changed
+            # the constants of the rate, recomputed only when the wind, a release rate or a
+            # source position (a source drawn anew for an episode) changed
             self._rate_key = key
             self._e = unit_direction(self.direction, self.dim)
             self._lam = correlation_length(self.V, p.D, p.tau)
