@@ -122,3 +122,31 @@ def test_cli_names_an_unknown_sweep(tmp_path) -> None:
     lines = [ln for ln in r.stderr.strip().splitlines() if ln.strip()]
     assert len(lines) == 1 and "--only" in lines[0] and "gaden" in lines[0]
     assert "Traceback" not in r.stderr
+    # an --only that names nothing is refused too (it ran every sweep)
+    r = subprocess.run(
+        [sys.executable, "-m", "odorloc.cli", "reproduce", "muc-osl", "--only", ",",
+         "--out", str(tmp_path / "x")],
+        capture_output=True, text=True, timeout=120,
+    )  # fmt: skip
+    assert r.returncode == 2 and r.stderr.strip() == "error: --only: names no sweep"
+    assert not (tmp_path / "x").exists()
+
+
+def test_least_favourable_comparison_is_the_largest_shortfall() -> None:
+    from odorloc.papers.muc_osl import claims
+    from odorloc.papers.muc_osl.sweeps import DEFAULT
+
+    class Fake:
+        # MUC-OSL, Col-Inf, Col-PF, Adap-PP: MUC-OSL 400 s slower than Col-Inf, 300 s than
+        # Adap-PP, 100 s faster than Col-PF; and 10 points more successful than Col-PF only
+        def paired(self, setting, algorithms, column):
+            rng = np.random.default_rng(0)
+            base = np.array(
+                [900.0, 500.0, 1000.0, 600.0] if column == "search_time" else [0.5, 0.9, 0.4, 0.8]
+            )
+            return base + rng.normal(0.0, 1e-3, (40, 4))
+
+    ours, v = claims._best_everywhere(Fake(), [DEFAULT], "search_time", np.random.default_rng(1))
+    assert "least favourable: Col-Inf" in ours and "+400 s" in ours and v == "not held"
+    ours, _ = claims._best_everywhere(Fake(), [DEFAULT], "success", np.random.default_rng(1))
+    assert "least favourable: Col-Inf" in ours and "-40 pts" in ours

@@ -442,6 +442,9 @@ def reproduce(
         backend = _check_backend(backend, scheduler)
         target = out or Path("odorloc-reproduce") / paper
         check_output_dir(target, "--out")
+        parts = [w.strip() for o in only for w in o.split(",") if w.strip()] if only else None
+        if only and not parts:
+            raise ConfigError("--only", "names no sweep")
         r.run(
             target,
             episodes=episodes,
@@ -449,8 +452,20 @@ def reproduce(
             seed=seed,
             backend=backend,
             scheduler=scheduler,
-            only=[w.strip() for o in only for w in o.split(",") if w.strip()] if only else None,
+            only=parts,
         )
+    except ConfigError as exc:
+        # the stores and the cluster are the command's --out and --scheduler
+        if exc.field == "store":
+            exc = ConfigError(
+                "--out",
+                exc.problem.replace(
+                    "use another store path", "use another --out folder or the seed it holds"
+                ),
+            )
+        elif exc.field == "scheduler":
+            exc = ConfigError("--scheduler", exc.problem)
+        _fail(str(exc))
     except OdorlocError as exc:
         _fail(str(exc))
 
