@@ -427,6 +427,7 @@ def reproduce(
             text = (
                 f"{r.summary}. Default {r.default_episodes} episode(s) per cell; the paper's "
                 f"count: --episodes {r.paper_episodes}"
+                + (f" ({r.paper_episodes_note})" if r.paper_episodes_note else "")
             )
             for line in textwrap.wrap(text, width=max(console.width - 4, 40)):
                 console.print(f"    {line}", highlight=False)

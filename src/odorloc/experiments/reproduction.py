@@ -117,6 +117,8 @@ class Reproduction:
         Episodes per cell of the default run (fits the issue's time budget on 2 cores).
     paper_episodes : int
         The paper's own count (``--episodes`` reaches it).
+    paper_episodes_note : str
+        What ``--list`` adds about that count (e.g. that no paper fixes one).
     report_paired : bool
         Include the generic paired comparisons of every two cells of a world in the report
         (a reproduction with many cells per world and its own paired tables turns them off).
@@ -135,6 +137,7 @@ class Reproduction:
     summary: ClassVar[str] = ""
     default_episodes: ClassVar[int] = 10
     paper_episodes: ClassVar[int] = 10
+    paper_episodes_note: ClassVar[str] = ""
     report_paired: ClassVar[bool] = True
     success_column: ClassVar[str] = "success"
     success_label: ClassVar[str] = ""

@@ -214,8 +214,8 @@ class SingleAgentReproduction(Reproduction):
     paper = "infotaxis (Vergassola et al. 2007; Loisy & Eloy 2022)"
     summary = "infotaxis family vs reactive rules: filament, indoor and 3-D rate worlds"
     default_episodes = 12
-    # no paper fixes a count for this comparison; 100 narrows the success intervals to ~ +-10 %
     paper_episodes = 100
+    paper_episodes_note = "no paper fixes one; 100 narrows the success intervals to about 10 %"
 
     def sweep(self, episodes: int, seed: int) -> dict[str, Any]:
         return {

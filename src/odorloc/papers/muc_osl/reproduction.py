@@ -127,6 +127,7 @@ class MucOslReproduction(Reproduction):
     summary = "MUC-OSL vs Col-Inf, Col-PF and Adap-PP: four sweeps, rate and filament worlds"
     default_episodes = 8
     paper_episodes = 200
+    paper_episodes_note = "of the rate world: add --only rate, or the filament world runs 200 too"
     report_paired = False
     cell_summary = False  # hundreds of cells: the per-point tables say it better
 
