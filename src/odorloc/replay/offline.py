@@ -76,12 +76,8 @@ class OdorPathMap:
 
 
 def snapshot(belief: Any) -> dict[str, np.ndarray]:
-    """A belief's arrays, with the grid's extent (``lower``, ``upper``) for grid beliefs."""
-    snap = dict(belief.snapshot())
-    if isinstance(belief, GridBelief):
-        snap["lower"] = np.asarray(belief.lower, float)
-        snap["upper"] = np.asarray(belief.upper, float)
-    return snap
+    """A belief's arrays (a grid belief's carry the grid's extent, ``lower`` and ``upper``)."""
+    return dict(belief.snapshot())
 
 
 def _build(estimator: str | Searcher | OdorPathMap, params: Mapping[str, Any] | None) -> Any:
