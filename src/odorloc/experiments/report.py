@@ -310,14 +310,24 @@ def _param_figures(summ: Any, level: float) -> list[str]:
     return out
 
 
+#: Cells beyond which the box plot is left out (one row per cell would be unreadable; the
+#: summary table has every cell).
+MAX_BOX_CELLS = 60
+
+
+#: Configurations beyond which the success-against-distance figure is left out.
+MAX_CURVES = 12
+
+
 def _box_figure(df: Any) -> str | None:
     ran = df[df["status"] != "error"]
     ok = ran[ran["success"].fillna(False).astype(bool)]
-    if len(ok) == 0:
-        return None
     # every cell keeps its row, so that a cell without a success shows as one
     cells = list(dict.fromkeys(ran["cell_id"]))
-    data = [ok.loc[ok["cell_id"] == c, "search_time"].dropna().to_numpy(float) for c in cells]
+    if len(ok) == 0 or len(cells) > MAX_BOX_CELLS:
+        return None
+    times = {c: g.dropna().to_numpy(float) for c, g in ok.groupby("cell_id")["search_time"]}
+    data = [times.get(c, np.zeros(0)) for c in cells]
     fig = _new_fig(7.5, max(2.5, 0.35 * len(cells) + 1.2))
     ax = fig.subplots()
     # horizontal boxes: long cell labels read along the axis instead of crowding it
@@ -365,7 +375,10 @@ def _distance_figure(df: Any, level: float, bins: int = 5) -> str | None:
         and not c.split(".", 1)[1].startswith(("start_", "agents."))
         and ok[c].nunique(dropna=False) > 1
     ]
-    for lab, g in ok.groupby(keys + swept, sort=False, dropna=False):
+    groups = ok.groupby(keys + swept, sort=False, dropna=False)
+    if groups.ngroups > MAX_CURVES:
+        return None  # a legend of dozens of configurations reads as nothing
+    for lab, g in groups:
         parts = lab if isinstance(lab, tuple) else (lab,)
         lab = " / ".join(map(str, parts[: len(keys)]))
         lab += "".join(
