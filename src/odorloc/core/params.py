@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 from typing import Annotated, Any
 
-from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict
+from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict, Field
 
 
 class Params(BaseModel):
@@ -58,4 +58,14 @@ def no_bools(v: Any) -> Any:
 
 
 Vector = Annotated[tuple[float, ...], BeforeValidator(no_bools), AfterValidator(_finite_vec)]
+
+
+def _not_bool(v: Any) -> Any:
+    if isinstance(v, bool):
+        raise ValueError(f"must be an integer, got {str(v).lower()}")
+    return v
+
+
+Seed = Annotated[int, BeforeValidator(_not_bool), Field(ge=0, lt=2**63)]
+"""A root seed: an integer in ``[0, 2**63)`` (``true``/``false`` refused, not read as 1/0)."""
 """A tuple of finite floats (a point or a vector; 2 or 3 components)."""

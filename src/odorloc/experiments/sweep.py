@@ -77,7 +77,7 @@ from pydantic_core import PydanticCustomError
 
 from odorloc.core.errors import ConfigError, OdorlocError, format_validation_error
 from odorloc.core.loading import load_yaml_mapping
-from odorloc.core.params import Params
+from odorloc.core.params import Params, Seed
 from odorloc.core.seeds import episode_seeds
 
 #: Overrides that only place agents (allowed in a scenario's ``agent_grid``, with ``agents.*``).
@@ -216,7 +216,7 @@ class SweepSpec(Params):
     """
 
     name: str = "sweep"
-    seed: int = Field(ge=0, lt=2**63)
+    seed: Seed
     episodes: int = Field(ge=1, le=MAX_EPISODES)
     scenarios: list[ComponentSpec] = Field(min_length=1)
     searchers: list[ComponentSpec] = Field(min_length=1)
@@ -233,13 +233,6 @@ class SweepSpec(Params):
         for e in v:
             if not 0 <= e < MAX_EPISODES:
                 raise ValueError(f"episode index {e} is not in [0, {MAX_EPISODES})")
-        return v
-
-    @field_validator("seed", mode="before")
-    @classmethod
-    def _seed_not_bool(cls, v: Any) -> Any:
-        if isinstance(v, bool):
-            raise ValueError(f"must be an integer, got {v}")
         return v
 
     @model_validator(mode="after")

@@ -34,7 +34,7 @@ from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, model_valida
 
 from odorloc.core.errors import ConfigError, format_validation_error
 from odorloc.core.loading import load_yaml_mapping
-from odorloc.core.params import Finite, NonNegative, Positive, no_bools
+from odorloc.core.params import Finite, NonNegative, Positive, Seed, no_bools
 from odorloc.core.registry import ComponentRef
 from odorloc.geometry.regions import check_region
 from odorloc.plume.sources import Source
@@ -125,12 +125,6 @@ class GroupConfig(_Strict):
 
 
 Point = Annotated[tuple[float, ...], BeforeValidator(no_bools)]
-
-
-def _no_bool_seed(v: Any) -> Any:
-    if isinstance(v, bool):
-        raise ValueError(f"must be an integer, got {str(v).lower()}")
-    return v
 
 
 class AgentsConfig(_Strict):
@@ -273,7 +267,7 @@ class Scenario(_Strict):
     searcher: Component = Component(type="zigzag")
     task: TaskConfig = TaskConfig()
     limits: LimitsConfig = LimitsConfig()
-    seed: Annotated[int, BeforeValidator(_no_bool_seed)] = Field(0, ge=0, lt=2**63)
+    seed: Seed = 0
     recording: RecordingConfig = RecordingConfig()
     knobs: dict[str, list[str]] = {}
 
