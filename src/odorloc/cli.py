@@ -146,11 +146,24 @@ def run(
             "summary and scenario.yaml name it, to repeat the episode from the saved file."
         ),
     ] = None,
+    from_batch: Annotated[
+        Path | None,
+        typer.Option(
+            help="Re-run episode --episode of cell --cell of a batch or reproduction: its "
+            "output folder or .sqlite store. Compares the metrics with the stored row."
+        ),
+    ] = None,
+    cell: Annotated[
+        str | None,
+        typer.Option(help="Cell id of the episode to re-run with --from-batch (as stored)."),
+    ] = None,
 ) -> None:
     """Run one episode, print a summary and write the figures and the animation.
 
     Episode I of root seed R is exactly episode I of ``odorloc batch`` with ``--seed R`` and the
     same scenario (given the same way, name or file path: the text is the seeds' world key).
+    Any stored episode of a sweep or a reproduction, whatever its overrides, is re-run with
+    ``--from-batch OUT --cell ID --episode I``.
     """
     from odorloc.experiments.sweep import MAX_EPISODES
 
@@ -170,45 +183,80 @@ def run(
     from odorloc.scenarios.loading import check_scenario, load_scenario
     from odorloc.viz.episode import animate, ffmpeg_available, plot_traces, plot_trajectory
 
-    ref = scenario if scenario is not None else DEFAULT_SCENARIO
+    stored = None
     try:
-        if not ref.strip():
-            raise ConfigError("scenario", "is empty (give a built-in name or a file)")
-        if searcher is not None and not searcher.strip():
-            raise ConfigError("--searcher", "is empty")
-        if world_key is not None and not world_key.strip():
-            raise ConfigError("--world-key", "is empty")
-        key = world_key if world_key is not None else ref
-        sc = load_scenario(ref)
-        if searcher:
-            from odorloc.core import registry
+        if from_batch is not None:
+            from odorloc.experiments.rerun import rerun, stored_episode
+
+            for given, name in (
+                (scenario, "scenario"),
+                (seed, "--seed"),
+                (searcher, "--searcher"),
+                (world_key, "--world-key"),
+            ):
+                if given is not None:
+                    raise ConfigError(name, "cannot be combined with --from-batch")
+            if cell is not None and not cell.strip():
+                raise ConfigError("--cell", "is empty")
+            stored = stored_episode(from_batch, cell, episode)
             from odorloc.experiments.runner import cell_scenario
 
-            registry.entry("searcher", searcher, field="--searcher")
-            sc = cell_scenario({"scenario": ref, "searcher": searcher})
-        if seed is not None:
-            sc = sc.model_copy(update={"seed": seed})
-        check_scenario(sc)
-        world_seed, agent_seed = episode_seeds(sc.seed, key, episode)
-        console.print(
-            f"running [bold]{escape(sc.name)}[/] with searcher "
-            f"[bold]{escape(sc.searcher.type)}[/], root seed {sc.seed}, episode {episode}, "
-            f"world key {escape(repr(key))}"
-        )
+            sc = cell_scenario(stored.cell)
+            check_scenario(sc)
+            key = stored.cell_id
+            console.print(
+                f"re-running [bold]{escape(stored.cell_id)}[/], episode {episode}, of "
+                f"{escape(str(stored.store))} (world seed {stored.world_seed}, agent seed "
+                f"{stored.agent_seed}{', on its recorded flow' if stored.replay else ''})"
+            )
+        else:
+            if cell is not None:
+                raise ConfigError("--cell", "needs --from-batch")
+            ref = scenario if scenario is not None else DEFAULT_SCENARIO
+            if not ref.strip():
+                raise ConfigError("scenario", "is empty (give a built-in name or a file)")
+            if searcher is not None and not searcher.strip():
+                raise ConfigError("--searcher", "is empty")
+            if world_key is not None and not world_key.strip():
+                raise ConfigError("--world-key", "is empty")
+            key = world_key if world_key is not None else ref
+            sc = load_scenario(ref)
+            if searcher:
+                from odorloc.core import registry
+                from odorloc.experiments.runner import cell_scenario
+
+                registry.entry("searcher", searcher, field="--searcher")
+                sc = cell_scenario({"scenario": ref, "searcher": searcher})
+            if seed is not None:
+                sc = sc.model_copy(update={"seed": seed})
+            check_scenario(sc)
+            world_seed, agent_seed = episode_seeds(sc.seed, key, episode)
+            console.print(
+                f"running [bold]{escape(sc.name)}[/] with searcher "
+                f"[bold]{escape(sc.searcher.type)}[/], root seed {sc.seed}, episode {episode}, "
+                f"world key {escape(repr(key))}"
+            )
         # numba's one-off runtime start belongs to the process, not to the episode's time
         from odorloc.core.jit import start
 
         start()
-        res = run_episode(sc, world_seed, agent_seed, record=True)
+        if stored is not None:
+            sc, res = rerun(stored, record=True)
+        else:
+            res = run_episode(sc, world_seed, agent_seed, record=True)
     except OdorlocError as exc:
         _fail(str(exc))
         return
     rec = res.recording
     assert rec is not None
     rec.meta.update(searcher=sc.searcher.type, seed=sc.seed, episode=episode)
-    table = Table(title=f"{sc.name} — {sc.searcher.type} — seed {sc.seed}, episode {episode}")
+    title = stored.cell_id if stored is not None else f"{sc.name} — {sc.searcher.type}"
+    seed_text = "" if stored is not None else f"seed {sc.seed}, "
+    table = Table(title=escape(f"{title} — {seed_text}episode {episode}"))
     table.add_column("metric")
     table.add_column("value", justify="right")
+    if stored is not None:
+        table.add_column("stored", justify="right")
     for k in (
         "success",
         "termination",
@@ -223,8 +271,25 @@ def run(
         "wall_time",
         "wall_per_step_ms",
     ):
-        table.add_row(k, _fmt(res.metrics.get(k)))
+        cells = [k, _fmt(res.metrics.get(k))]
+        if stored is not None:
+            was = stored.row.get(k)
+            cells.append(_fmt(bool(was) if k == "success" and was is not None else was))
+        table.add_row(*cells)
     console.print(table)
+    if stored is not None:
+        from odorloc.experiments.rerun import differences
+
+        diff = differences(stored, res.metrics)
+        if stored.row.get("status") == "error":
+            console.print(f"the stored episode failed: {escape(str(stored.row.get('error')))}")
+        elif diff:
+            console.print(
+                f"[bold red]differs from the stored episode[/] in {', '.join(diff)}: the "
+                "package, a file the scenario reads or the installed kernels changed since"
+            )
+        else:
+            console.print("the same episode as stored (every compared metric equal)")
     try:
         out.mkdir(parents=True, exist_ok=True)
         written = [
@@ -237,11 +302,18 @@ def run(
 
             plot_team_3d(rec, out / "view_3d.png")
             written.append(out / "view_3d.png")
-        again = (
-            f"# odorloc run {shlex.quote(str(out / 'scenario.yaml'))} --seed {sc.seed} "
-            f"--episode {episode} --world-key {shlex.quote(key)}\n"
-            "# repeats this episode (the seeds derive from the world key)\n"
-        )
+        if stored is not None:
+            again = (
+                f"# odorloc run --from-batch {shlex.quote(str(stored.store))} "
+                f"--cell {shlex.quote(stored.cell_id)} --episode {episode}\n"
+                "# repeats this episode (the cell of a stored batch; below, its scenario)\n"
+            )
+        else:
+            again = (
+                f"# odorloc run {shlex.quote(str(out / 'scenario.yaml'))} --seed {sc.seed} "
+                f"--episode {episode} --world-key {shlex.quote(key)}\n"
+                "# repeats this episode (the seeds derive from the world key)\n"
+            )
         (out / "scenario.yaml").write_text(again + sc.to_yaml())
         written.append(out / "scenario.yaml")
         if animation:
@@ -292,10 +364,10 @@ def batch(
         typer.Option("--searcher", "-a", help="Searcher(s), without a sweep file."),
     ] = None,
     episodes: Annotated[
-        int | None, typer.Option(help="Episodes per cell, without a sweep file [default: 10].")
+        int | None, typer.Option(help="Episodes per cell, without a sweep file (default 10).")
     ] = None,
     seed: Annotated[
-        int | None, typer.Option(help="Root seed, without a sweep file [default: 0].")
+        int | None, typer.Option(help="Root seed, without a sweep file (default 0).")
     ] = None,
     out: Annotated[Path, typer.Option(help="Output folder (store, CSV, Parquet).")] = Path(
         "odorloc-batch"
