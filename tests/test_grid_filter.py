@@ -134,3 +134,16 @@ def test_bad_input() -> None:
         f.observe_table([t], 9, (0, 0))
     with pytest.raises(ConfigError, match="table"):
         f.observe_table([t, t], 0, (0, 0))
+
+
+def test_priors_without_usable_mass_are_refused() -> None:
+    """An infinite release weight used to turn the belief uniform over every cell, obstacles
+    included; a position prior of zero on every free cell was reported as excluded cells."""
+    free = np.array([[True, False], [True, True]])
+    with pytest.raises(ConfigError, match="release_prior"):
+        GridFilter(GRID, free=free, releases=(1.0, 2.0), release_prior=(1.0, np.inf))
+    with pytest.raises(ConfigError, match="log_prior"):
+        GridFilter(GRID, free=free, log_prior=np.where(free, -np.inf, 0.0))
+    f = GridFilter(GRID, free=free, releases=(1.0, 2.0), release_prior=(1.0, 3.0))
+    np.testing.assert_allclose(f.release_prob, [0.25, 0.75])
+    assert f.prob[0, 1] == 0.0 and f.restarts == 0

@@ -9,6 +9,7 @@ import pytest
 
 from odorloc.core.errors import ConfigError
 from odorloc.geometry.arena import Arena
+from odorloc.inference.belief import ParticleBelief, histogram_entropy
 from odorloc.inference.particles import (
     ArenaConstraint,
     ConvergenceParams,
@@ -219,3 +220,75 @@ def test_dual_convergence_is_a_stopping_rule() -> None:
     rule = DualConvergence(ConvergenceParams())
     assert _stable_filter(0.1).converged(rule)
     assert not _stable_filter(0.8).converged(rule)
+
+
+def test_new_particle_sets_refuse_nan_and_infinite_log_weights() -> None:
+    """A NaN log-weight used to be read as -inf and a +inf one as uniform weights, silently;
+    a NaN position given to ``replace`` used to make every estimate NaN."""
+    pos = np.array([[0.0, 0.0], [1.0, 0.0], [2.0, 0.0]])
+    for bad in ([np.nan, 0.0, 0.0], [np.inf, 0.0, 0.0]):
+        with pytest.raises(ConfigError, match="log_weights"):
+            ParticleFilter(pos, log_weights=bad)
+    pf = ParticleFilter(pos, log_weights=[0.0, -np.inf, 0.0])  # an excluded hypothesis is fine
+    np.testing.assert_allclose(pf.weights, [0.5, 0.0, 0.5])
+    with pytest.raises(ConfigError, match="log_weights"):
+        pf.replace(pos, [np.inf, 0.0, 0.0])
+    with pytest.raises(ConfigError, match="positions"):
+        pf.replace(np.array([[np.nan, 0.0], [1.0, 0.0], [2.0, 0.0]]))
+    with pytest.raises(ConfigError, match="positions"):
+        pf.replace(np.zeros((3, 3)))
+    np.testing.assert_allclose(pf.estimate(), [1.0, 0.0])  # the set was left as it was
+
+
+def test_backtracking_refuses_malformed_input() -> None:
+    arena = Arena.box((0, 0), (4, 4), 0.1)
+    wind = np.tile([0.5, 0.0], (10, 1))
+    rng = np.random.default_rng(0)
+    det = np.array([3.0, 2.0])
+    cases = [
+        ("detection_pos", dict(detection_pos=np.array([np.nan, 2.0]))),
+        ("detection_pos", dict(detection_pos=np.array([3.0, 2.0, 1.0]))),
+        ("wind_window", dict(wind_window=np.zeros((0, 2)))),
+        ("wind_window", dict(wind_window=np.tile([0.5, 0.0, 0.0], (10, 1)))),
+        ("wind_window", dict(wind_window=np.full((10, 2), np.nan))),
+        ("dt", dict(dt=float("nan"))),
+        ("dt", dict(dt=0.0)),
+        ("wind_var", dict(wind_var=np.array([np.nan, 0.1]))),
+    ]
+    for field, bad in cases:
+        kw = dict(detection_pos=det, wind_window=wind, dt=0.5) | bad
+        # with an arena a NaN draw used to be replaced by a uniform one without a word
+        with pytest.raises(ConfigError, match=field):
+            backtrack_initialise(
+                kw["detection_pos"],
+                kw["wind_window"],
+                kw["dt"],
+                50,
+                rng,
+                arena=arena,
+                wind_var=kw.get("wind_var"),
+            )
+
+
+def test_convergence_refuses_a_filter_that_keeps_too_few_estimates() -> None:
+    """A filter keeping 10 estimates could never fill the test's history of 20: it used to
+    report 'not converged' for ever instead of saying so."""
+    pf = ParticleFilter(np.zeros((5, 2)), history=10)
+    for _ in range(30):
+        pf.update(np.zeros(5))
+    assert pf.history_capacity == 10
+    with pytest.raises(ConfigError, match="history"):
+        pf.convergence(ConvergenceParams())
+    assert pf.convergence(ConvergenceParams(history=10)).converged
+
+
+def test_histogram_entropy_needs_weight_inside_the_extent() -> None:
+    """Particles all outside the binned extent used to give entropy 0, a certain belief."""
+    four = np.array([[0.5, 0.5], [1.5, 0.5], [0.5, 1.5], [1.5, 1.5]])
+    b = ParticleBelief(four, np.full(4, -math.log(4)))
+    assert histogram_entropy(b, (0, 0), (2, 2), 1.0) == pytest.approx(math.log(4))
+    far = ParticleBelief(four + 10.0, b.log_weights)
+    with pytest.raises(ConfigError, match="upper"):
+        histogram_entropy(far, (0, 0), (2, 2), 1.0)
+    with pytest.raises(ConfigError, match="cell"):
+        histogram_entropy(b, (0, 0), (2, 2), 0.0)

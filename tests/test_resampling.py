@@ -223,3 +223,13 @@ def test_roulette_keep_fills_to_the_target_count() -> None:
     pos, lw = _cloud()
     out, _ = RouletteResampler().resample(pos, lw, np.random.default_rng(1), n=120)
     assert out.shape == (120, 2)
+
+
+def test_regularised_settings_refuse_infinite_kernels() -> None:
+    """An infinite bandwidth used to be accepted and the kernel move then skipped (exact
+    copies, no regularisation) without a word."""
+    for field in ("bandwidth", "max_std"):
+        with pytest.raises(ConfigError, match=field):
+            registry.make_params("resampler", "regularised", {field: float("inf")})
+    p = registry.make_params("resampler", "regularised", {"bandwidth": 0.5, "max_std": 1.0})
+    assert p.bandwidth == 0.5 and p.max_std == 1.0

@@ -11,6 +11,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from odorloc.core.errors import ConfigError
 from odorloc.geometry.grid import CellGrid
 from odorloc.inference.weights import gaussian_fit, weight_entropy
 
@@ -136,12 +137,23 @@ def histogram_entropy(
     lower, upper : (d,) sequence of float, metres
         Extent binned (e.g. the arena's).
     cell : float, metres
+
+    Raises
+    ------
+    ConfigError
+        When ``cell`` is not a finite number > 0 or no particle weight lies inside the extent
+        (particles outside it are left out of the histogram).
     """
+    if not (math.isfinite(cell) and cell > 0):
+        raise ConfigError("cell", f"must be a finite number > 0, got {cell}")
     lo = np.asarray(lower, float)
     hi = np.asarray(upper, float)
     bins = [max(1, math.ceil(s / cell)) for s in hi - lo]
     rng_ = list(zip(lo, hi, strict=True))
     h, _ = np.histogramdd(belief.positions, bins=bins, range=rng_, weights=belief.weights)
     q = h.ravel()
+    if not q.sum() > 0:
+        # an empty histogram would otherwise report entropy 0, i.e. a certain belief
+        raise ConfigError("upper", "no particle weight lies inside the binned extent")
     q = q[q > 0] / q.sum()
     return float(-np.sum(q * np.log(q)))

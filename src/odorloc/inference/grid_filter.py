@@ -101,8 +101,16 @@ class GridFilter:
                 lr = np.zeros(r.size)
             else:
                 w = np.asarray(release_prior, float).reshape(-1)
-                if w.shape != r.shape or np.any(w < 0) or not w.sum() > 0:
-                    raise ConfigError("release_prior", f"needs {r.size} weights >= 0, not all 0")
+                # an infinite weight would make the joint +inf and the belief silently uniform
+                if (
+                    w.shape != r.shape
+                    or not np.all(np.isfinite(w))
+                    or np.any(w < 0)
+                    or not w.sum() > 0
+                ):
+                    raise ConfigError(
+                        "release_prior", f"needs {r.size} finite weights >= 0, not all 0"
+                    )
                 with np.errstate(divide="ignore"):
                     lr = np.log(w)
         if log_prior is None:
@@ -111,6 +119,8 @@ class GridFilter:
             lp = np.asarray(log_prior, float)
             if lp.shape != self.shape or np.any(np.isnan(lp)) or np.any(lp == np.inf):
                 raise ConfigError("log_prior", f"needs shape {self.shape}, no NaN or +inf")
+            if not np.isfinite(lp[ok]).any():
+                raise ConfigError("log_prior", "gives no free cell a probability above zero")
         self._log_release_prior = lr
         self._log_position_prior = np.where(ok, lp, -np.inf)
         self.admissible = ok.copy()

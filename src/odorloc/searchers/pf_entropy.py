@@ -8,7 +8,7 @@ Recipe (indoor PF paper, section 2):
    (the robot reached the upwind wall) the legs turn to the downwind side, and back again at the
    downwind wall, so the Z pattern sweeps the room.
 2. **Initialisation** at the first detection: ``n_particles`` particles by back-tracking the
-   recorded wind window (:func:`~odorloc.inference.particle_filter.backtrack_initialise`).
+   recorded wind window (:func:`~odorloc.inference.particles.init.backtrack_initialise`).
 3. **Every control period**: Pang & Farrell weight update from the binary reading and the last
    ``window`` wind records (eqs. 4, 10, 11), estimate history, convergence test (eqs. 15-16) ->
    declaration; otherwise resample when ``N_eff < 0.5 N`` (roulette by default, eq. 12).

@@ -21,6 +21,7 @@ from typing import Any, Literal, Protocol
 import numpy as np
 from pydantic import Field
 
+from odorloc.core.errors import ConfigError
 from odorloc.core.params import Params, Positive
 
 
@@ -30,6 +31,9 @@ class ParticleFilter(Protocol):
 
     @property
     def history(self) -> np.ndarray: ...
+
+    @property
+    def history_capacity(self) -> int: ...
 
     @property
     def constraint(self) -> Any: ...
@@ -109,8 +113,18 @@ class DualConvergence:
         self.params = params or ConvergenceParams()
 
     def status(self, pf: ParticleFilter) -> ConvergenceStatus:
-        """Each criterion of the test, evaluated on ``pf``."""
+        """Each criterion of the test, evaluated on ``pf``.
+
+        Raises :class:`~odorloc.core.errors.ConfigError` when ``pf`` keeps fewer estimates than
+        the test needs: its history could never fill and the test never hold.
+        """
         c = self.params
+        if pf.history_capacity < c.history:
+            raise ConfigError(
+                "history",
+                f"the filter keeps {pf.history_capacity} estimates but the convergence test "
+                f"needs {c.history}",
+            )
         sp = pf.spread(c.variance)
         hist = pf.history[-c.history :]
         full = len(hist) >= c.history

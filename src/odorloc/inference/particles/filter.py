@@ -37,6 +37,28 @@ from odorloc.inference.weights import gaussian_fit, normalise_log_weights
 __all__ = ["ParticleFilter", "StoppingRule"]
 
 
+def _particle_set(
+    positions: np.ndarray, log_weights: np.ndarray | None, dim: int | None = None
+) -> tuple[np.ndarray, np.ndarray]:
+    """Checked ``(N, d)`` positions and ``(N,)`` log-weights of a new particle set.
+
+    Log-weights may be ``-inf`` (an excluded hypothesis) but neither NaN nor ``+inf``:
+    normalisation would otherwise read them as ``-inf`` or as uniform weights, silently.
+    """
+    pos = np.array(positions, dtype=float)
+    if pos.ndim != 2 or len(pos) == 0 or (dim is not None and pos.shape[1] != dim):
+        want = "d" if dim is None else str(dim)
+        raise ConfigError("positions", f"expected shape (N>=1, {want}), got {pos.shape}")
+    if not np.all(np.isfinite(pos)):
+        raise ConfigError("positions", "must be finite")
+    lw = np.zeros(len(pos)) if log_weights is None else np.array(log_weights, dtype=float)
+    if lw.shape != (len(pos),):
+        raise ConfigError("log_weights", f"expected shape ({len(pos)},), got {lw.shape}")
+    if np.any(np.isnan(lw)) or np.any(lw == np.inf):
+        raise ConfigError("log_weights", "must not contain NaN or +inf")
+    return pos, lw
+
+
 class StoppingRule(Protocol):
     """A rule that says when a filter's estimate may be declared."""
 
@@ -49,8 +71,9 @@ class ParticleFilter:
     Parameters
     ----------
     positions : (N, d) array_like, metres
+        Finite.
     log_weights : (N,) array_like, optional
-        Default uniform.
+        Default uniform; ``-inf`` allowed, NaN and ``+inf`` are not.
     resampler : Resampler, optional
         ``None`` disables resampling.
     resample_threshold : float
@@ -72,19 +95,12 @@ class ParticleFilter:
         history: int = 20,
         constraint: Constraint | None = None,
     ) -> None:
-        pos = np.array(positions, dtype=float)
-        if pos.ndim != 2 or len(pos) == 0:
-            raise ConfigError("positions", f"expected shape (N>=1, d), got {pos.shape}")
-        if not np.all(np.isfinite(pos)):
-            raise ConfigError("positions", "must be finite")
         if not 0.0 <= resample_threshold <= 1.0:
             raise ConfigError("resample_threshold", "must be in [0, 1]")
         if history < 1:
             raise ConfigError("history", "must be >= 1")
+        pos, lw = _particle_set(positions, log_weights)
         self._positions = pos
-        lw = np.zeros(len(pos)) if log_weights is None else np.asarray(log_weights, float)
-        if lw.shape != (len(pos),):
-            raise ConfigError("log_weights", f"expected shape ({len(pos)},), got {lw.shape}")
         self._log_weights, self._weights = normalise_log_weights(lw)
         self.resampler = resampler
         self.resample_threshold = float(resample_threshold)
@@ -135,6 +151,11 @@ class ParticleFilter:
     def gaussian(self) -> tuple[np.ndarray, np.ndarray]:
         """Weighted mean ``(d,)`` and covariance ``(d, d)`` of the particles."""
         return gaussian_fit(self._positions, self._weights)
+
+    @property
+    def history_capacity(self) -> int:
+        """Number of estimates the history keeps (the ``history`` argument)."""
+        return int(self._history.maxlen or 0)
 
     @property
     def history(self) -> np.ndarray:
@@ -197,13 +218,16 @@ class ParticleFilter:
         return False
 
     def replace(self, positions: np.ndarray, log_weights: np.ndarray | None = None) -> None:
-        """Replace the particle set (e.g. after a position-update move); history is kept."""
-        pos = np.array(positions, dtype=float)
-        if pos.ndim != 2 or pos.shape[1] != self._positions.shape[1] or len(pos) == 0:
-            raise ConfigError("positions", f"expected shape (N>=1, {self._positions.shape[1]})")
-        lw = np.zeros(len(pos)) if log_weights is None else np.asarray(log_weights, float)
-        if lw.shape != (len(pos),):
-            raise ConfigError("log_weights", f"expected shape ({len(pos)},), got {lw.shape}")
+        """Replace the particle set (e.g. after a position-update move); history is kept.
+
+        Parameters
+        ----------
+        positions : (N, d) array_like, metres
+            Finite; ``d`` as before, ``N`` may change.
+        log_weights : (N,) array_like, optional
+            Default uniform; ``-inf`` allowed, NaN and ``+inf`` are not.
+        """
+        pos, lw = _particle_set(positions, log_weights, self._positions.shape[1])
         self._positions = pos
         self._log_weights, self._weights = normalise_log_weights(lw)
 

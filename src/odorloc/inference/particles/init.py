@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from odorloc.core.errors import ConfigError
@@ -60,10 +62,11 @@ def backtrack_initialise(
     Parameters
     ----------
     detection_pos : (d,) ndarray, metres
+        Finite, with the arena's number of components.
     wind_window : (W, d) ndarray, m/s
-        Recorded winds before the detection, oldest first.
+        Recorded winds before the detection, oldest first; ``W >= 1``, finite.
     dt : float, s
-        Record period.
+        Record period, finite and > 0.
     n : int
         Number of particles.
     rng : numpy.random.Generator
@@ -85,9 +88,28 @@ def backtrack_initialise(
         raise ConfigError("uniform_fraction", "must be in [0, 1]")
     if uniform_fraction > 0 and arena is None:
         raise ConfigError("uniform_fraction", "needs an arena")
-    model = model or PangFarrellModel()
     det = np.asarray(detection_pos, float)
-    shift, var = model.puff_geometry(np.asarray(wind_window, float), dt, wind_var)
+    if det.ndim != 1 or not np.all(np.isfinite(det)):
+        raise ConfigError("detection_pos", f"expected finite shape (d,), got {det.shape}")
+    if arena is not None and det.size != arena.dim:
+        raise ConfigError("detection_pos", f"expected {arena.dim} components, got {det.size}")
+    winds = np.asarray(wind_window, float)
+    # a malformed window would otherwise fail deep in NumPy or, with a NaN reading or period,
+    # give NaN particles that the arena clipping below silently turns into uniform draws
+    if winds.ndim != 2 or len(winds) == 0 or winds.shape[1] != det.size:
+        raise ConfigError("wind_window", f"expected shape (W>=1, {det.size}), got {winds.shape}")
+    if not np.all(np.isfinite(winds)):
+        raise ConfigError("wind_window", "every reading must be finite")
+    if not (math.isfinite(dt) and dt > 0):
+        raise ConfigError("dt", f"must be a finite number > 0, got {dt}")
+    if not (math.isfinite(min_std) and min_std >= 0):
+        raise ConfigError("min_std", f"must be a finite number >= 0, got {min_std}")
+    if wind_var is not None:
+        wv = np.asarray(wind_var, float)
+        if wv.shape != det.shape or not np.all(np.isfinite(wv)) or np.any(wv < 0):
+            raise ConfigError("wind_var", f"expected {det.size} finite variances >= 0")
+    model = model or PangFarrellModel()
+    shift, var = model.puff_geometry(winds, dt, wind_var)
     std = np.sqrt(var + min_std**2)  # (W, d)
 
     n_uni = round(uniform_fraction * n)

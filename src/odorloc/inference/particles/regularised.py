@@ -19,9 +19,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from pydantic import Field
 
-from odorloc.core.params import NonNegative, Params
+from odorloc.core.params import NonNegative, Params, Positive
 from odorloc.core.registry import register
 from odorloc.inference.particles.constraints import Constraint, place_admissible
 from odorloc.inference.particles.resampling import Resampler, systematic
@@ -48,9 +47,11 @@ class RegularisedParams(Params):
         Cap of the kernel's standard deviation per axis.
     """
 
-    bandwidth: float | None = Field(None, gt=0.0)
+    # Positive, not a bare float: an infinite bandwidth or cap would be accepted and the
+    # non-finite kernel then quietly skipped (exact copies)
+    bandwidth: Positive | None = None
     min_std: NonNegative = 0.1
-    max_std: float | None = Field(None, gt=0.0)
+    max_std: Positive | None = None
 
 
 @register("resampler", "regularised", RegularisedParams, "low-variance + kernel move (RPF)")

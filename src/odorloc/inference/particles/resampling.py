@@ -292,8 +292,9 @@ class RouletteResampler(Resampler):
 
     - light particles (``w_i < 1/N``) survive in place with probability
       ``max(N w_i, survival_floor)``;
-    - heavy particles (``w_j >= 1/N``) are removed and replaced by ``min(floor(N w_j), 5)``
-      children drawn from ``N(L_j, child_variance I)``;
+    - heavy particles (``w_j >= 1/N``) are removed and replaced by
+      ``min(floor(N w_j), max_children)`` children (paper: 5) drawn from
+      ``N(L_j, child_variance I)``;
     - the resulting count is restored (``count="keep"``) or bounded (``count="bounded"``), see
       :class:`RouletteParams`; all weights are then reset to uniform.
 
