@@ -101,6 +101,19 @@ def test_bad_input() -> None:
         initial_belief(np.zeros((3, 3)), (1, 1))
 
 
+def test_invalid_hits_release_and_position_name_the_field() -> None:
+    m = IsotropicHitModel(IsotropicHitParams(length=3.0))
+    hyp = np.array([[2.0, 0.0], [5.0, 1.0]])
+    for z in (math.inf, math.nan, "x", None):
+        with pytest.raises(ConfigError, match="hits"):
+            m.log_likelihood(z, np.zeros(2), hyp)
+    for release in (math.nan, -1.0, [1.0, -1.0]):
+        with pytest.raises(ConfigError, match="release"):
+            m.log_likelihood(1, np.zeros(2), hyp, release=release)
+    with pytest.raises(ConfigError, match="sensor_positions"):
+        m.log_likelihood(1, np.array([math.nan, 0.0]), hyp)
+
+
 def test_initial_belief_excludes_the_start_and_obstacles() -> None:
     like = np.arange(9.0).reshape(3, 3) + 1
     free = np.ones((3, 3), bool)

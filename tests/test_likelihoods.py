@@ -167,3 +167,75 @@ def test_models_give_outcome_classes_for_planning() -> None:
         for z, v in enumerate(values):
             ll = model.log_likelihood(v, sensors[0], hyp)
             np.testing.assert_allclose(np.exp(ll), q[0, z], rtol=1e-9, atol=1e-300)
+
+
+def test_gaussian_detection_likelihood_stays_finite_in_the_far_tails() -> None:
+    """A miss where the plume predicts many noise widths above the threshold is very unlikely
+    but not impossible: its log-likelihood is log Phi(-x), not log(1 - Phi(x)) = -inf."""
+    from scipy.special import log_ndtr
+
+    from odorloc.models.gaussian import GaussianPlumeModel, GaussianReadingParams
+
+    params = GaussianReadingParams(noise_std=0.02, threshold=1.0, release=5.0)
+    model = GaussianPlumeModel(params)
+    wind = np.array([1.0, 0.0])
+    sensor = np.array([1.0, 0.0])
+    # on the plume axis (far above the threshold), off the axis (20 widths above it) and far
+    # downwind of the sensor (zero reading)
+    hyp = np.array([[0.0, 0.0], [0.5, 0.0], [0.0, 0.6], [8.0, 0.0]])
+    x = (model.predict(sensor, hyp, wind)[0] - params.threshold) / params.noise_std
+    assert x[0] > 40 and x[1] > 40 and 15 < x[2] < 25 and x[3] < -40
+    miss = model.log_likelihood(False, sensor, hyp, wind=wind)
+    hit = model.log_likelihood(True, sensor, hyp, wind=wind)
+    assert np.all(np.isfinite(miss)) and np.all(np.isfinite(hit))
+    np.testing.assert_allclose(miss, log_ndtr(-x), rtol=1e-12)
+    np.testing.assert_allclose(hit, log_ndtr(x), rtol=1e-12)
+    # planning sees the same tail probabilities (not 1 - Phi(x) rounded to 0 or to 1e-16)
+    q = model.outcome_probabilities(sensor[None], hyp, wind=wind)[0]
+    np.testing.assert_allclose(q[0], np.exp(miss), rtol=1e-9)
+    np.testing.assert_allclose(q[1], np.exp(hit), rtol=1e-9)
+    assert q[0, 2] > 0  # Phi(-20) ~ 1e-89, where 1 - Phi(20) is exactly 0
+
+
+def test_gaussian_bad_reading_and_conditions_name_the_field() -> None:
+    from odorloc.models.gaussian import GaussianPlumeModel
+
+    model = GaussianPlumeModel()
+    hyp = np.zeros((2, 2))
+    wind = np.array([1.0, 0.0])
+    sensor = np.array([1.0, 0.0])
+    for z in (float("nan"), float("inf"), "abc", None):
+        with pytest.raises(ConfigError, match="reading"):
+            model.log_likelihood(z, sensor, hyp, wind=wind)
+    for bad in (np.array([np.nan, 0.0]), np.array([1.0, 0.0, 0.0])):
+        with pytest.raises(ConfigError, match="sensor_positions"):
+            model.log_likelihood(0.5, bad, hyp, wind=wind)
+    for release in (float("nan"), -2.0):
+        with pytest.raises(ConfigError, match="release"):
+            model.log_likelihood(0.5, sensor, hyp, wind=wind, release=release)
+
+
+def test_pang_farrell_rejects_non_finite_wind_and_bad_detections() -> None:
+    model = PangFarrellModel()
+    hyp = np.zeros((3, 2))
+    sensor = np.array([1.0, 0.0])
+    good = np.tile([1.0, 0.0], (4, 1))
+    gap = good.copy()
+    gap[2, 0] = np.nan  # one missing anemometer reading
+    with pytest.raises(ConfigError, match="wind_window"):
+        model.log_likelihood(False, sensor, hyp, wind_window=gap, dt=0.5)
+    with pytest.raises(ConfigError, match="wind_window"):
+        model.puff_geometry(gap, 0.5)
+    for var in ([np.nan, 0.1], [0.1, -0.1], [0.1, 0.1, 0.1]):
+        with pytest.raises(ConfigError, match="wind_var"):
+            model.log_likelihood(False, sensor, hyp, wind_window=good, dt=0.5, wind_var=var)
+    with pytest.raises(ConfigError, match="sensor_positions"):
+        model.log_likelihood(False, np.array([np.nan, 0.0]), hyp, wind_window=good, dt=0.5)
+    for z in (2, -1, float("nan"), "yes"):
+        with pytest.raises(ConfigError, match="detection"):
+            model.log_likelihood(z, sensor, hyp, wind_window=good, dt=0.5)
+    # 0/1 and numpy booleans remain valid detections
+    one = model.log_likelihood(1, sensor, hyp, wind_window=good, dt=0.5)
+    np.testing.assert_array_equal(
+        one, model.log_likelihood(np.bool_(True), sensor, hyp, wind_window=good, dt=0.5)
+    )

@@ -59,3 +59,15 @@ def test_likelihood_rows_equal_one_call_per_reading() -> None:
         np.testing.assert_allclose(
             base[q], g.log_likelihood(z, where2[q], hyp2, wind=np.array([1.0, 0.0]))
         )
+
+
+def test_censored_classes_refuse_invalid_means() -> None:
+    import pytest
+
+    from odorloc.core.errors import ConfigError
+
+    for bad in (-1.0, np.nan, np.inf, [0.5, -1e-3], [[1.0], [np.nan]]):
+        with pytest.raises(ConfigError, match="expected_counts"):
+            censored_poisson(bad, 3)
+    # an empty set of means is valid
+    assert censored_poisson(np.zeros((0,)), 3).shape == (0, 3)

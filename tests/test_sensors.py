@@ -382,3 +382,43 @@ def test_signal_intensity_by_hand() -> None:
     d = preprocess(c, winds, PreprocessorParams(gain=2.0, period=0.5, delay=0.5))
     np.testing.assert_array_equal(d.index, [0, 1, 2])
     np.testing.assert_allclose(d.concentration, [12.0, 11.0, 20.0])
+
+
+def test_preprocess_refuses_missing_readings_instead_of_poisoning_the_baseline() -> None:
+    c = np.array([50.0, 52.0, math.nan, 55.0, 60.0, 58.0])
+    winds = np.ones((6, 2, 2))
+    pre = SignalPreprocessor(PreprocessorParams(period=0.5))
+    with pytest.raises(ConfigError) as exc:
+        pre.process(c, winds)
+    assert exc.value.field == "concentration"
+    gappy = winds.copy()
+    gappy[1, 0, 0] = math.nan
+    with pytest.raises(ConfigError) as exc:
+        pre.process(np.ones(6), gappy)
+    assert exc.value.field == "wind_readings"
+    online = pre.online()
+    online.update(c[0], winds[0])
+    with pytest.raises(ConfigError) as exc:
+        online.update(c[2], winds[2])
+    assert exc.value.field == "concentration"
+    with pytest.raises(ConfigError) as exc:
+        online.update(c[1], gappy[1])
+    assert exc.value.field == "wind_readings"
+    # a refused period leaves the state as it was: the stream continues as if it never came
+    rest = [online.update(x, winds[0]) for x in c[[1, 3, 4]]]
+    batch = pre.process(c[[0, 1, 3, 4]], winds[:4])
+    np.testing.assert_allclose([r.intensity for r in rest], batch.intensity[1:], rtol=1e-12)
+
+
+def test_pid_hits_refuse_non_finite_readings_and_bad_scale() -> None:
+    from odorloc.sensors import hits_from_concentration
+
+    np.testing.assert_array_equal(hits_from_concentration([-5.0, 250.0], 100.0), [0, 2])
+    for bad in ([math.nan], [250.0, math.inf]):
+        with pytest.raises(ConfigError) as exc:
+            hits_from_concentration(bad, 100.0)
+        assert exc.value.field == "concentration"
+    for scale in (0.0, -100.0, math.nan):
+        with pytest.raises(ConfigError) as exc:
+            hits_from_concentration([250.0], scale)
+        assert exc.value.field == "ppm_per_hit"

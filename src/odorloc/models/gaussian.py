@@ -23,12 +23,12 @@ from typing import Any, Literal
 
 import numpy as np
 from pydantic import Field
-from scipy.special import ndtr
+from scipy.special import log_ndtr, ndtr
 
 from odorloc.core.errors import ConfigError
 from odorloc.core.params import Finite, NonNegative, Params, Positive
 from odorloc.core.registry import register
-from odorloc.models.base import MeasurementModel, binary_outcomes
+from odorloc.models.base import MeasurementModel
 
 __all__ = [
     "GaussianParams",
@@ -208,7 +208,15 @@ class GaussianPlumeModel(MeasurementModel):
         w = np.asarray(wind, float).reshape(-1)
         if w.shape != (h.shape[1],) or not np.all(np.isfinite(w)):
             raise ConfigError("wind", f"needs {h.shape[1]} finite components")
-        q = np.full(len(h), p.release if release is None else float(release))
+        # a NaN position would fall outside every plume (x > 0 is False) and read as clean air
+        if s.ndim != 2 or s.shape[1] != h.shape[1] or not np.all(np.isfinite(s)):
+            raise ConfigError(
+                "sensor_positions", f"need {h.shape[1]} finite components, got {s.shape}"
+            )
+        rate = p.release if release is None else float(release)
+        if not (math.isfinite(rate) and rate >= 0):
+            raise ConfigError("release", f"must be a finite number >= 0, got {rate}")
+        q = np.full(len(h), rate)
         winds = np.broadcast_to(w, h.shape)
         return p.gain * gaussian_concentration(s, h, q, winds, p, p.ground)
 
@@ -220,10 +228,17 @@ class GaussianPlumeModel(MeasurementModel):
             sensor_position, hypotheses, conditions["wind"], conditions.get("release")
         )[0]
         if isinstance(z, bool | np.bool_):
-            p1 = ndtr((c - p.threshold) / p.noise_std)
-            with np.errstate(divide="ignore"):
-                return np.log(p1 if z else 1.0 - p1)
-        r = (float(z) - c) / p.noise_std
+            x = (c - p.threshold) / p.noise_std
+            # log Phi(-x) rather than log(1 - Phi(x)): the latter rounds to log(0) = -inf a few
+            # noise widths past the threshold, which would rule hypotheses out for good
+            return log_ndtr(x if z else -x)
+        try:
+            reading = float(z)
+        except (TypeError, ValueError):
+            raise ConfigError("reading", f"must be a bool or a finite number, got {z!r}") from None
+        if not math.isfinite(reading):
+            raise ConfigError("reading", f"must be finite, got {reading}")
+        r = (reading - c) / p.noise_std
         return -0.5 * r * r - math.log(p.noise_std * math.sqrt(2.0 * math.pi))
 
     def outcome_probabilities(
@@ -233,4 +248,6 @@ class GaussianPlumeModel(MeasurementModel):
         c = self.predict(
             sensor_positions, hypotheses, conditions["wind"], conditions.get("release")
         )
-        return binary_outcomes(ndtr((c - p.threshold) / p.noise_std))
+        x = (c - p.threshold) / p.noise_std
+        # Phi(-x) for p(z=0), not 1 - Phi(x): exact in the far tail, as in log_likelihood
+        return np.stack([ndtr(-x), ndtr(x)], axis=1)

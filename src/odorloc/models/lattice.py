@@ -252,8 +252,12 @@ class IsotropicHitModel(MeasurementModel):
         h = np.atleast_2d(np.asarray(hypotheses, float))
         if s.shape[1] != h.shape[1] or s.shape[1] not in (2, 3):
             raise ConfigError("hypotheses", f"sensor {s.shape} and hypotheses {h.shape} need d")
+        if not np.all(np.isfinite(s)):
+            raise ConfigError("sensor_positions", "must be finite")
         p = self.params
         q = p.intensity if release is None else np.broadcast_to(release, (len(h),))
+        if release is not None and not (np.all(np.isfinite(q)) and np.all(q >= 0)):
+            raise ConfigError("release", "must be finite and >= 0")
         d = np.sqrt(((s[:, None, :] - h[None, :, :]) ** 2).sum(axis=2))
         return isotropic_mean_hits(d, p.length, np.asarray(q, float), p.cell, s.shape[1])
 
@@ -261,8 +265,12 @@ class IsotropicHitModel(MeasurementModel):
         self, z: Any, sensor_position: np.ndarray, hypotheses: np.ndarray, **conditions: Any
     ) -> np.ndarray:
         """``log P(class of z | hypothesis)`` for one count ``z`` at one position, ``(N,)``."""
-        k = float(z)
-        if not (k >= 0 and k == math.floor(k)):
+        try:
+            k = float(z)
+        except (TypeError, ValueError):
+            k = math.nan
+        # math.isfinite first: math.floor raises on an infinite count
+        if not (math.isfinite(k) and k >= 0 and k == math.floor(k)):
             raise ConfigError("hits", f"must be a non-negative integer, got {z!r}")
         h = np.atleast_2d(np.asarray(hypotheses, float))
         zc = self.n_classes(h.shape[1])

@@ -104,13 +104,30 @@ def wind_variance(winds: np.ndarray, floor: float = 0.0) -> np.ndarray:
     return np.maximum(w.var(axis=0), floor)
 
 
-def _check_window(wind_window: np.ndarray, dim: int, dt: float) -> np.ndarray:
+def _check_window(wind_window: np.ndarray, dim: int | None, dt: float) -> np.ndarray:
+    """The wind window as a ``(W, d)`` float array; :class:`ConfigError` if malformed.
+
+    ``dim=None`` accepts any number of components.
+    """
     w = np.asarray(wind_window, float)
-    if w.ndim != 2 or w.shape[1] != dim or len(w) == 0:
-        raise ConfigError("wind_window", f"expected shape (W>=1, {dim}), got {w.shape}")
+    if w.ndim != 2 or len(w) == 0 or (dim is not None and w.shape[1] != dim):
+        want = "d" if dim is None else str(dim)
+        raise ConfigError("wind_window", f"expected shape (W>=1, {want}), got {w.shape}")
+    # one missing anemometer reading would otherwise turn every likelihood into NaN
+    if not np.all(np.isfinite(w)):
+        raise ConfigError("wind_window", "every reading must be finite")
     if not (math.isfinite(dt) and dt > 0):
         raise ConfigError("dt", f"must be a finite number > 0, got {dt}")
     return w
+
+
+def _check_wind_var(wind_var: np.ndarray, dim: int) -> np.ndarray:
+    v = np.asarray(wind_var, float)
+    if v.shape != (dim,) or not np.all(np.isfinite(v)) or np.any(v < 0):
+        raise ConfigError(
+            "wind_var", f"expected {dim} finite variances >= 0, got {np.asarray(wind_var)!r}"
+        )
+    return v
 
 
 @register("model", "pang-farrell", PangFarrellParams, "Pang & Farrell binary detections")
@@ -153,11 +170,11 @@ class PangFarrellModel(MeasurementModel):
             Spread ``initial_variance + sigma_a^2 T_s (k - l) dt`` (eq. 11).
         """
         p = self.params
-        w = np.asarray(wind_window, float)
+        w = _check_window(wind_window, None, dt)
         if wind_var is None:
             sig2 = wind_variance(w, p.min_wind_variance)
         else:
-            sig2 = np.maximum(np.asarray(wind_var, float), p.min_wind_variance)
+            sig2 = np.maximum(_check_wind_var(wind_var, w.shape[1]), p.min_wind_variance)
         # Reverse cumulative sum: the patch of record l drifts with winds l..k-1 (eq. 8).
         shift = np.cumsum(w[::-1] * dt, axis=0)[::-1]
         elapsed = dt * np.arange(len(w), 0, -1, dtype=float)
@@ -196,8 +213,10 @@ class PangFarrellModel(MeasurementModel):
         sp = np.asarray(sensor_positions, float)
         single = sp.ndim == 1
         sp = np.atleast_2d(sp)
-        if sp.shape[1] != dim:
-            raise ConfigError("sensor_positions", f"expected {dim} components, got {sp.shape}")
+        if sp.ndim != 2 or sp.shape[1] != dim or not np.all(np.isfinite(sp)):
+            raise ConfigError(
+                "sensor_positions", f"expected {dim} finite components, got {sp.shape}"
+            )
         w = _check_window(wind_window, dim, dt)
         shift, var = self.puff_geometry(w, dt, wind_var)
         p = self.params
@@ -250,6 +269,9 @@ class PangFarrellModel(MeasurementModel):
         rp = np.asarray(sensor_position, float)
         if rp.ndim != 1:
             raise ConfigError("sensor_position", f"expected shape (d,), got {rp.shape}")
+        # bool(z) would read a count of 2, a -1 or a NaN as a detection
+        if not isinstance(z, bool | np.bool_) and z not in (0, 1):
+            raise ConfigError("detection", f"must be a bool or 0/1, got {z!r}")
         p1 = self.detection_probability(rp, wind_window, dt, hypotheses, wind_var)
         with np.errstate(divide="ignore"):  # p_floor = 0 may give log(0) = -inf on purpose
             return np.log(p1 if bool(z) else 1.0 - p1)
@@ -280,7 +302,7 @@ def reference_detection_probability(
 ) -> np.ndarray:
     """Plain per-particle, per-record loop of eqs. 8, 10, 11 (for tests and benchmarks).
 
-    Same arguments and result as :meth:`PangFarrellLikelihood.detection_probability` for a single
+    Same arguments and result as :meth:`PangFarrellModel.detection_probability` for a single
     ``(d,)`` robot position; written without NumPy vectorisation on purpose.
     """
     p = params or PangFarrellParams()

@@ -7,6 +7,8 @@ Encounters of odor particles in ``dt`` seconds at a mean rate ``R`` are Poisson 
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numpy.typing import ArrayLike
 from scipy.special import gammainc, gammaln, xlogy
@@ -62,7 +64,12 @@ def censored_poisson(mean: ArrayLike, n_classes: int) -> np.ndarray:
     if n_classes < 2:
         raise ConfigError("n_classes", "must be >= 2")
     lam = np.asarray(mean, float)
-    if lam.size and float(lam.max()) > 600.0:
+    if lam.size:
+        hi, lo = float(lam.max()), float(lam.min())
+        # a negative mean gives "probabilities" outside [0, 1], a NaN one a row of NaN
+        if not (math.isfinite(hi) and lo >= 0):
+            raise ConfigError("expected_counts", "must be finite and >= 0")
+    if lam.size and hi > 600.0:
         # exp(-lambda) would underflow: evaluate every class in log space
         k = np.arange(n_classes - 1, dtype=float)
         ll = lam[..., None]

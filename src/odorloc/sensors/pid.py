@@ -22,12 +22,14 @@ true concentration (ppm) at the sensor and ``detection`` is ``hits >= threshold`
 
 from __future__ import annotations
 
+import math
 from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike
 from pydantic import Field
 
+from odorloc.core.errors import ConfigError
 from odorloc.core.params import NonNegative, Params, Positive
 from odorloc.core.registry import register
 from odorloc.core.types import SensorInfo
@@ -55,7 +57,13 @@ def hits_from_concentration(
     -------
     ndarray of int64, same shape
     """
-    c = np.maximum(np.asarray(concentration, float), 0.0)
+    c = np.asarray(concentration, float)
+    # a NaN or an infinite reading would cast to a huge negative count
+    if not np.all(np.isfinite(c)):
+        raise ConfigError("concentration", "every reading must be finite")
+    if not (math.isfinite(ppm_per_hit) and ppm_per_hit > 0):
+        raise ConfigError("ppm_per_hit", f"must be a finite number > 0, got {ppm_per_hit}")
+    c = np.maximum(c, 0.0)
     # the small relative tolerance keeps exact multiples (200 ppm / 100 ppm) from flooring short
     hits = np.floor(c / float(ppm_per_hit) * (1.0 + 1e-12)).astype(np.int64)
     if max_hits is not None:

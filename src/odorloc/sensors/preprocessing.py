@@ -125,7 +125,15 @@ def average_wind(readings: ArrayLike) -> np.ndarray:
     r = np.asarray(readings, float)
     if r.ndim != 3 or r.shape[1] < 1:
         raise ConfigError("wind_readings", f"expected shape (N, M_f, d), got {r.shape}")
+    if not np.all(np.isfinite(r)):
+        raise ConfigError("wind_readings", "every reading must be finite")
     return r.mean(axis=1)
+
+
+def _check_concentration(c: np.ndarray) -> None:
+    # the baseline of eq. 3 is recursive: one NaN would poison every later record
+    if not np.all(np.isfinite(c)):
+        raise ConfigError("concentration", "every reading must be finite")
 
 
 def delay_steps(delay: float, period: float) -> int:
@@ -195,6 +203,7 @@ def preprocess(
         ``J = max(N - k, 0)`` aligned records.
     """
     c = np.asarray(concentration, float).reshape(-1)
+    _check_concentration(c)
     w = average_wind(wind_readings)
     if len(w) != len(c):
         raise ConfigError("wind_readings", f"{len(w)} periods but {len(c)} concentrations")
@@ -243,13 +252,14 @@ class OnlinePreprocessor:
         r = np.asarray(wind_readings, float)
         if r.ndim == 1:
             r = r[None, :]
+        c = float(concentration)
+        _check_concentration(np.asarray(c))
         self._winds.append(average_wind(r[None])[0])
         i = self._i
         self._i += 1
         if i < self.k:
             return None
         p = self.params
-        c = float(concentration)
         prev = c if self._cbar is None else self._cbar
         rel = max(c - prev, 0.0)
         s = p.gain * rel / max(prev, p.min_baseline)
