@@ -4,6 +4,7 @@ episode in which two groups find the two sources."""
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -165,6 +166,26 @@ def test_bad_parameters_are_refused(params, word) -> None:
     with pytest.raises(ConfigError) as ei:
         registry.make_params("searcher", "virtual-physics", params)
     assert word in str(ei.value)
+
+
+def test_a_platform_too_slow_to_follow_the_virtual_robot_is_refused() -> None:
+    # 0.24 m/s x 0.2 s = 0.048 m per period, less than s1 = 0.06 m: the robots would fall
+    # behind their virtual robot at every step
+    s = VirtualPhysicsSearcher(VirtualPhysicsParams())
+    ctx = SearchContext(
+        arena=Arena.box((0.0, 0.0), (20.0, 20.0), 0.2),
+        dt=0.2,
+        agent_ids=tuple(range(6)),
+        start=RING,
+        speed_limits=np.full(6, 0.24),
+    )
+    with pytest.raises(ConfigError) as ei:
+        s.reset(ctx, np.random.default_rng(0))
+    assert ei.value.field == "limits.control_dt"
+    assert "0.048" in ei.value.problem and "s1" in ei.value.problem
+    # a reach just above s1 is accepted, s2 capped at it
+    s.reset(replace(ctx, dt=0.26), np.random.default_rng(0))
+    assert s.s2 == pytest.approx(0.24 * 0.26)
 
 
 def test_two_groups_find_the_two_sources_in_a_seeded_episode() -> None:

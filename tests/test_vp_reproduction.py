@@ -12,6 +12,9 @@ from odorloc.papers.virtual_physics.calibration import calibrated_rate, steady_r
 from odorloc.papers.virtual_physics.reproduction import VARIANTS, vp_group
 from odorloc.scenarios import get_scenario
 
+#: Chemotaxis at treble frequency, mean time per start as the paper quotes it (Sec. 3.1), s.
+TREBLE = {"P1": 1040.0, "P2": 870.0, "P3": 1160.0, "P4": 920.0, "P5": 970.0, "P6": 1090.0}
+
 
 def test_the_sweep_crosses_rules_frequencies_and_starts_on_shared_flows() -> None:
     r = get("virtual-physics")
@@ -23,6 +26,28 @@ def test_the_sweep_crosses_rules_frequencies_and_starts_on_shared_flows() -> Non
         "vp[frequency=2]",
         "vp[frequency=3]",
     }
+
+
+def test_the_paper_reference_holds_each_cell_to_its_own_start_and_frequency() -> None:
+    r = get("virtual-physics")
+    cells = {c.cell_id: c for c in expand_cells(load_sweep(r.sweep(1, 0)))}
+    refs = r.reference()
+    assert set(refs) <= set(cells)
+    assert {cells[k].spec["searcher_label"] for k in refs} == {"chemotaxis", "anemotaxis"}
+    assert len(refs) == 2 * 3 * 6  # two rules with quoted numbers, every frequency and start
+    for key, entry in refs.items():
+        label = cells[key].spec["searcher_label"]
+        start = cells[key].swept["scenario.start_set"]
+        freq = cells[key].swept["scenario.frequency"]
+        if label == "anemotaxis":
+            assert entry["success_rate"] == (0.0 if start == "P4" else 1.0)  # Sec. 3.2
+            assert "mean_time" not in entry  # its frequency is not stated
+        else:
+            assert entry["success_rate"] == 1.0
+            if freq == 3:  # Sec. 3.1, treble frequency, per start
+                assert entry["mean_time"] == TREBLE[start]
+            else:
+                assert "mean_time" not in entry  # only a mean pooled over the starts is quoted
 
 
 def test_a_short_run_gives_rows_tables_and_figures(tmp_path) -> None:

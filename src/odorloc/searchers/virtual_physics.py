@@ -70,6 +70,7 @@ from odorloc.behaviours.formation import (
 )
 from odorloc.behaviours.groups import Bypass, repulsion
 from odorloc.behaviours.taxis import anemotaxis, chemotaxis, fluxotaxis, mass_flux
+from odorloc.core.errors import ConfigError
 from odorloc.core.params import Finite, NonNegative, Params, Positive
 from odorloc.core.registry import register
 from odorloc.core.types import Action, Command, Declaration, Observation, SearchContext
@@ -97,6 +98,8 @@ class VirtualPhysicsParams(Params):
         Gains of the charge and ring terms of the structure force (eq. 1).
     s1, s2 : float, metres
         Step of the virtual robot (eq. 7) and longest step of a robot (eq. 8); ``s1 < s2``.
+        A robot's step is also capped at what its platform covers in one control period
+        (speed limit x control period), which must exceed ``s1`` as well.
     k_c : float
         Plume-contact level (reading units): lower readings count as no odor in chemotaxis.
     rho_T : float
@@ -190,7 +193,18 @@ class VirtualPhysicsSearcher(Searcher):
         self.sender = ctx.agent_ids[0]
         self.own = set(ctx.agent_ids)
         # A robot cannot step farther than its platform goes in one period.
-        self.s2 = min(p.s2, float(ctx.speed_limits.min()) * ctx.dt)
+        reach = float(ctx.speed_limits.min()) * ctx.dt
+        if not reach > p.s1:
+            # s2 clipped to s1 or below leaves the robots behind their virtual robot at every
+            # step: the formation falls apart while the search carries on (Sec. 2.2.2.1 asks
+            # for s1 < s2 so that the robots can follow).
+            raise ConfigError(
+                "limits.control_dt",
+                f"the robots reach {reach:g} m per control period (platform speed x "
+                f"control_dt), not more than the virtual robot's step s1 = {p.s1:g} m: the "
+                "formation cannot follow it",
+            )
+        self.s2 = min(p.s2, reach)
         self.flux = FluxDeclaration(p.phi_T, p.n_s)
         self.bypass = Bypass(p.r_T, rotary=p.rotary)
         self.heard: dict[int, tuple[np.ndarray, bool]] = {}
