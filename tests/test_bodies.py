@@ -12,7 +12,7 @@ from odorloc.core.errors import ConfigError
 from odorloc.core.types import Action, Command
 from odorloc.engine.episode import Episode
 from odorloc.geometry.arena import Arena
-from odorloc.platforms import HolonomicParams, HolonomicRobot
+from odorloc.platforms import UAV, HolonomicParams, HolonomicRobot, UAVParams
 from odorloc.platforms.base import body_contact_fraction
 from odorloc.scenarios import Scenario
 
@@ -51,6 +51,45 @@ def test_platform_stops_at_another_body_and_becomes_ready() -> None:
     np.testing.assert_allclose(pl.position, [1.8, 1.0])
     pl.apply(Command.waypoint([1.8, 2.5]), 1.0, arena, bodies=other)  # sliding away is free
     np.testing.assert_allclose(pl.position, [1.8, 2.0])
+
+
+def test_resent_waypoint_is_retried_once_the_blocking_body_has_gone() -> None:
+    arena = Arena.box((0.0, 0.0), (5.0, 5.0), 0.1)
+    pl = HolonomicRobot(HolonomicParams(max_speed=1.0, radius=0.1))
+    pl.reset([1.0, 1.0])
+    other = (np.array([[2.0, 1.0]]), np.array([0.1]))
+    pl.apply(Command.waypoint([3.0, 1.0]), 1.0, arena, bodies=other)
+    assert pl.ready and pl.blocked
+    # the other body has moved on; the searcher re-issues its target every period
+    pl.apply(Command.waypoint([3.0, 1.0]), 1.0, arena)
+    np.testing.assert_allclose(pl.position, [2.8, 1.0])
+    assert not pl.ready and not pl.blocked
+    pl.apply(Command.waypoint([3.0, 1.0]), 1.0, arena)
+    np.testing.assert_allclose(pl.position, [3.0, 1.0])
+    assert pl.ready and pl.collided == 1
+
+
+def test_uav_blocked_by_a_body_finishes_its_hover_then_retries() -> None:
+    sky = Arena.box((0.0, 0.0, 0.0), (20.0, 20.0, 10.0), 1.0)
+    u = UAV(UAVParams(radius=0.5))
+    u.reset([5.0, 5.0, 5.0])
+    other = (np.array([[6.5, 5.0, 5.0]]), np.array([0.5]))
+    target = Command.waypoint([10.0, 5.0, 5.0])
+    u.apply(target, 1.0, sky, bodies=other)  # 0.5 m flown, blocked, 0.5 s of hover
+    np.testing.assert_allclose(u.position, [5.5, 5.0, 5.0])
+    assert not u.ready
+    u.apply(target, 1.0, sky)  # re-sent during the hover: the hover goes on
+    np.testing.assert_allclose(u.position, [5.5, 5.0, 5.0])
+    assert u.ready and u.stats["n_hovers"] == 1 and u.stats["hover_time"] == pytest.approx(1.0)
+    steps = 0
+    while True:  # re-sent once ready: a new attempt, straight on (no turn)
+        u.apply(target, 1.0, sky)
+        steps += 1
+        if u.ready:
+            break
+    assert steps == 6  # 4.5 m and a 1 s hover
+    np.testing.assert_allclose(u.position, [10.0, 5.0, 5.0])
+    assert u.stats["n_turns"] == 0 and u.stats["n_hovers"] == 2
 
 
 def _two_robots(radius: float) -> Scenario:

@@ -420,6 +420,21 @@ def test_uav_table2_movement_energy():
     assert movement_energy(p, 907.0, 216, 190) / 1e3 == pytest.approx(1351.71, abs=0.01)
 
 
+@pytest.mark.parametrize(
+    ("args", "field"),
+    [
+        ((-10.0, 1, 0), "distance"),
+        ((10.0, -1, 0), "n_hovers"),
+        ((10.0, 1, math.nan), "n_turns"),
+        ((math.inf, 1, 0), "distance"),
+    ],
+)
+def test_movement_energy_refuses_negative_or_non_finite_amounts(args, field):
+    with pytest.raises(ConfigError) as ei:
+        movement_energy(UAVParams(), *args)
+    assert ei.value.field == field
+
+
 def test_uav_compute_and_comm_energy():
     u = UAV()
     u.reset((1.0, 1.0, 1.0))
@@ -571,6 +586,62 @@ def test_comm_bad_input():
     g.update(np.zeros((2, 2)))
     with pytest.raises(ConfigError, match="team size"):
         g.update(np.zeros((3, 2)))
+
+
+def test_neighbour_matrix_refuses_a_bad_radius_or_position():
+    pos = np.array([[0.0, 0.0], [0.5, 0.0]])
+    for radius in (-1.0, math.nan):
+        with pytest.raises(ConfigError) as ei:
+            neighbour_matrix(pos, radius)  # -1 used to connect agents within 1 m
+        assert ei.value.field == "radius"
+    lost = np.array([[0.0, 0.0], [np.nan, 0.0], [0.5, 0.0]])
+    for radius in (1.0, math.inf):
+        with pytest.raises(ConfigError, match="agent 1") as ei:
+            neighbour_matrix(lost, radius)  # used to cut agent 1 off (or connect it, with inf)
+        assert ei.value.field == "positions"
+    g = CommGraph(1.0)
+    for msgs in ({}, {0: _gauss_payload()}):
+        with pytest.raises(ConfigError) as ei:
+            g.deliver(lost, msgs)
+        assert ei.value.field == "positions"
+
+
+def test_payload_values_must_be_arrays_of_numbers():
+    g = CommGraph(math.inf)
+    pos = np.zeros((2, 3))
+    nested = {"fit": {"mean": np.zeros(3), "cov": np.eye(3)}}  # 96 bytes of numbers
+    with pytest.raises(ConfigError) as ei:
+        g.deliver(pos, {0: nested})  # used to be delivered and counted as 8 bytes
+    assert ei.value.field == "messages[0].fit"
+    with pytest.raises(ConfigError) as ei:
+        g.deliver(pos, {1: {"parts": [np.zeros(3), np.zeros(5)]}})  # ragged
+    assert ei.value.field == "messages[1].parts"
+    with pytest.raises(ConfigError) as ei:
+        message_nbytes(nested)
+    assert ei.value.field == "payload.fit"
+    assert g.bytes_total == 0 and g.messages_delivered == 0
+    # numbers, flags and bytes are counted as they are
+    assert message_nbytes({"flag": np.array([True]), "tag": np.array(b"abc")}) == 4
+    assert g.deliver(pos, {0: {"x": [1.0, 2.0]}})[1] == 16
+
+
+def test_agent_indices_are_checked():
+    pos = np.column_stack([np.arange(3) * 1.0, np.zeros(3)])
+    g = CommGraph(1.0)
+    g.deliver(pos, {2: _gauss_payload()})
+    assert g.bytes_sent_by(2) == 96
+    for bad in (-1, 3, True):
+        with pytest.raises(ConfigError) as ei:
+            g.bytes_sent_by(bad)  # -1 used to answer for agent 2
+        assert ei.value.field == "agent"
+        with pytest.raises(ConfigError) as ei:
+            g.neighbours(bad)
+        assert ei.value.field == "agent"
+        with pytest.raises(ConfigError) as ei:
+            g.bytes_sent_by(bad, pos, {2: _gauss_payload()})
+        assert ei.value.field == "agent"
+    with pytest.raises(ConfigError, match="sender"):
+        g.deliver(pos, {True: _gauss_payload()})  # not read as agent 1
 
 
 def test_delivered_payload_is_a_copy():

@@ -14,7 +14,8 @@ Command semantics shared by every platform
     Go to an absolute position over as many periods as needed; ``ready`` once reached (and, for
     platforms that hover, once the hover there is done). Re-sending the *same* waypoint while it
     is active or already reached continues it instead of restarting it, so searchers may re-issue
-    their target every period.
+    their target every period; re-sent after it was stopped short by an obstacle, a wall or
+    another body (and the platform is ready), it is a new attempt from where the platform stands.
 ``move``
     Like ``waypoint`` with target ``position + value`` fixed when the command is received; every
     ``move`` command is a new displacement.
@@ -199,6 +200,7 @@ class Platform(ABC):
         self._path = 0.0
         self._collided = 0
         self._blocked = False
+        self._stopped_short = False
         self._command: Command | None = None
         self._target: np.ndarray | None = None
         self._checked_arena: Arena | None = None
@@ -224,6 +226,7 @@ class Platform(ABC):
         self._path = 0.0
         self._collided = 0
         self._blocked = False
+        self._stopped_short = False
         self._command = None
         self._target = None
         self._checked_arena = None
@@ -262,6 +265,7 @@ class Platform(ABC):
             cmd = self._validate(command)
             if not self._continues_current(cmd):
                 self._command = cmd
+                self._stopped_short = False
                 if cmd.kind == "waypoint":
                     self._target = cmd.value.copy()
                 elif cmd.kind == "move":
@@ -276,6 +280,8 @@ class Platform(ABC):
             self._advance(float(dt), arena)
         finally:
             self._bodies = None
+        if self._blocked:
+            self._stopped_short = True
         self._vel = (self._pos - start) / dt
 
     def _check_arena(self, arena: Arena) -> None:
@@ -306,11 +312,14 @@ class Platform(ABC):
 
     def _continues_current(self, cmd: Command) -> bool:
         cur = self._command
+        # A waypoint given up at a block is retried, or a body that has since moved out of the
+        # way would keep a searcher that re-issues its target frozen for good.
         return (
             cmd.kind == "waypoint"
             and cur is not None
             and cur.kind == "waypoint"
             and float(np.max(np.abs(cmd.value - cur.value))) <= _SAME_WAYPOINT_TOL
+            and not (self._stopped_short and self.ready)
         )
 
     def _require_reset(self) -> np.ndarray:

@@ -22,14 +22,59 @@ from odorloc.core.types import Message
 Payload = Mapping[str, ArrayLike]
 
 
+def _payload_array(value: ArrayLike, field: str) -> np.ndarray:
+    """``value`` as a new array whose ``nbytes`` is what a radio would send.
+
+    Raises
+    ------
+    ConfigError
+        When ``value`` is not a rectangular array of numbers, booleans or bytes/text: an object
+        array (nested dicts, ragged lists, ``None``) has no size in bytes to count, only the
+        size of its pointers.
+    """
+    try:
+        a = np.array(value)
+    except (TypeError, ValueError):
+        raise ConfigError(
+            field, f"must be a rectangular array of numbers, got a ragged {type(value).__name__}"
+        ) from None
+    if a.dtype.hasobject:
+        raise ConfigError(
+            field, f"must be an array of numbers, not of Python objects ({type(value).__name__})"
+        )
+    return a
+
+
 def message_nbytes(payload: Payload) -> int:
     """Size of a payload in bytes: the sum of its arrays' ``nbytes``.
+
+    Raises :class:`~odorloc.core.errors.ConfigError` (field ``payload.<name>``) for a value
+    that is not an array of numbers (e.g. a nested dict), whose size cannot be counted.
 
     Examples
     --------
     A Gaussian summary of a 3D belief (mean + covariance, 12 float64 numbers) is 96 bytes.
     """
-    return int(sum(np.asarray(v).nbytes for v in payload.values()))
+    return int(sum(_payload_array(v, f"payload.{k}").nbytes for k, v in payload.items()))
+
+
+def _positions(positions: ArrayLike) -> np.ndarray:
+    """``positions`` as a new ``(N, d)`` float array of finite coordinates (metres)."""
+    p = np.array(positions, dtype=float)
+    if p.ndim != 2:
+        raise ConfigError("positions", f"expected shape (N, d), got {p.shape}")
+    if not np.all(np.isfinite(p)):
+        bad = int(np.flatnonzero(~np.all(np.isfinite(p), axis=1))[0])
+        raise ConfigError("positions", f"agent {bad} has a non-finite coordinate")
+    return p
+
+
+def _agent_index(agent: int, n: int) -> int:
+    """``agent`` checked to be an agent index in ``[0, n)`` (a negative index would silently
+    answer for another agent, counted from the end)."""
+    if isinstance(agent, bool) or not (isinstance(agent, int | np.integer) and 0 <= agent < n):
+        raise ConfigError("agent", f"must be an agent index in [0, {n}), got {agent!r}")
+    return int(agent)
 
 
 def neighbour_matrix(positions: ArrayLike, radius: float) -> np.ndarray:
@@ -45,18 +90,26 @@ def neighbour_matrix(positions: ArrayLike, radius: float) -> np.ndarray:
     -------
     (N, N) bool ndarray
         Symmetric, ``False`` on the diagonal.
+
+    Raises
+    ------
+    ConfigError
+        For a negative or NaN ``radius`` or a non-finite position: compared as they are, a
+        negative radius would connect agents within ``|radius|`` and a NaN coordinate would
+        cut an agent off (or, with ``inf``, keep it connected) without a word.
     """
-    p = np.asarray(positions, dtype=float)
-    if p.ndim != 2:
-        raise ConfigError("positions", f"expected shape (N, d), got {p.shape}")
+    r = float(radius)
+    if math.isnan(r) or r < 0:
+        raise ConfigError("radius", f"must be >= 0 (inf for all-to-all), got {radius}")
+    p = _positions(positions)
     n = len(p)
-    if radius == 0.0:
+    if r == 0.0:
         return np.zeros((n, n), dtype=bool)
-    if math.isinf(radius):
+    if math.isinf(r):
         adj = np.ones((n, n), dtype=bool)
     else:
         diff = p[:, None, :] - p[None, :, :]
-        adj = np.einsum("ijk,ijk->ij", diff, diff) <= radius * radius
+        adj = np.einsum("ijk,ijk->ij", diff, diff) <= r * r
     np.fill_diagonal(adj, False)
     return adj
 
@@ -126,7 +179,8 @@ class CommGraph:
 
     def neighbours(self, agent: int) -> np.ndarray:
         """Indices of ``agent``'s neighbours in the current graph, ascending."""
-        return np.flatnonzero(self.adjacency[agent])
+        adj = self.adjacency
+        return np.flatnonzero(adj[_agent_index(agent, len(adj))])
 
     def degree(self) -> np.ndarray:
         """Number of neighbours per agent, ``(N,)``."""
@@ -137,13 +191,14 @@ class CommGraph:
     ) -> dict[int, dict[str, np.ndarray]]:
         out: dict[int, dict[str, np.ndarray]] = {}
         for k, payload in messages.items():
-            if not (isinstance(k, int | np.integer) and 0 <= int(k) < n):
+            if isinstance(k, bool) or not (isinstance(k, int | np.integer) and 0 <= int(k) < n):
                 raise ConfigError("messages", f"sender {k!r} is not an agent index in [0, {n})")
             if not isinstance(payload, Mapping):
                 raise ConfigError(f"messages[{k}]", "payload must be a dict of name -> array")
             arrs = {}
             for name, v in payload.items():
-                a = np.array(v)  # a copy: later changes by the sender must not reach receivers
+                # a copy: later changes by the sender must not reach receivers
+                a = _payload_array(v, f"messages[{k}].{name}")
                 a.setflags(write=False)
                 arrs[str(name)] = a
             out[int(k)] = arrs
@@ -170,9 +225,7 @@ class CommGraph:
         """
         if not messages:
             # nothing to deliver (most control steps): the graph is computed only if asked for
-            p = np.array(positions, dtype=float)
-            if p.ndim != 2:
-                raise ConfigError("positions", f"expected shape (N, d), got {p.shape}")
+            p = _positions(positions)
             n = len(p)
             self._size(n)
             self._adjacency, self._graph_positions = None, p
@@ -213,11 +266,14 @@ class CommGraph:
         charge the sender's communication energy (eq. 8, multi-UAV paper).
         """
         if positions is None and messages is None:
-            return int(self.last_sent[agent]) if self._n is not None else 0
+            if self._n is None:
+                return 0
+            return int(self.last_sent[_agent_index(agent, self._n)])
         if positions is None or messages is None:
             raise ConfigError("positions", "give both positions and messages, or neither")
         key = self._last_key
-        p = np.asarray(positions, dtype=float)
+        p = _positions(positions)
+        agent = _agent_index(agent, len(p))
         if key is not None and messages is key[1] and np.array_equal(p, key[0]):
             return int(self.last_sent[agent])
         if agent not in messages:

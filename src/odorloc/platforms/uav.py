@@ -121,7 +121,21 @@ def movement_energy(params: UAVParams, distance: float, n_hovers: float, n_turns
         Number of hover points ``n_h`` (each lasting ``hover_time``).
     n_turns : float
         Number of turning points ``n_b``.
+
+    Returns
+    -------
+    float
+        ``E_M``, J.
+
+    Raises
+    ------
+    ConfigError
+        When ``distance``, ``n_hovers`` or ``n_turns`` is negative or not finite (a negative
+        count would subtract energy and a NaN would pass into every total built on it).
     """
+    for name, v in (("distance", distance), ("n_hovers", n_hovers), ("n_turns", n_turns)):
+        if not (math.isfinite(v) and v >= 0):
+            raise ConfigError(name, f"must be a finite number >= 0, got {v}")
     e_f = params.fly_power * distance / params.speed  # eq. (4)
     e_h = params.hover_power * n_hovers * params.hover_time  # eq. (5), P_h (see module doc)
     e_b = n_turns * params.turn_energy  # eq. (6)
