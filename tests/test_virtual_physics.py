@@ -209,3 +209,20 @@ def test_two_groups_find_the_two_sources_in_a_seeded_episode() -> None:
     assert d.min() >= 2 * 0.1 - 1e-9
     again = run_episode(sc, 3, 4, record=True)
     assert np.array_equal(again.recording.positions, p)  # the same seeds, the same episode
+
+
+def test_a_formation_of_fewer_than_three_robots_is_refused() -> None:
+    # the declaration needs the robots around the virtual robot, which two cannot do: such a
+    # group would search to the time limit without a word
+    from odorloc.scenarios import Scenario
+
+    d = get_scenario("virtual-physics-two-groups").to_dict()
+    d["agents"]["groups"][0]["agents"] = [0, 1]
+    with pytest.raises(ConfigError, match=r"agents\.groups: .*group 'A' has 2"):
+        run_episode(Scenario.from_dict(d), 1, 2)
+    # a lone formation driven directly by the searcher
+    d = get_scenario("virtual-physics-two-groups").to_dict()
+    d["searcher"] = {"type": "virtual-physics"}
+    d["agents"] = {"starts": d["agents"]["starts"][:2]}
+    with pytest.raises(ConfigError, match=r"agents\.starts: .*at least 3 agents"):
+        run_episode(Scenario.from_dict(d), 1, 2)

@@ -344,7 +344,7 @@ def check_searcher(
     cls = registry.entry("searcher", name).build
     done = []
     for dim in _dims_of(cls, dims):
-        for n in agents:
+        for n in sorted({max(n, cls.min_agents) for n in agents}):
             spec: dict[str, Any] = {"type": name, **dict(params or {})}
             if cls.max_agents is not None and n > cls.max_agents:
                 spec = {"type": "per-agent", "member": spec}

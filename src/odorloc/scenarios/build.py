@@ -102,6 +102,11 @@ def _check_searcher(sc: Scenario, searcher: Searcher) -> None:
     cls = type(searcher)
     if d not in cls.dims:
         raise ConfigError("searcher.type", f"{sc.searcher.type!r} works in {cls.dims}D, not {d}D")
+    if n < cls.min_agents:
+        raise ConfigError(
+            "agents.starts",
+            f"{sc.searcher.type!r} needs at least {cls.min_agents} agents, the scenario has {n}",
+        )
     if cls.max_agents is not None and n > cls.max_agents:
         raise ConfigError(
             "searcher.type",

@@ -47,11 +47,14 @@ class Searcher(ABC):
     max_agents : int or None
         Most agents one instance can drive (``None``: any number). A single-agent searcher in a
         team scenario runs inside a ``per-agent`` team.
+    min_agents : int
+        Fewest agents one instance needs (a formation that must surround a point needs three).
     """
 
     params: Params
     dims: ClassVar[tuple[int, ...]] = (2, 3)
     max_agents: ClassVar[int | None] = None
+    min_agents: ClassVar[int] = 1
 
     def __init__(self, params: Params | None = None) -> None:
         self.params = params if params is not None else Params()

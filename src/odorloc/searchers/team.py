@@ -68,7 +68,7 @@ class PerAgentTeam(Searcher):
         self.units = self._units(ctx)
         self.members: list[Searcher] = []
         # Each member draws from its own stream, so adding an agent does not change the others.
-        for (agents, _), child in zip(self.units, rng.spawn(len(self.units)), strict=True):
+        for (agents, g), child in zip(self.units, rng.spawn(len(self.units)), strict=True):
             m = ref.build("searcher", field="searcher.member")
             entry_cls = type(m)
             if entry_cls.max_agents is not None and len(agents) > entry_cls.max_agents:
@@ -76,6 +76,14 @@ class PerAgentTeam(Searcher):
                     "searcher.member.type",
                     f"{ref.type!r} drives at most {entry_cls.max_agents} agent(s), a member "
                     f"controls {len(agents)}",
+                )
+            if len(agents) < entry_cls.min_agents:
+                names = {grp.index: grp.name for grp in ctx.groups or ()}
+                what = "the agents outside any group" if g is None else f"group {names[g]!r}"
+                raise ConfigError(
+                    "agents.groups",
+                    f"{ref.type!r} needs at least {entry_cls.min_agents} agents, "
+                    f"{what} has {len(agents)}",
                 )
             m.reset(ctx.subset(agents), child)
             self.members.append(m)

@@ -185,6 +185,8 @@ class VirtualPhysicsSearcher(Searcher):
 
     params: VirtualPhysicsParams
     dims = (2,)
+    # the declaration needs the robots around the virtual robot (Sec. 2.2.3): three at least
+    min_agents = 3
 
     def reset(self, ctx: SearchContext, rng: np.random.Generator) -> None:
         super().reset(ctx, rng)
