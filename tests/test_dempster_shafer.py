@@ -68,6 +68,25 @@ def test_total_conflict_without_division_by_zero():
     np.testing.assert_allclose(np.column_stack([ms, mn, mu]), [[0, 0, 1], [0, 1, 0]])
 
 
+def test_combination_refuses_invalid_mass_functions():
+    # a mass function must satisfy eq. (3); the rule's normalisation by 1 - K would otherwise
+    # turn (0.3, 0.3, 0) into (0.5, 0.5, 0) or carry a negative mass on
+    vacuous = (0.0, 0.0, 1.0)
+    with pytest.raises(ConfigError, match="m1"):
+        dempster_combine((0.3, 0.3, 0.0), vacuous)
+    with pytest.raises(ConfigError, match="m1"):
+        dempster_combine((-0.5, 0.5, 1.0), (0.2, 0.0, 0.8))
+    with pytest.raises(ConfigError, match="m2"):
+        dempster_combine(vacuous, (np.array([0.2, np.nan]), np.zeros(2), np.array([0.8, 1.0])))
+    with pytest.raises(ConfigError, match="m2"):
+        dempster_combine(vacuous, (0.2, 0.8))
+    with pytest.raises(ConfigError, match="on_total_conflict"):
+        dempster_combine(vacuous, vacuous, "Keep")
+    # rounding far below the tolerance is accepted
+    ms, mn, mu, _, _ = dempster_combine((0.1, 0.2, 0.7 + 1e-13), vacuous)
+    np.testing.assert_allclose([ms, mn, mu], [0.1, 0.2, 0.7])
+
+
 def test_total_conflict_is_counted_in_the_grid():
     params = DSParams(mu_d=1.0, mu_nd=1.0, zeta=1.0, rho=1.0)
     grid = DSGrid(params, CellGrid((0.0, 0.0), 1.0, (3, 3)))
@@ -149,6 +168,17 @@ def test_cell_uncertainty_values():
     np.testing.assert_allclose(x, [3.0, 0.0, 1.0, 1.0 + 1.5, 0.0])
     # pignistic variant: unknown cell has BetP(S) = 0.5, entropy 1 bit
     assert float(cell_uncertainty(0.0, 0.0, 1.0, 3.0, "pignistic")) == pytest.approx(4.0)
+
+
+def test_cell_uncertainty_refuses_unknown_entropy_and_bad_weight():
+    # a misspelt entropy must not fall back to the pignistic variant (4 bits instead of 3 for
+    # an unknown cell), nor a negative or NaN q turn X negative or NaN
+    with pytest.raises(ConfigError, match="entropy"):
+        cell_uncertainty(0.0, 0.0, 1.0, 3.0, "Masses")
+    with pytest.raises(ConfigError, match="q"):
+        cell_uncertainty(0.0, 0.0, 1.0, -1.0)
+    with pytest.raises(ConfigError, match="q"):
+        cell_uncertainty(0.0, 0.0, 1.0, float("nan"))
 
 
 def test_total_uncertainty_and_region():

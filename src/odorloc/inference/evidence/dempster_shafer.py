@@ -45,6 +45,7 @@ FloatArray = NDArray[np.float64]
 UNKNOWN, FREE, OCCUPIED = 0, 1, 2
 
 _CONFLICT_TOL = 1e-12
+_SUM_TOL = 1e-9  # rounding left by many fusions is far below this
 
 
 def _probability(v: float) -> float:
@@ -130,7 +131,37 @@ def dempster_combine(
         Conflict ``m1(S) m2(notS) + m1(notS) m2(S)`` (eq. 2).
     total : bool ndarray
         Where the conflict was total and the rule undefined.
+
+    Raises
+    ------
+    ConfigError
+        If a mass is not in [0, 1] or a mass function does not sum to one (eq. 3; the rule's
+        normalisation would otherwise hide the error), or if ``on_total_conflict`` is unknown.
     """
+    if on_total_conflict not in ("keep", "reset"):
+        raise ConfigError(
+            "on_total_conflict", f"must be 'keep' or 'reset', got {on_total_conflict!r}"
+        )
+    return _combine(_check_masses(m1, "m1"), _check_masses(m2, "m2"), on_total_conflict)
+
+
+def _check_masses(m: tuple[ArrayLike, ArrayLike, ArrayLike], name: str) -> tuple[FloatArray, ...]:
+    if len(m) != 3:
+        raise ConfigError(name, "needs the three masses (m(S), m(notS), m(U))")
+    s, n, u = (np.asarray(v, float) for v in m)
+    if not all(np.all(np.isfinite(v) & (v >= 0.0) & (v <= 1.0)) for v in (s, n, u)):
+        raise ConfigError(name, "masses must be numbers in [0, 1]")
+    if not np.all(np.abs(s + n + u - 1.0) <= _SUM_TOL):
+        raise ConfigError(name, "m(S) + m(notS) + m(U) must equal 1 (eq. 3)")
+    return s, n, u
+
+
+def _combine(
+    m1: tuple[ArrayLike, ...],
+    m2: tuple[ArrayLike, ...],
+    on_total_conflict: Literal["keep", "reset"],
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, NDArray[np.bool_]]:
+    """:func:`dempster_combine` without the checks (the grid's masses are valid by construction)."""
     s1, n1, u1 = (np.asarray(v, float) for v in m1)
     s2, n2, u2 = (np.asarray(v, float) for v in m2)
     conflict = s1 * n2 + n1 * s2  # eq. (2): S and notS are the only disjoint focal pair
@@ -166,7 +197,25 @@ def cell_uncertainty(
 
     ``X = -[m(S) log2 m(S) + m(notS) log2 m(notS)] + q m(U)`` with ``0 log 0 = 0``; with
     ``entropy="pignistic"`` the first term is the binary entropy of ``m(S) + m(U)/2``.
+
+    Parameters
+    ----------
+    ms, mn, mu : array_like
+        ``m(S)``, ``m(notS)``, ``m(U)`` per cell, broadcastable shapes.
+    q : float
+        Weight of ``m(U)``, finite and >= 0 (3.0 in the paper).
+    entropy : {"masses", "pignistic"}
+        Which entropy the first term is (see the module notes).
+
+    Returns
+    -------
+    ndarray
+        ``X`` per cell (bits), the broadcast shape of the masses.
     """
+    if not (math.isfinite(q) and q >= 0.0):
+        raise ConfigError("q", f"must be a finite number >= 0, got {q!r}")
+    if entropy not in ("masses", "pignistic"):
+        raise ConfigError("entropy", f"must be 'masses' or 'pignistic', got {entropy!r}")
     ms = np.asarray(ms, float)
     mn = np.asarray(mn, float)
     mu = np.asarray(mu, float)
@@ -282,7 +331,7 @@ class DSGrid:
             if detected
             else non_detection_bba(values, self.params)
         )
-        ms, mn, mu, k, total = dempster_combine(
+        ms, mn, mu, k, total = _combine(
             (self.m_s[sl], self.m_n[sl], self.m_u[sl]), bba, self.params.on_total_conflict
         )
         self.m_s[sl] = ms

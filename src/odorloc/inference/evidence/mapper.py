@@ -47,6 +47,7 @@ Readings of the paper (each configurable, :class:`DSMapParams`):
 
 from __future__ import annotations
 
+import math
 from collections import deque
 from typing import Literal
 
@@ -127,8 +128,9 @@ class DSMapParams(Params):
         Run the readings through the odor-path paper's pre-processing (eqs. 1-5: delay
         alignment, moving baseline, signal intensity) before fusing them, for a sensor that
         lags like the paper's PID. Each aligned reading is fused with the position and wind of
-        the period it belongs to; its detection is ``intensity >= intensity_threshold``.
-        ``None`` (default) fuses every reading at once with the sensor's own detection.
+        the period it belongs to; its detection is ``intensity >= intensity_threshold``. Its
+        ``period`` must be the control period (one reading per period). ``None`` (default)
+        fuses every reading at once with the sensor's own detection.
     intensity_threshold : float
         Signal intensity ``s`` (eq. 5) that counts as a detection with ``preprocess``.
     """
@@ -179,6 +181,12 @@ class DSMapper:
         Search region (uncertainty and sources are reported over it).
     dt : float, seconds
         Record period (the control period).
+
+    Raises
+    ------
+    ConfigError
+        If no cell centre of the map lies inside ``region`` (cells too large for it), or if the
+        pre-processing's period differs from ``dt``.
     """
 
     def __init__(self, params: DSMapParams, region: Region, dt: float) -> None:
@@ -200,11 +208,29 @@ class DSMapper:
             upper,
         )
         self.grid = DSGrid(params.ds, self.estimator.grid)
+        if not self.grid.grid.region_mask(region).any():
+            # with no cell of the region the map has nothing to report: sum X stays 0, the
+            # route stops at once and no source can ever be mapped
+            raise ConfigError(
+                "searcher.cell_size",
+                f"{params.cell_size:g} m cells leave no cell centre inside the search region "
+                f"{region}",
+            )
         self.n_detections = 0
         self.n_readings = 0
         self.wind_sum = np.zeros(2)
         self.initial_uncertainty = self.total_uncertainty()
         self.last_patch: PathPatch | None = None
+        if params.preprocess is not None and not math.isclose(
+            params.preprocess.period, dt, rel_tol=1e-9
+        ):
+            # the pre-processor takes one reading per call and counts the delay in its own
+            # periods (k = int(tau / dt_c), eq. 2): any other period would align each reading
+            # with the wrong record
+            raise ConfigError(
+                "searcher.preprocess.period",
+                f"must equal the control period {dt:g} s, got {params.preprocess.period:g} s",
+            )
         self._pre = OnlinePreprocessor(params.preprocess) if params.preprocess else None
         self._pending: deque[tuple[float, np.ndarray]] = deque()
         self._log = ReadingLog(self.grid.grid.shape)

@@ -127,7 +127,9 @@ def _extras(task: Any, res: Any, rows: dict[str, dict[str, Any]]) -> dict[str, A
             out[f"scene_residual_{k}"] = residual_at(rec, t_scene)
     if label == DYNAMIC and rec is not None:
         base = next((r for cid, r in rows.items() if cid.endswith(f"/{WAVE}")), None)
-        target = float(base["residual_uncertainty"]) if base else math.nan
+        # a failed wave episode's row has no mapping columns: the dynamic route's own row
+        # stays valid, only its comparison with the wave is missing
+        target = float(base.get("residual_uncertainty", math.nan)) if base else math.nan
         t_eq, d_eq = time_to_residual(rec, target)
         out.update(time_to_baseline_residual=t_eq, distance_to_baseline_residual=d_eq)
     return out
