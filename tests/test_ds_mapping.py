@@ -663,6 +663,7 @@ def test_map_errors_closed_form() -> None:
         ("ds-mapping", {"cell_size": -0.5}, "cell_size"),
         ("ds-mapping", {"eta_e": -1.0}, "eta_e"),
         ("ds-mapping", {"widen_factor": 1.0}, "widen_factor"),
+        ("ds-mapping", {"widen_factor": math.inf}, "widen_factor"),
         ("ds-mapping", {"ds": {"zeta": 1.5}}, "ds.zeta"),
         ("ds-mapping", {"source_min_mass": 0.0}, "source_min_mass"),
         ("ds-mapping", {"cel_size": 0.5}, "cel_size"),
@@ -683,6 +684,58 @@ def test_params_models_reject_directly() -> None:
     with pytest.raises(pydantic.ValidationError, match="rounds"):
         DSRectangularWaveParams(rounds=0)
     assert DSMappingParams().ds == DSParams()
+
+
+@pytest.mark.parametrize("name", ["ds-mapping", "ds-rectangular-wave"])
+def test_region_the_map_cannot_cover_is_refused(name: str) -> None:
+    """A searcher region outside the arena, or cells so large that no cell centre lies in the
+    region, would give a blank map (sum X = 0, nothing to map) instead of an error."""
+    rng = np.random.default_rng(0)
+    cls = registry.entry("searcher", name).build
+    outside = registry.make_params(
+        "searcher", name, {"region": [[100.0, 100.0], [110.0, 110.0]]}, field="searcher"
+    )
+    with pytest.raises(ConfigError, match=r"searcher\.region"):
+        cls(outside).reset(_ctx(), rng)
+    huge = registry.make_params("searcher", name, {"cell_size": 30.0}, field="searcher")
+    with pytest.raises(ConfigError, match=r"searcher\.cell_size"):
+        cls(huge).reset(_ctx(), rng)
+    with pytest.raises(ConfigError, match="cell_size"):
+        DSMapper(DSMapperParams(cell_size=1.0), ((2.1, 2.1), (2.4, 2.4)), 0.5)
+    # a region reaching past the arena is fine: only its part inside can be read
+    part = registry.make_params(
+        "searcher", name, {"region": [[5.0, 5.0], [8.0, 8.0]]}, field="searcher"
+    )
+    cls(part).reset(_ctx(), rng)
+
+
+def test_visit_readings_count_in_the_cell_the_reading_was_taken() -> None:
+    """With the pre-processing (sensor delay 2 s = 4 periods) each fused reading belongs to
+    the cell the robot stood in 2 s earlier; the visit stage's count must follow it, not the
+    robot's cell at the time of fusing."""
+    from odorloc.sensors.preprocessing import PreprocessorParams
+
+    rng = np.random.default_rng(0)
+    pre = PreprocessorParams(delay=2.0, period=0.5)
+    s = DSMappingSearcher(DSMappingParams(cell_size=0.5, dwell_periods=0, preprocess=pre))
+    s.reset(_ctx(), rng)
+    g = s.mapper.grid
+    g.m_s[:], g.m_u[:] = 0.9, 0.1  # every cell mapped: every reading tests a mapped cell
+    here, there = np.array([1.25, 3.25]), np.array([4.25, 3.25])
+    fused = []
+    for k in range(12):  # six readings here, then six there
+        o = _obs(0.5 * k)
+        o[0] = dataclasses.replace(o[0], position=here if k < 6 else there, gas=1.0)
+        before = s.mapper.n_readings
+        s.act(o, rng)
+        if s.mapper.n_readings > before and s.mapper.last_patch.values.size:
+            fused.append(k - 4)  # the reading taken 4 periods ago
+    assert fused, "no reading was fused"
+    n_here = sum(k < 6 for k in fused)
+    assert n_here >= 4 and len(fused) - n_here == 2
+    assert s.tests[s._cell(here)] == n_here
+    assert s.tests[s._cell(there)] == len(fused) - n_here
+    assert s.tests.sum() == len(fused)
 
 
 def test_multi_agent_is_refused() -> None:
@@ -779,3 +832,67 @@ def test_preprocessed_readings_are_fused_at_the_period_they_belong_to() -> None:
     np.testing.assert_allclose(mp.estimator.last_position, [6.5, 5.0])
     with pytest.raises(ConfigError, match="reading"):
         mp.update(3.0, np.array([5.0, 5.0]), np.array([1.0, 0.0]), False)
+
+
+def test_preprocessing_period_must_be_the_control_period() -> None:
+    """The pre-processor counts the sensor delay in its own periods, one reading per call: at a
+    0.25 s control period a 0.5 s ``period`` would align a 1 s delay as 0.5 s, so it is refused;
+    at the matching period the jump read at t = 1.25 s is fused with the record of t = 0.25 s."""
+    from odorloc.sensors.preprocessing import PreprocessorParams
+
+    def mapper(period: float) -> DSMapper:
+        pre = PreprocessorParams(delay=1.0, period=period)
+        p = DSMapperParams(cell_size=0.5, preprocess=pre, intensity_threshold=0.5)
+        return DSMapper(p, ((0.0, 0.0), (10.0, 10.0)), 0.25)
+
+    with pytest.raises(ConfigError, match=r"preprocess\.period"):
+        mapper(0.5)
+    mp = mapper(0.25)
+    readings = [1.0] * 5 + [3.0] + [1.0] * 4
+    fused_at = []
+    for i, c in enumerate(readings):
+        pos = np.array([5.0 + 0.25 * i, 5.0])
+        before = mp.n_detections
+        mp.update(0.25 * i, pos, np.array([1.0, 0.0]), c >= 2.0, reading=c)
+        if mp.n_detections > before:
+            fused_at.append(float(mp.estimator.times[-1]))
+    assert fused_at == [0.25]
+
+
+def test_failed_wave_episode_leaves_the_dynamic_row_valid() -> None:
+    """The dynamic route's row compares it with the wave's final residual on the same flow;
+    when the wave's episode failed (its row has no mapping columns) the comparison is missing
+    (NaN) and the dynamic route's own columns are still computed."""
+    from types import SimpleNamespace
+
+    from odorloc.experiments.runner import ROW_DEFAULTS
+    from odorloc.papers.ds_multi_source.reproduction import _extras
+
+    res = run_episode(reduced_farrell(5.0), 1, 2, record=True)
+    task = SimpleNamespace(cell={"scenario": "two-sources-farrell", "searcher": "ds-mapping"})
+    failed = {**ROW_DEFAULTS, "status": "error", "error": "RuntimeError: failed"}
+    out = _extras(task, res, {"0/two-sources-farrell/ds-rectangular-wave": failed})
+    assert math.isnan(out["time_to_baseline_residual"])
+    assert math.isnan(out["distance_to_baseline_residual"])
+    assert "scene_residual_0" in out and "map_success" in out
+
+
+def test_edge_reach_past_the_map_margin_is_refused() -> None:
+    """Candidates ``edge_reach`` past the region need map cells there: with ``map_margin=0``
+    the default half-cell reach would find none, the robot could never stand on the region's
+    edge and its downwind-most cells would never be read, so the combination is refused."""
+    rng = np.random.default_rng(0)
+    ctx = _ctx(region=((1.0, 1.0), (5.0, 5.0)))
+    for bad in ({"map_margin": 0.0}, {"map_margin": 0.5, "edge_reach": 0.75}):
+        s = DSMappingSearcher(DSMappingParams(cell_size=0.5, **bad))
+        with pytest.raises(ConfigError, match=r"searcher\.edge_reach"):
+            s.reset(ctx, rng)
+    for good in ({}, {"map_margin": 0.0, "edge_reach": 0.0}, {"map_margin": 0.25}):
+        s = DSMappingSearcher(DSMappingParams(cell_size=0.5, **good))
+        s.reset(ctx, rng)
+        grid = s.mapper.grid.grid
+        e = s.planner.params.edge_reach * (1.0 + 1e-9)
+        grown = grid.region_mask(((1.0 - e, 1.0 - e), (5.0 + e, 5.0 + e)))
+        # with edge_reach > 0 some candidate puts the robot on the region's (downwind) edge
+        x_far = grid.x_centers()[grown.any(axis=1)].max()
+        assert (x_far >= 5.0) == (e > 0)

@@ -325,3 +325,60 @@ def test_python_loop_kernel_matches_compiled_form():
     assert list(n_cells) == [x.n_cells for x in est.windows()]
     kept = [tuple(b) for b, n in zip(t.boxes.tolist(), n_cells, strict=True) if n]
     assert kept == [x.box for x in est.windows() if x.n_cells]
+
+
+def test_nan_record_time_is_refused_not_read_as_the_oldest_record():
+    rng = np.random.default_rng(12)
+    est = OdorPathEstimator(OdorPathParams(), (0, 0), (10, 10))
+    feed(est, noisy_winds(rng))
+    for call in (est.path_map, est.path_patch, est.windows, est.detected, est.wind_variance):
+        with pytest.raises(ConfigError, match="t_c"):
+            call(float("nan"))
+    with pytest.raises(ConfigError, match="t_c"):
+        est.path_map(t_c=float("inf"))
+
+
+def test_fixed_variance_is_used_as_given_below_the_online_floor():
+    params = OdorPathParams(variance="fixed", fixed_variance=(1e-5, 4e-5), min_variance=1e-4)
+    est = OdorPathEstimator(params, (0, 0), (10, 10))
+    feed(est, np.tile([0.5, 0.0], (5, 1)))
+    np.testing.assert_allclose(est.wind_variance(), [1e-5, 4e-5])
+    np.testing.assert_allclose(est.windows()[-1].variance, [0.5e-5, 2e-5])  # age 0.5 s, tau 1 s
+
+
+def test_three_dimensional_bounds_are_refused_up_front():
+    with pytest.raises(ConfigError, match="lower"):
+        OdorPathEstimator(OdorPathParams(cell_size=0.5), (0, 0, 0), (10, 10, 2))
+
+
+def test_synthetic_wind_record_speed_follows_its_documented_process():
+    from odorloc.papers.odor_path.figures import synthetic_wind_record
+
+    w = synthetic_wind_record(20_000, 0.5, 0.5, 5.0, np.random.default_rng(13))
+    rel = np.hypot(w[:, 0], w[:, 1]) / 0.5 - 1.0
+    # 10 % standard deviation, lag-one correlation exp(-dt / correlation_time) = 0.905
+    assert rel.std() == pytest.approx(0.1, rel=0.1)
+    assert np.corrcoef(rel[1:], rel[:-1])[0, 1] == pytest.approx(math.exp(-0.1), abs=0.02)
+    heading = np.degrees(np.arctan2(w[:, 1], w[:, 0]))
+    assert heading.std() == pytest.approx(5.0, rel=0.1)
+
+
+def test_earlier_map_needing_trimmed_records_is_refused_not_truncated():
+    rng = np.random.default_rng(14)
+    winds = noisy_winds(rng, n=60)
+    est = OdorPathEstimator(OdorPathParams(), (0, 0), (10, 10))
+    feed(est, winds)
+    with pytest.raises(ConfigError, match="history"):
+        est.path_map(t_c=54 * 0.5)  # its five oldest windows were trimmed
+    with pytest.raises(ConfigError, match="history"):
+        est.windows(t_c=54 * 0.5)
+    kept = OdorPathEstimator(OdorPathParams(history=2.5), (0, 0), (10, 10))
+    feed(kept, winds)
+    fresh = OdorPathEstimator(OdorPathParams(), (0, 0), (10, 10))
+    feed(fresh, winds[:55])
+    assert len(kept.windows(t_c=54 * 0.5)) == 20
+    np.testing.assert_allclose(kept.path_map(t_c=54 * 0.5), fresh.path_map(), rtol=1e-12)
+    # early on nothing was trimmed: fewer windows are all there is
+    early = OdorPathEstimator(OdorPathParams(), (0, 0), (10, 10))
+    feed(early, winds[:8])
+    assert len(early.windows(t_c=5 * 0.5)) == 5

@@ -264,3 +264,68 @@ def test_planned_route_clears_uncertainty_faster_than_rectangular_wave():
         u_wave, d_wave = _explore("wave", 600, seed)
         assert u_plan < 0.9 * u_wave
         assert d_plan < d_wave
+
+
+def test_route_widen_factor_must_be_finite_in_the_searcher_config():
+    from odorloc.searchers.ds_mapping import DSMappingParams
+
+    for bad in (float("inf"), float("nan"), 1.0):
+        with pytest.raises(pydantic.ValidationError, match="widen_factor"):
+            DSMappingParams(widen_factor=bad)
+
+
+@pytest.mark.parametrize("name", ["ds-mapping", "ds-rectangular-wave"])
+def test_odor_path_span_shorter_than_the_control_period_is_refused(name):
+    from odorloc.core import registry
+    from odorloc.core.types import SearchContext
+    from odorloc.geometry.arena import Arena
+
+    entry = registry.entry("searcher", name)
+
+    ctx = SearchContext(
+        arena=Arena.box((0, 0), (10, 10), 0.25),
+        dt=0.5,
+        agent_ids=(0,),
+        start=np.array([[3.0, 3.0]]),
+        speed_limits=np.array([0.5]),
+    )
+    rng = np.random.default_rng(0)
+    with pytest.raises(ConfigError, match=r"searcher\.t_thr"):
+        entry.build(entry.params(t_thr=0.4)).reset(ctx, rng)
+    entry.build(entry.params(t_thr=0.5)).reset(ctx, rng)  # one sub-window
+
+
+def test_dynamic_route_goes_around_a_wall_instead_of_stopping_at_it():
+    """Wind towards -x: the cells left of the wall are covered only from the left, so the route
+    has to pass the wall's gap (y > 8.5); no target lies inside the wall."""
+    from odorloc.core.types import Observation, SearchContext
+    from odorloc.geometry.arena import Arena
+    from odorloc.searchers.ds_mapping import DSMappingParams, DSMappingSearcher
+
+    arena = Arena.box((0, 0), (10, 10), 0.25).with_boxes([((5.0, 0.0), (5.5, 8.5))])
+    ctx = SearchContext(
+        arena=arena,
+        dt=0.5,
+        agent_ids=(0,),
+        start=np.array([[8.0, 2.0]]),
+        speed_limits=np.array([0.5]),
+    )
+    rng = np.random.default_rng(0)
+    searcher = DSMappingSearcher(DSMappingParams(cell_size=0.5, dwell_periods=0))
+    searcher.reset(ctx, rng)
+    p = np.array([8.0, 2.0])
+    xs, targets = [], []
+    for i in range(500):
+        o = Observation(0, 0.5 * i, p.copy(), 0.0, 0.0, False, np.array([-1.0, 0.0]))
+        cmd = searcher.act([o], rng).commands[0]
+        plan = searcher.last_plan
+        if plan is not None and plan.target is not None:
+            targets.append(plan.target)
+        if cmd.kind == "waypoint":
+            d = cmd.value[:2] - p
+            dist = float(np.hypot(*d))
+            goal = p + d * min(1.0, 0.25 / dist) if dist > 0 else p
+            p = p + arena.first_hit(p, goal)[0] * (goal - p)  # an idealised platform
+        xs.append(p[0])
+    assert arena.is_free(np.array(targets)).all()
+    assert min(xs) < 4.0

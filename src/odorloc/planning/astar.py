@@ -79,7 +79,9 @@ def astar_path(
     arena : Arena
     start, goal : (d,) ndarray, metres
     clearance : float, metres
-        Obstacles are grown by this much for planning (the start/goal cells stay allowed).
+        Obstacles are grown by this much for planning (the start/goal cells stay allowed): the
+        direct segment, the A* cells and the smoothed legs all keep out of the grown obstacles.
+        When no path keeps that clearance, a free direct segment is still returned.
     smooth : bool
         Shorten with :func:`smooth_path`.
 
@@ -95,13 +97,21 @@ def astar_path(
         raise ConfigError("start", f"start and goal need {arena.dim} components")
     if not arena.is_free(g)[0]:
         return None
-    if arena.segment_free(s, g)[0]:
+    direct = bool(arena.segment_free(s, g)[0])
+    if direct and clearance <= 0:
         return np.stack([s, g])
     free = free_grid(arena, clearance)
     si = tuple(int(v) for v in arena.cell_index(s)[0])
     gi = tuple(int(v) for v in arena.cell_index(g)[0])
     free[si] = True
     free[gi] = True
+    # line-of-sight tests (direct segment, smoothing) must respect the grown obstacles too,
+    # or the shortcuts would cut back to the raw obstacle edges
+    plan_arena = (
+        arena if clearance <= 0 else Arena(arena.lower, arena.upper, arena.resolution, ~free)
+    )
+    if direct and plan_arena.segment_free(s, g)[0]:
+        return np.stack([s, g])
     shape = free.shape
     offsets = [o for o in itertools.product((-1, 0, 1), repeat=arena.dim) if any(o)]
     costs = [math.sqrt(sum(v * v for v in o)) for o in offsets]
@@ -144,11 +154,12 @@ def astar_path(
                 parent[nb] = cell
                 heapq.heappush(heap, (nc + h(nb), nc, nb))
     if not found:
-        return None
+        # the clearance is a preference: a goal in plain sight is still reached
+        return np.stack([s, g]) if direct else None
     cells = [gi]
     while cells[-1] != si:
         cells.append(parent[cells[-1]])
     cells.reverse()
     centres = arena.lo + (np.asarray(cells, float) + 0.5) * arena.resolution
     path = np.concatenate([s[None], centres[1:-1], g[None]], axis=0)
-    return smooth_path(arena, path) if smooth else path
+    return smooth_path(plan_arena, path) if smooth else path

@@ -50,6 +50,10 @@ Readings of the paper (each configurable):
   (:meth:`~odorloc.inference.evidence.mapper.DSMapper.refined`): a walk up a plume detects
   while the source is upwind and stops detecting past it. The map update is unchanged; the
   stage only adds readings.
+* Obstacles (the paper's area has none). The dynamic route never targets a cell whose target
+  point lies in an obstacle, and reaches a target out of sight along an A* path
+  (:func:`~odorloc.planning.astar.astar_path`) instead of stopping at the obstacle; the map
+  itself, like the paper's air-mass paths, ignores obstacles.
 * Wave rounds: ``round_order="restart"`` (default; section 4.2) or ``"alternate"``.
 * Declaration. When the planner finds even the whole region below ``eta_E`` and the mapped
   sources have been visited (dynamic route), or after the last round (wave), the mapped
@@ -65,6 +69,7 @@ from collections.abc import Sequence
 from typing import Any, Literal
 
 import numpy as np
+from numpy.typing import NDArray
 from pydantic import Field
 
 from odorloc.behaviours.stop_and_go import StopAndGo
@@ -72,10 +77,12 @@ from odorloc.core.errors import ConfigError
 from odorloc.core.params import NonNegative, Positive
 from odorloc.core.registry import register
 from odorloc.core.types import Action, Command, Declaration, Observation, SearchContext
+from odorloc.geometry.arena import Arena
 from odorloc.geometry.regions import resolve_region
 from odorloc.inference.belief import GridBelief
 from odorloc.inference.evidence.mapper import DSMapParams, DSMapper, as_distribution
 from odorloc.inference.odor_path.estimator import PathPatch
+from odorloc.planning.astar import astar_path
 from odorloc.planning.coverage import wave_waypoints
 from odorloc.planning.uncertainty_route import (
     RoutePlan,
@@ -95,7 +102,33 @@ __all__ = [
 def _reset_mapper(params: DSMapParams, ctx: SearchContext) -> DSMapper:
     if ctx.n_agents != 1:
         raise ConfigError("agents.starts", "the D-S mapping searchers drive a single robot")
-    return DSMapper(params, resolve_region(ctx, params.region), ctx.dt)
+    if params.t_thr < ctx.dt * (1.0 - 1e-9):
+        # one record per control period: a shorter span holds no earlier record, so no
+        # sub-window DW(t_r, t_c) ever opens and the map stays blank (odor-path paper, eq. 16)
+        raise ConfigError(
+            "searcher.t_thr",
+            f"{params.t_thr:g} s is shorter than the control period {ctx.dt:g} s: no air-mass "
+            "path could ever be mapped",
+        )
+    region = resolve_region(ctx, params.region)
+    # the region is horizontal: only the arena's first two axes count
+    arena = zip(region[0], region[1], ctx.arena.lower[:2], ctx.arena.upper[:2], strict=True)
+    if params.region is not None and any(r1 <= a0 or r0 >= a1 for r0, r1, a0, a1 in arena):
+        # the robot could never read there: the map would stay blank and its sources be
+        # declared outside the world
+        raise ConfigError("searcher.region", "does not overlap the arena")
+    return DSMapper(params, region, ctx.dt)
+
+
+def _standable(arena: Arena, mapper: DSMapper) -> NDArray[np.bool_] | None:
+    """Evidence cells a route target may lie in, ``(nx, ny)`` bool: those whose target (the cell
+    centre clamped onto the region, as the planner clamps edge targets) is free; ``None`` when
+    the arena has no obstacles."""
+    if arena.occ is None:
+        return None
+    g = mapper.grid.grid
+    targets = np.clip(g.centers().reshape(-1, 2), mapper.region[0], mapper.region[1])
+    return arena.is_free(targets).reshape(g.shape)
 
 
 def _tag(decl: Declaration, agent: int) -> Declaration:
@@ -124,7 +157,8 @@ class DSMappingParams(DSMapParams):
         Candidate cells may have centres this far outside the region, their targets clamped
         onto its edge (:class:`~odorloc.planning.uncertainty_route.UncertaintyRouteParams`);
         default half a cell, so the robot can stand on the region's edge like the wave and
-        cover the downwind-most cells (see the module notes).
+        cover the downwind-most cells (see the module notes). Must not exceed the map's margin
+        (``map_margin``), beyond which there are no cells.
     widen_factor : float
         Radius multiplier while the best fitness is below ``eta_e`` (> 1).
     eta_e : float
@@ -146,7 +180,7 @@ class DSMappingParams(DSMapParams):
     stay_candidate: bool = False
     edge_reach: NonNegative | None = None
     fitness_path: Literal["map", "distribution"] = "map"
-    widen_factor: float = Field(2.0, gt=1.0)
+    widen_factor: float = Field(2.0, gt=1.0, allow_inf_nan=False)
     eta_e: NonNegative = 0.5
     visit_readings: int = Field(10, ge=0, le=100_000)
     visit_time: NonNegative = 900.0
@@ -182,6 +216,16 @@ class DSMappingSearcher(Searcher):
         else:
             # the eight neighbouring cell centres (the tolerance keeps the diagonals in)
             step = max(reach, math.sqrt(2.0) * p.cell_size * (1.0 + 1e-9))
+        edge = 0.5 * p.cell_size if p.edge_reach is None else p.edge_reach
+        margin = p.cell_size if p.map_margin is None else p.map_margin
+        if edge > margin * (1.0 + 1e-9):
+            # candidates beyond the map's margin have no cell: the robot could not stand on the
+            # region's edge and the downwind-most cells would never be read (module notes)
+            raise ConfigError(
+                "searcher.edge_reach",
+                f"{edge:g} m reaches past map_margin {margin:g} m, where the map has no cells; "
+                "set map_margin >= edge_reach or edge_reach to 0",
+            )
         self.planner = UncertaintyRoutePlanner(
             UncertaintyRouteParams(
                 step_range=step,
@@ -189,11 +233,14 @@ class DSMappingSearcher(Searcher):
                 eta_e=p.eta_e,
                 region=self.mapper.region,
                 include_current=p.stay_candidate,
-                edge_reach=0.5 * p.cell_size if p.edge_reach is None else p.edge_reach,
+                edge_reach=edge,
             )
         )
         self.motion = StopAndGo(reach, p.dwell_periods)
         self.last_plan: RoutePlan | None = None
+        self.allowed = _standable(ctx.arena, self.mapper)
+        # the remaining waypoints of a detour around obstacles (see :meth:`_head_for`)
+        self._route: list[np.ndarray] = []
         self.n_plans = 0
         self.finished_at = math.nan
         # readings taken in each cell whose air came over mapped cells (the visit stage's test)
@@ -231,6 +278,21 @@ class DSMappingSearcher(Searcher):
             return None
         return up
 
+    def _head_for(self, target: np.ndarray, position: np.ndarray) -> None:
+        """Head for ``target``: straight when in sight, else along an A* path around the
+        obstacles, whose later waypoints :meth:`act` takes in turn (straight again if there is
+        none: the stop-and-go motion then stops at the obstacle and a new target is chosen)."""
+        arena = self.ctx.arena
+        here = np.asarray(position, float)[:2]
+        goal = np.asarray(target, float)[:2]
+        self._route = []
+        if arena.occ is not None and not arena.segment_free(here, goal)[0]:
+            path = astar_path(arena, here, goal)
+            if path is not None and len(path) > 2:
+                self._route = list(path[2:])
+                goal = path[1]
+        self.motion.set_goal(goal)
+
     def _cell(self, xy: np.ndarray) -> tuple[int, ...]:
         return tuple(int(i) for i in self.mapper.grid.grid.index(np.asarray(xy, float)[:2])[0])
 
@@ -238,19 +300,26 @@ class DSMappingSearcher(Searcher):
         o = observations[0]
         patch = self.mapper.update(o.t, o.position, o.wind, o.detection, o.gas)
         if patch is not None and patch.values.size and self._tests_mapped(patch):
-            self.tests[self._cell(o.position)] += 1
+            # the cell the fused reading was taken in: with ``preprocess`` it is the reading of
+            # ``delay`` seconds ago, not the robot's cell now
+            self.tests[tuple(int(i) for i in patch.ref_cell)] += 1
         if not self.motion.arrived(o.position):
+            return Action([self.motion.command(o.position)])
+        if self._route:  # the next leg of a detour
+            self.motion.set_goal(self._route.pop(0))
             return Action([self.motion.command(o.position)])
         if patch is None:  # the first pre-processed reading is not due yet
             return Action([Command.hold()])
         if math.isnan(self.stop_rule_at):
             if self.params.fitness_path == "distribution":
                 patch = as_distribution(patch)
-            plan = self.planner.plan_detailed(self.mapper.grid, patch, o.position[:2], rng)
+            plan = self.planner.plan_detailed(
+                self.mapper.grid, patch, o.position[:2], rng, self.allowed
+            )
             self.last_plan = plan
             self.n_plans += 1
             if plan.target is not None:
-                self.motion.set_goal(plan.target)
+                self._head_for(plan.target, o.position)
                 return Action([self.motion.command(o.position)])
             self.stop_rule_at = o.t
             if self.params.visit_readings > 0:
@@ -265,7 +334,7 @@ class DSMappingSearcher(Searcher):
             return Action([Command.hold()], declaration=_tag(decl, o.agent))
         if self._cell(target) == self._cell(o.position):
             return Action([Command.hold()])  # reading inside the visited cell
-        self.motion.set_goal(target)
+        self._head_for(target, o.position)
         return Action([self.motion.command(o.position)])
 
     def _next_visit(self, o: Observation) -> np.ndarray | None:

@@ -98,7 +98,8 @@ class OdorPathParams(Params):
         Nominal record period; weights the first record's wind under ``advection="inclusive"``.
     history : float, seconds
         Extra record history kept beyond ``t_thr`` so maps can be computed at earlier record
-        times (e.g. to attribute a delayed sensor reading, eq. 2).
+        times (e.g. to attribute a delayed sensor reading, eq. 2); a map whose windows would
+        need trimmed records is refused.
     eta : float, optional
         Window threshold on ``S`` (eq. 14); ``None`` means ``1 / M`` (eq. 15).
     variance : {"online", "fixed"}
@@ -106,7 +107,7 @@ class OdorPathParams(Params):
     fixed_variance : (2,) tuple of float, m^2/s^2
         ``(sigma_x^2, sigma_y^2)`` used when ``variance="fixed"``.
     min_variance : float, m^2/s^2
-        Floor on each axis' velocity variance.
+        Floor on each axis' online velocity variance (``fixed_variance`` is used as given).
     noise_time_scale : float, seconds
         ``tau`` in ``Sigma = (t_c - t_r) tau sigma_u^2`` (see the module notes).
     advection : {"interval", "inclusive"}
@@ -269,6 +270,9 @@ class OdorPathEstimator:
         self, params: OdorPathParams, lower: Sequence[float], upper: Sequence[float]
     ) -> None:
         self.params = params
+        if len(lower) != 2 or len(upper) != 2:
+            # the map is over the horizontal plane (eqs. 6-9); a 3D box would fail later
+            raise ConfigError("lower", "the odor-path map needs 2D bounds (x, y)")
         self.grid = CellGrid.from_extent(lower, upper, params.cell_size)
         self.eta = params.eta if params.eta is not None else 1.0 / self.grid.n_cells
         self.reset()
@@ -283,6 +287,7 @@ class OdorPathEstimator:
         self._ss = np.zeros(cap)
         self._lo = 0
         self._hi = 0
+        self._dropped_t = -math.inf  # newest record trimmed away, seconds
 
     def update(
         self, t: float, position: ArrayLike, wind: ArrayLike, signal: float | bool = 0.0
@@ -315,7 +320,10 @@ class OdorPathEstimator:
         if not math.isfinite(s):
             raise ConfigError("signal", "must be finite")
         keep_from = t - self.params.t_thr - self.params.history - _TIME_TOL
-        self._lo += int(np.searchsorted(self._tt[self._lo : self._hi], keep_from, side="left"))
+        n_drop = int(np.searchsorted(self._tt[self._lo : self._hi], keep_from, side="left"))
+        if n_drop:
+            self._dropped_t = float(self._tt[self._lo + n_drop - 1])
+        self._lo += n_drop
         if self._hi == len(self._tt):
             n = self._hi - self._lo
             cap = max(len(self._tt), 2 * (n + 1))
@@ -362,6 +370,9 @@ class OdorPathEstimator:
             raise ConfigError("t_c", "no records yet")
         if t_c is None:
             return self._hi - 1
+        if not math.isfinite(t_c):
+            # NaN would pass the tolerance test below and pick the oldest record
+            raise ConfigError("t_c", f"must be a finite record time, got {t_c}")
         times = self._tt[self._lo : self._hi]
         c = int(np.argmin(np.abs(times - t_c)))
         if abs(times[c] - t_c) > 1e-6:
@@ -377,12 +388,20 @@ class OdorPathEstimator:
     def _first_window(self, c: int) -> int:
         """Buffer index of the oldest record with ``t_c - t_r <= t_thr``."""
         limit = self._tt[c] - self.params.t_thr - _TIME_TOL
+        if self._dropped_t >= limit:
+            # a map from fewer windows than at the time would differ without notice
+            raise ConfigError(
+                "t_c",
+                f"the map at {self._tt[c]} s needs records trimmed away already (keep more "
+                "with history)",
+            )
         return self._lo + int(np.searchsorted(self._tt[self._lo : c + 1], limit, side="left"))
 
     def _velocity_variance(self, c: int, first: int) -> FloatArray:
         p = self.params
         if p.variance == "fixed":
-            return np.maximum(np.asarray(p.fixed_variance, float), p.min_variance)
+            # as given: the floor only keeps a steady wind's online estimate finite
+            return np.asarray(p.fixed_variance, float)
         lo = first + 1 if p.advection == "interval" else first
         n = c + 1 - lo
         if n < 2:

@@ -22,19 +22,19 @@ def synthetic_wind_record(
 
     Mean ``speed`` along +x; the direction's stationary standard deviation is
     ``direction_std_deg`` and its correlation time ``correlation_time`` seconds; the speed
-    fluctuates by 10 % of the same process.
+    fluctuates with a 10 % standard deviation and the same correlation time (starting at
+    ``speed``).
     """
     a = math.exp(-dt / correlation_time)
     s = math.radians(direction_std_deg)
     th = np.empty(n)
-    sp = np.empty(n)
+    z = np.empty(n)  # unit-variance process behind the speed: speed (1 + 0.1 z)
     th[0] = rng.normal(0.0, s)
-    sp[0] = speed
+    z[0] = 0.0
     for i in range(1, n):
         th[i] = a * th[i - 1] + math.sqrt(1 - a * a) * rng.normal(0.0, s)
-        sp[i] = speed * (
-            1.0 + 0.1 * (a * (sp[i - 1] / speed - 1.0) + math.sqrt(1 - a * a) * rng.normal())
-        )
+        z[i] = a * z[i - 1] + math.sqrt(1 - a * a) * rng.normal()
+    sp = speed * (1.0 + 0.1 * z)
     return np.column_stack([sp * np.cos(th), sp * np.sin(th)])
 
 
