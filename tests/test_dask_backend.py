@@ -2,7 +2,15 @@
 
 from __future__ import annotations
 
+import os
+import signal
 import socket
+import sqlite3
+import subprocess
+import sys
+import textwrap
+import time
+from pathlib import Path
 
 import pandas as pd
 import pytest
@@ -86,3 +94,108 @@ def test_scheduler_address_joins_existing_cluster(tmp_path):
         spec, tmp_path / "l.sqlite", workers=1, episode_fn=stub_episode, progress=False
     )
     pd.testing.assert_frame_equal(_table(local), _table(joined))
+
+
+@pytest.mark.parametrize(
+    "addr",
+    [
+        "tcp://127.0.0.1:notaport",
+        "tcp://127.0.0.1",
+        "tcp://",
+        "foo://127.0.0.1:8786",
+        "tcp://127.0.0.1:99999",
+        "inproc://x",
+    ],
+)
+def test_malformed_scheduler_address_is_one_line_naming_the_field(tmp_path, addr):
+    with pytest.raises(ConfigError) as ei:
+        run_sweep(
+            SPEC,
+            tmp_path / "m.sqlite",
+            scheduler=addr,
+            timeout=1.0,
+            episode_fn=stub_episode,
+            progress=False,
+        )
+    msg = str(ei.value)
+    assert ei.value.field == "scheduler" and addr in msg and "\n" not in msg
+
+
+def test_worker_crash_is_isolated_and_recorded_like_the_local_pool(tmp_path):
+    spec = {**SPEC, "episodes": 6, "scenarios": [{"name": "toy"}]}
+    spec["searchers"] = [{"name": "a", "params": {"crash_on": [2]}}]
+    df = run_sweep(
+        spec,
+        tmp_path / "c.sqlite",
+        backend="dask",
+        workers=2,
+        episode_fn=stub_episode,
+        progress=False,
+    )
+    # the episode that kills its worker is recorded, the sweep goes on with the others
+    assert df["episode"].tolist() == list(range(6))
+    assert df.loc[df["status"] == "error", "episode"].tolist() == [2]
+    assert "WorkerDied" in df.loc[df["episode"] == 2, "error"].iloc[0]
+    assert df.loc[df["episode"] != 2, "search_time"].notna().all()
+
+
+_CHILD = """
+import signal
+import sys
+sys.path.insert(0, {tests!r})
+from _stub_episode import stub_episode
+from odorloc.experiments.sweep import run_sweep
+
+SPEC = {spec!r}
+
+if __name__ == "__main__":
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        run_sweep(SPEC, sys.argv[1], backend="dask", workers=2, episode_fn=stub_episode,
+                  progress=False)
+    except KeyboardInterrupt:
+        print("interrupted")
+"""
+
+
+def _stored(path: Path) -> int:
+    try:
+        con = sqlite3.connect(f"file:{path}?mode=ro", uri=True)
+        try:
+            return int(con.execute("SELECT COUNT(*) FROM episodes").fetchone()[0])
+        finally:
+            con.close()
+    except sqlite3.Error:
+        return 0
+
+
+def test_ctrl_c_stops_the_local_cluster_quietly_and_keeps_what_finished(tmp_path):
+    spec = {**SPEC, "episodes": 200, "scenarios": [{"name": "toy"}]}
+    spec["searchers"] = [{"name": "a", "params": {"sleep": 0.2}}]
+    script = tmp_path / "child.py"
+    tests = str(Path(__file__).resolve().parent)
+    script.write_text(textwrap.dedent(_CHILD.format(tests=tests, spec=spec)))
+    store = tmp_path / "i.sqlite"
+    proc = subprocess.Popen(
+        [sys.executable, str(script), str(store)],
+        start_new_session=True,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        deadline = time.monotonic() + 120
+        while _stored(store) < 4:
+            assert proc.poll() is None, proc.communicate()
+            assert time.monotonic() < deadline
+            time.sleep(0.05)
+        # Ctrl-C in a terminal signals the whole process group, workers included
+        os.killpg(proc.pid, signal.SIGINT)
+        out, err = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
+    assert "interrupted" in out
+    assert "Traceback" not in err, err[-2000:]
+    assert 4 <= _stored(store) < 200

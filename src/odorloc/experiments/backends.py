@@ -4,7 +4,9 @@ Both backends send work in small chunks (a few episodes per work item) to keep t
 overhead low, keep only a bounded number of chunks in flight (memory does not grow with the sweep)
 and yield results in completion order; the caller (the parent process) writes them to the store.
 Results do not depend on the backend or the number of workers because each task carries its own
-seeds.
+seeds. An episode that kills its worker process (segfault, ``os._exit``, out of memory) is run
+again alone and, if its worker dies again, recorded as a ``WorkerDied`` error row; the sweep goes
+on with the other episodes.
 
 - :class:`LocalBackend` -- a :class:`concurrent.futures.ProcessPoolExecutor` on this machine, no
   set-up (``workers=1`` runs in the calling process).
@@ -15,11 +17,13 @@ seeds.
 
 from __future__ import annotations
 
+import collections
 import itertools
 import math
 import multiprocessing
 import os
 import select
+import signal
 import threading
 import time
 import traceback
@@ -100,6 +104,19 @@ def run_chunk(
     return rows
 
 
+def died_rows(n: int) -> list[dict]:
+    """Error rows for ``n`` tasks whose worker process died while running them alone."""
+    return [
+        {
+            "status": "error",
+            "error": "WorkerDied: the worker process running this episode died",
+            "termination": "error",
+            "success": False,
+        }
+        for _ in range(n)
+    ]
+
+
 def default_chunk_size(n_tasks: int, workers: int) -> int:
     """About four chunks per worker, at most :data:`MAX_CHUNK` episodes each."""
     return max(1, min(MAX_CHUNK, math.ceil(n_tasks / (4 * max(1, workers)))))
@@ -170,6 +187,11 @@ def warm_kernels() -> None:
         warm()
     except Exception:  # an optimisation only: the episode compiles what it needs
         pass
+
+
+def ignore_interrupts() -> None:
+    """Worker set-up: ignore SIGINT (the parent that started the worker stops it)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 def init_worker(parent_pid: int) -> None:
@@ -318,16 +340,29 @@ class LocalBackend:
             try:
                 rows = pool.submit(run_chunk, episode_fn, item, keep_arrays, grouped).result()
             except BrokenProcessPool:
-                died = {
-                    "status": "error",
-                    "error": "WorkerDied: the worker process running this episode died",
-                    "termination": "error",
-                    "success": False,
-                }
-                rows = [dict(died) for _ in item]
+                rows = died_rows(len(item))
             finally:
                 pool.shutdown(wait=True)
             yield from zip(item, rows, strict=True)
+
+
+def _check_scheduler_address(address: str) -> None:
+    """Refuse an address Dask cannot parse (:class:`ConfigError` naming ``scheduler``)."""
+    from distributed.comm.addressing import parse_address, parse_host_port
+    from distributed.comm.registry import get_backend
+
+    try:
+        scheme, loc = parse_address(address, strict=True)
+        get_backend(scheme)
+        if scheme != "inproc":
+            port = parse_host_port(loc)[1]
+            if not 0 < port < 65536:
+                raise ValueError(f"port {port} is not in 1-65535")
+    except ValueError as exc:
+        raise ConfigError(
+            "scheduler",
+            f"expected an address like tcp://host:8786, got {address!r} ({exc})",
+        ) from None
 
 
 class DaskBackend:
@@ -339,9 +374,16 @@ class DaskBackend:
         Worker processes of the ``LocalCluster`` started when no ``scheduler`` is given (one
         thread each, so episodes do not compete for the GIL).
     scheduler : str, optional
-        Address of a running scheduler, ``"tcp://host:port"``.
+        Address of a running scheduler, ``"tcp://host:port"``; a malformed one raises
+        :class:`ConfigError` before any connection is tried.
     timeout : float, seconds
         Connection timeout; an unreachable scheduler raises :class:`ConfigError`.
+
+    Notes
+    -----
+    The workers of a ``LocalCluster`` started here ignore SIGINT: Ctrl-C stops the sweep in
+    this process, which then shuts them down (workers of a cluster joined by address are left
+    as they are).
     """
 
     def __init__(self, workers: int = 2, scheduler: str | None = None, timeout: float = 5.0):
@@ -367,10 +409,17 @@ class DaskBackend:
         import logging
 
         if self.scheduler is not None:
+            # a malformed address fails deep inside the client, and the half-built client then
+            # blocks at exit trying to close: refuse it before connecting
+            _check_scheduler_address(self.scheduler)
             try:
                 self._client = distributed.Client(
                     self.scheduler, timeout=self.timeout, set_as_default=False
                 )
+            except ValueError as exc:
+                raise ConfigError(
+                    "scheduler", f"not a Dask scheduler address: {self.scheduler!r} ({exc})"
+                ) from None
             except (OSError, TimeoutError) as exc:
                 reason = str(exc).splitlines()[0][:120] if str(exc) else type(exc).__name__
                 raise ConfigError(
@@ -385,8 +434,14 @@ class DaskBackend:
                 processes=True,
                 dashboard_address=None,
                 silence_logs=logging.ERROR,
+                # an item whose worker died is run again alone, one episode per item (see
+                # run): Dask's own retries would only kill more workers first
+                scheduler_kwargs={"allowed_failures": 0},
             )
             self._client = distributed.Client(self._cluster, set_as_default=False)
+            # Ctrl-C reaches the whole process group: let this process shut its own workers
+            # down instead of each worker dying on the signal with its own tracebacks
+            self._client.run(ignore_interrupts)
         self._client.run(warm_kernels)
         return self
 
@@ -431,29 +486,49 @@ class DaskBackend:
         else:
             size = chunk_size or default_chunk_size(_count(tasks, total), n_workers)
             queue = _chunks(tasks, size)
-        chunk_of: dict[str, list[Any]] = {}
+        # work item key -> (tasks, whether they already ran alone after a worker died)
+        chunk_of: dict[str, tuple[list[Any], bool]] = {}
+        isolate: collections.deque[list[Any]] = collections.deque()
         max_inflight = 2 * n_workers + 1
         ac = distributed.as_completed(loop=self._client.loop)
 
-        def submit_one() -> bool:
-            chunk = next(queue, None)
-            if chunk is None:
-                return False
+        def submit(chunk: list[Any], alone: bool) -> None:
             fut = self._client.submit(
                 run_chunk, episode_fn, chunk, keep_arrays, grouped, pure=False
             )
-            chunk_of[fut.key] = chunk
+            chunk_of[fut.key] = (chunk, alone)
             ac.add(fut)
-            return True
 
-        for _ in range(max_inflight):
-            if not submit_one():
-                break
+        def fill() -> None:
+            if isolate:
+                # suspects run one at a time with nothing else in flight: a worker that dies
+                # then names its episode (Dask also fails the items queued on that worker)
+                if not chunk_of:
+                    submit(isolate.popleft(), True)
+                return
+            while len(chunk_of) < max_inflight:
+                chunk = next(queue, None)
+                if chunk is None:
+                    return
+                submit(chunk, False)
+
+        fill()
         for fut in ac:
-            chunk = chunk_of.pop(fut.key)
-            rows = fut.result()
+            chunk, alone = chunk_of.pop(fut.key)
+            try:
+                rows = fut.result()
+            except distributed.KilledWorker:
+                # the worker holding this item died (segfault, os._exit, out of memory): as
+                # the local pool does, run its episodes again one per item, so that only a
+                # repeat offender is recorded as an error
+                if alone:
+                    rows = died_rows(len(chunk))
+                else:
+                    isolate.extend([chunk] if grouped else [[t] for t in chunk])
+                    rows = []
+                    chunk = []
             fut.release()
-            submit_one()
+            fill()
             yield from zip(chunk, rows, strict=True)
 
 
