@@ -198,3 +198,24 @@ def test_run_repeats_an_episode_from_its_saved_scenario(tmp_path) -> None:
     ):
         r = runner.invoke(app, ["run", *bad, "--out", str(tmp_path / "c")])
         assert r.exit_code == 2 and r.stderr.startswith(f"error: {field}: "), r.stderr
+
+
+def test_batch_names_a_malformed_scheduler_as_its_option(tmp_path) -> None:
+    r = runner.invoke(
+        app,
+        [
+            "batch",
+            "-s",
+            "lattice-isotropic-2d",
+            "--backend",
+            "dask",
+            "--scheduler",
+            "tcp://127.0.0.1:notaport",
+            "--out",
+            str(tmp_path / "o"),
+            "--no-progress",
+        ],
+    )
+    assert r.exit_code == 2
+    assert r.stderr.startswith("error: --scheduler: expected an address like tcp://host:8786")
+    assert len(r.stderr.strip().splitlines()) == 1

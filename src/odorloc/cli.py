@@ -428,6 +428,12 @@ def batch(
             scheduler=scheduler,
             progress=progress,
         )
+    except ConfigError as exc:
+        # the cluster is the command's --scheduler
+        if exc.field == "scheduler":
+            exc = ConfigError("--scheduler", exc.problem)
+        _fail(str(exc))
+        return
     except OdorlocError as exc:
         _fail(str(exc))
         return
@@ -558,7 +564,7 @@ def replay_log(
 ) -> None:
     """Replay an estimator offline over a recorded robot log; plot its belief on the map.
 
-    Needs the ``ros`` extra (``pip install odorloc[ros]``). Writes ``belief.png`` and
+    Needs the ``ros`` extra (``pip install odorloc\\[ros]``). Writes ``belief.png`` and
     ``recording.npz`` into ``--out``.
     """
     try:
