@@ -191,6 +191,20 @@ def test_builtin_lattice_scenarios(name: str, args: tuple) -> None:
     assert a.metrics["steps"] == b.metrics["steps"] and a.metrics["termination"] == "reached"
 
 
+def test_lattice_problem_names_the_bad_parameter() -> None:
+    inf = float("inf")
+    for args, field in [
+        ((2.0, 1.0, 1.0), "dim"),
+        ((4, 1.0, 1.0), "dim"),
+        ((2, inf, 1.0), "length"),
+        ((2, float("nan"), 1.0), "length"),
+        ((2, 1.0, inf), "intensity"),
+        ((2, 1.0, 0.0), "intensity"),
+    ]:
+        with pytest.raises(ConfigError, match=field):
+            lattice_scenario(*args)
+
+
 def test_episode_starts_from_the_first_hit() -> None:
     sc = get_scenario("lattice-isotropic-2d")
     ep = Episode(sc, record=False)

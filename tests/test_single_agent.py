@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from odorloc.core.errors import ConfigError
 from odorloc.core.registry import make_params
 from odorloc.experiments.runner import cell_scenario
 from odorloc.experiments.sweep import expand_tasks, load_sweep, run_sweep, validate_names
@@ -82,6 +83,31 @@ def test_detection_model_fit_recovers_a_known_model() -> None:
     assert fit["V"] == pytest.approx(1.0) and fit["wind_direction"] == (1.0, 0.0)
 
 
+@pytest.mark.parametrize(("world", "step"), [("indoor", 0.2), ("farrell", 1.0)])
+def test_default_fit_gives_the_recorded_detection_models(world: str, step: float) -> None:
+    """``fit_detection_model`` with its defaults, on 300 s of flow at seed 99 and probes at the
+    cell centres of the documented lattice, gives the models the comparison uses."""
+    sc = cell_scenario(
+        {"scenario": rp.WORLDS[world]["name"], "scenario_params": rp.WORLDS[world]["params"]}
+    )
+    lo, hi = np.asarray(sc.world.arena.lower), np.asarray(sc.world.arena.upper)
+    axes = [np.arange(a + step / 2, b, step) for a, b in zip(lo, hi, strict=True)]
+    pts = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, len(lo))
+    hits, periods, wind = detection_map(sc, pts, 300.0, seed=99)
+    rec = rp.FITTED_MODELS[world]
+    fit = fit_detection_model(
+        pts,
+        hits,
+        periods,
+        sc.world.sources[0].position,
+        wind,
+        sc.limits.control_dt,
+        sensor_radius=rec["sensor_radius"],
+    )
+    assert {k: fit[k] for k in ("Q", "D", "tau")} == {k: rec[k] for k in ("Q", "D", "tau")}
+    assert fit["V"] == pytest.approx(rec["V"], abs=5e-4)
+
+
 def test_detection_map_reads_the_threshold() -> None:
     sc = Scenario.from_dict(
         {
@@ -100,6 +126,51 @@ def test_detection_map_reads_the_threshold() -> None:
     assert n == 10
     np.testing.assert_allclose(wind, [0.5, 0.0])
     assert hits.tolist() == [10, 0, 0]  # steady plume: downwind on the axis only, never upwind
+
+
+def _calibration_world() -> Scenario:
+    return Scenario.from_dict(
+        {
+            "world": {
+                "arena": {"lower": [0.0, 0.0], "upper": [10.0, 4.0], "resolution": 0.1},
+                "sources": [{"position": [1.0, 2.0], "rate": 1.0}],
+                "wind": {"type": "uniform", "velocity": [0.5, 0.0]},
+                "plume": {"type": "gaussian"},
+            },
+            "sensors": {"gas": {"type": "concentration", "threshold": 0.5}},
+            "agents": {"starts": [[8.0, 2.0]]},
+        }
+    )
+
+
+def test_detection_map_refuses_a_stretch_shorter_than_one_period() -> None:
+    sc = _calibration_world()
+    pts = np.array([[2.0, 2.0], [2.0, 3.5]])
+    for duration in (0.1, 0.0, float("nan")):
+        with pytest.raises(ConfigError, match="duration"):
+            detection_map(sc, pts, duration)
+    with pytest.raises(ConfigError, match="points"):
+        detection_map(sc, np.array([2.0, 2.0]), 5.0)
+
+
+def test_detection_model_fit_refuses_inconsistent_data() -> None:
+    pts = np.array([[2.0, 2.0], [2.0, 3.5]])
+    src, wind = [1.0, 2.0], np.array([0.5, 0.0])
+    good = {"points": pts, "hits": np.array([10, 0]), "periods": 10, "source": src, "wind": wind}
+    bad = {
+        "hits": [{"hits": np.array([10])}, {"hits": np.array([11, 0])}],
+        "periods": [{"periods": 0}, {"periods": 2.5}],
+        "wind": [{"wind": np.zeros(2)}, {"wind": np.array([np.nan, 0.0])}],
+        "source": [{"source": [1.0, 2.0, 0.0]}],
+        "sensor_radius": [{"sensor_radius": 50.0}],
+    }
+    for field, cases in bad.items():
+        for case in cases:
+            args = {**good, **case}
+            radius = args.pop("sensor_radius", 0.1)
+            with pytest.raises(ConfigError, match=field):
+                fit_detection_model(**args, dt=0.5, sensor_radius=radius)
+    assert fit_detection_model(**good, dt=0.5)["Q"] > 0
 
 
 def test_grid_tables_made_in_calm_air_are_remade_once_the_wind_blows() -> None:

@@ -11,6 +11,7 @@ The built-in ``lattice-isotropic-*`` files are its output.
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 from odorloc.core.errors import ConfigError
@@ -25,12 +26,12 @@ STUCK_LIMIT = 8
 def lattice_problem(dim: int, length: float, intensity: float) -> dict[str, int]:
     """OTTO's automatic ``n_hits``, grid size ``N`` and step cap for ``lambda/dx = length``,
     ``R dt = intensity`` (cells of 1 m)."""
-    if dim not in (2, 3):
-        raise ConfigError("dim", f"must be 2 or 3, got {dim}")
-    if not length >= 1.0:
-        raise ConfigError("length", f"lambda/dx must be >= 1, got {length}")
-    if not intensity > 0:
-        raise ConfigError("intensity", f"R dt must be > 0, got {intensity}")
+    if isinstance(dim, bool) or not isinstance(dim, int) or dim not in (2, 3):
+        raise ConfigError("dim", f"must be the integer 2 or 3, got {dim!r}")
+    if not (math.isfinite(length) and length >= 1.0):
+        raise ConfigError("length", f"lambda/dx must be a finite number >= 1, got {length}")
+    if not (math.isfinite(intensity) and intensity > 0):
+        raise ConfigError("intensity", f"R dt must be a finite number > 0, got {intensity}")
     z = auto_n_hits(length, intensity, 1.0, dim)
     n = auto_grid_size(length, intensity, 1.0, dim, z)
     return {"n_hits": z, "grid": n, "step_cap": auto_step_cap(length, intensity, 1.0, dim, n)}

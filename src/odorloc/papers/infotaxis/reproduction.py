@@ -23,7 +23,7 @@ strategy: success rate (Wilson 95 % interval), mean time and path length of the 
 Settings (the searchers' knowledge of each world, :data:`SEARCHER_PARAMS`): the model-based
 strategies use the Vergassola rate model of detections fitted to each filament world by
 :func:`~odorloc.papers.infotaxis.calibration.fit_detection_model` (:data:`FITTED_MODELS`, the
-values it gave on 300 s of each world's flow at root seed 99), and the world's own model in the
+values it gave on 300 s of each world's flow at world seed 99), and the world's own model in the
 rate world; belief cells of 1 m, 0.2 m and 2 m; the reactive rules' casting and spiral scales
 follow the size of each world. No world setting is changed for any strategy.
 """
@@ -79,10 +79,10 @@ WORLDS: dict[str, dict[str, Any]] = {
     },
 }
 
-#: Detection models fitted to the filament worlds (``calibration.fit_detection_model``: 300 s of
-#: flow at root seed 99, probes on a 1 m / 0.2 m lattice, maximum binomial likelihood over the
-#: grid D in 0.01..10 m^2/s, tau in 5..5000 s, Q in 0.1..100). The room's fit lies on the edge
-#: of that grid (smoke fills the room: the rate model fits it badly).
+#: Detection models fitted to the filament worlds (``calibration.fit_detection_model`` on its
+#: default grid ``calibration.FIT_GRID``, D in 0.01..10 m^2/s, tau in 5..5000 s, Q in 0.1..100:
+#: 300 s of flow at seed 99, probes at the centres of 1 m / 0.2 m cells over the arena). The
+#: room's fit lies on the edge of that grid (smoke fills the room: the rate model fits it badly).
 FITTED_MODELS: dict[str, dict[str, Any]] = {
     "farrell": {
         "type": "vergassola",
