@@ -90,3 +90,56 @@ def test_invalid_arena(lower, upper, res, field) -> None:
 def test_bad_points_shape(room: Arena) -> None:
     with pytest.raises(ConfigError, match="points"):
         room.contains(np.zeros((3, 3)))
+
+
+@pytest.fixture
+def diagonal_wall() -> Arena:
+    """A wall of cells that touch only at their corners, from (0, 1) to (1, 0)."""
+    occ = np.zeros((10, 10), bool)
+    for i in range(10):
+        occ[i, 9 - i] = True
+    return Arena((0.0, 0.0), (1.0, 1.0), 0.1, occ)
+
+
+def test_segments_cannot_slip_through_a_diagonal_wall(diagonal_wall: Arena) -> None:
+    a = np.array([[0.35, 0.55], [0.30, 0.58], [0.32, 0.55], [0.10, 0.30]])
+    b = np.array([[0.45, 0.65], [0.50, 0.62], [0.47, 0.64], [0.90, 0.70]])
+    assert diagonal_wall.is_free(a).all() and diagonal_wall.is_free(b).all()
+    # through the corner between two wall cells, or clipping a wall cell by less than a
+    # sample spacing
+    assert not diagonal_wall.segment_free(a, b).any()
+    s = diagonal_wall.first_hit(a, b)
+    assert np.all(s < 1.0)
+    stop = a + s[:, None] * (b - a)
+    assert (stop.sum(axis=1) < 1.0).all()  # every stop is on the near side of the wall
+    assert diagonal_wall.segment_free(a, stop).all()
+
+
+def test_segment_free_agrees_with_dense_sampling() -> None:
+    rng = np.random.default_rng(3)
+    base = Arena.box((0.0, 0.0), (2.0, 2.0), 0.1)
+    arena = Arena(base.lower, base.upper, 0.1, rng.random(base.grid_shape) < 0.1)
+    a = rng.uniform(0.0, 2.0, (400, 2))
+    b = a + rng.normal(scale=0.4, size=(400, 2))
+    s = np.linspace(0.0, 1.0, 2001)
+    dense = np.array(
+        [arena.is_free(p + s[:, None] * (q - p)).all() for p, q in zip(a, b, strict=True)]
+    )
+    np.testing.assert_array_equal(arena.segment_free(a, b), dense)
+    stop = a + arena.first_hit(a, b)[:, None] * (b - a)
+    start_free = arena.is_free(a)
+    assert arena.segment_free(a[start_free], stop[start_free]).all()
+
+
+def test_a_wall_thinner_than_a_cell_is_kept() -> None:
+    coarse = Arena.box((0.0, 0.0), (10.0, 5.0), 0.25)
+    # 0.1 m thick: no cell centre (4.125, 4.375, ...) lies inside it
+    wall = coarse.with_boxes([((4.0, 0.0), (4.1, 5.0))])
+    assert wall.occ is not None and wall.occ.sum() == wall.grid_shape[1]
+    assert wall.in_obstacle([[4.05, 2.5]]).tolist() == [True]
+    assert not wall.segment_free([1.0, 2.5], [8.0, 2.5])[0]
+    # boxes wide enough to hold cell centres are marked by their centres, as before
+    room = coarse.with_boxes([((4.0, 1.0), (5.0, 4.0))])
+    assert room.occ is not None and room.occ.sum() == 4 * 12
+    # a box wholly outside the bounds marks nothing
+    assert coarse.with_boxes([((11.0, 1.0), (11.05, 4.0))]).occ is None

@@ -167,3 +167,17 @@ def test_fluxotaxis_follows_the_most_negative_flux() -> None:
     _, total2 = mass_flux(np.zeros(2), HEX, rho2, winds)
     assert total2 < 0
     assert fluxotaxis(np.zeros(2), HEX, np.full(6, 0.001), winds, 0.005) is None
+
+
+def test_losing_the_odor_restarts_narrow_casts_even_without_a_surge() -> None:
+    p = SurgeCastParams(surge_steps=0, cast_angle_deg=90.0, cast_amplitude=0.4, cast_growth=2.0)
+    sc = SurgeCast(p)
+    up = np.array([-1.0, 0.0])
+    pos = np.array([5.0, 5.0])
+    for _ in range(20):  # casts widened up to cast_max
+        sc.direction(OPEN, pos, up, 0.2)
+    sc.start_surge()
+    assert not sc.surging
+    ys = [round(float(sc.direction(OPEN, pos, up, 0.2)[1])) for _ in range(4)]
+    # a first leg of cast_amplitude (2 steps of 0.2 m), then the other side
+    assert ys[:2] == [ys[0]] * 2 and ys[2] == -ys[0]

@@ -52,16 +52,17 @@ class SurgeCast:
         return self.surge_left > 0
 
     def start_surge(self) -> None:
-        """The odor was lost: surge upwind next."""
+        """The odor was lost: surge upwind next, then cast afresh from ``cast_amplitude``."""
         self.surge_left = self.params.surge_steps
+        # reset here, not when the surge runs out: with no surge steps the next cast must not
+        # carry on with the widened legs of an earlier one
+        self.leg, self.done = self.params.cast_amplitude, 0.0
 
     def direction(self, arena: Arena, pos: np.ndarray, up: np.ndarray, step: float) -> np.ndarray:
         """Unit direction ``(d,)`` of this step (``up`` while surging, else the cast leg's)."""
         p = self.params
         if self.surge_left > 0:
             self.surge_left -= 1
-            if self.surge_left == 0:
-                self.leg, self.done = p.cast_amplitude, 0.0
             return up
         if self.done >= self.leg:
             self.side = -self.side

@@ -9,9 +9,11 @@ The occupancy grid ``occ`` has shape ``(nx, ny)`` or ``(nx, ny, nz)``: it lives 
 from __future__ import annotations
 
 import csv
+import itertools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
@@ -22,6 +24,14 @@ from odorloc.geometry.grid import MAX_GRID_CELLS, CellGrid, check_cell_count
 
 FloatArray = NDArray[np.float64]
 BoolArray = NDArray[np.bool_]
+
+
+@lru_cache(maxsize=2)
+def _corners(dim: int) -> NDArray[np.intp]:
+    """``(dim, 2**dim)`` 0/1 choices per axis of the cells meeting at a cell corner."""
+    c = np.array(list(itertools.product((0, 1), repeat=dim)), np.intp).T
+    c.setflags(write=False)
+    return c
 
 
 def as_points(points: ArrayLike, dim: int, name: str = "points") -> FloatArray:
@@ -150,8 +160,11 @@ class Arena:
     def segment_free(self, start: ArrayLike, end: ArrayLike) -> BoolArray:
         """``True`` where the straight segment from ``start`` to ``end`` stays in free space.
 
-        Segments are sampled at a quarter of the cell size, so an obstacle cell is never
-        skipped. ``start`` and ``end`` broadcast: ``(Q, d)`` or ``(d,)``.
+        Exact on the occupancy grid: every cell the segment passes through is checked (not
+        samples along it), so no obstacle cell is skipped, however little of it the segment
+        clips. A segment through the corner (or, in 3D, along the edge) where cells meet counts
+        as touching all of them, so it cannot slip between two obstacle cells that share only
+        a corner (a diagonal wall). ``start`` and ``end`` broadcast: ``(Q, d)`` or ``(d,)``.
 
         Returns
         -------
@@ -163,12 +176,13 @@ class Arena:
             # an empty box is convex: a segment stays inside when both its ends do
             return self.contains(a) & self.contains(b)
         a, b = np.broadcast_arrays(a, b)
-        length = np.linalg.norm(b - a, axis=1)
-        n = int(np.ceil(length.max(initial=0.0) / (0.25 * self.resolution))) + 1
-        s = np.linspace(0.0, 1.0, max(n, 2))
-        pts = a[:, None, :] + s[None, :, None] * (b - a)[:, None, :]
-        ok = self.is_free(pts.reshape(-1, self.dim)).reshape(len(a), -1)
-        return ok.all(axis=1)
+        # the box is convex: a segment with both ends inside stays inside
+        ok = self.contains(a) & self.contains(b)
+        # segments already refused need no traversal (and a far-off end must not size it)
+        b = np.where(ok[:, None], b, a)
+        a = np.where(ok[:, None], a, self.lo)
+        b = np.where(ok[:, None], b, self.lo)
+        return ok & np.isinf(self._first_contact(a, b))
 
     def line_of_sight(self, start: ArrayLike, end: ArrayLike) -> BoolArray:
         """Alias of :meth:`segment_free`: nothing blocks the straight line between the points."""
@@ -177,7 +191,10 @@ class Arena:
     def first_hit(self, start: ArrayLike, end: ArrayLike) -> FloatArray:
         """Fraction ``s`` in [0, 1] of each segment that can be travelled before leaving free space.
 
-        ``1.0`` means the whole segment is free; used by platforms to stop at walls.
+        ``1.0`` means the whole segment is free; used by platforms to stop at walls. Otherwise
+        ``s`` is the last of samples a tenth of a cell apart that lies before the segment first
+        touches an obstacle cell (found exactly, as in :meth:`segment_free`) or leaves the
+        bounds, so the stopping point is free and at most a tenth of a cell short of the wall.
         """
         a = as_points(start, self.dim, "start")
         b = as_points(end, self.dim, "end")
@@ -189,8 +206,85 @@ class Arena:
         ok = self.is_free(pts.reshape(-1, self.dim)).reshape(len(a), -1)
         bad = ~ok
         first_bad = np.where(bad.any(axis=1), bad.argmax(axis=1), len(s))
+        if self.occ is not None:
+            # samples can straddle an obstacle corner: the first sample at or past the exact
+            # first contact counts as blocked too
+            finite = np.isfinite(a).all(axis=1) & np.isfinite(b).all(axis=1)
+            t = self._first_contact(
+                np.where(finite[:, None], a, self.lo), np.where(finite[:, None], b, self.lo)
+            )
+            first_bad = np.minimum(first_bad, np.searchsorted(s, t, side="left"))
         frac = np.where(first_bad >= len(s), 1.0, s[np.maximum(first_bad - 1, 0)])
         return np.where(first_bad == 0, 0.0, frac)
+
+    def _first_contact(self, a: FloatArray, b: FloatArray) -> FloatArray:
+        """Parameter in [0, 1] where each segment ``a -> b`` first touches an occupied cell.
+
+        Parameters
+        ----------
+        a, b : (Q, d) float ndarray, metres
+            Finite segment ends; parts outside the grid are read from its edge cells.
+
+        Returns
+        -------
+        (Q,) float ndarray
+            ``inf`` for a segment that touches no occupied cell.
+        """
+        assert self.occ is not None
+        res = float(self.resolution)
+        top = np.asarray(self.grid_shape) - 1
+        q, dim = a.shape
+        ga = (a - self.lo) / res
+        gb = (b - self.lo) / res
+        fa, fb = np.floor(ga), np.floor(gb)
+        # most calls are short moves far from any obstacle: look at the cells around them first
+        near_lo = np.clip(np.minimum(fa, fb).min(axis=0, initial=np.inf) - 1, 0, top)
+        near_hi = np.clip(np.maximum(fa, fb).max(axis=0, initial=-np.inf) + 1, 0, top)
+        near = tuple(slice(int(i), int(j) + 1) for i, j in zip(near_lo, near_hi, strict=True))
+        if q == 0 or not self.occ[near].any():
+            return np.full(q, np.inf)
+        # parameters where the segment crosses the cell faces of each axis; unused slots are 1
+        ts = [np.zeros((q, 1)), np.ones((q, 1))]
+        for ax in range(dim):
+            cnt = np.abs(fb[:, ax] - fa[:, ax]).astype(np.intp)
+            k = int(cnt.max(initial=0))
+            if k == 0:
+                continue
+            m = np.arange(1, k + 1)
+            up = (fb[:, ax] >= fa[:, ax])[:, None]
+            plane = fa[:, ax, None] + np.where(up, m, 1 - m)
+            span = np.where(cnt > 0, gb[:, ax] - ga[:, ax], 1.0)[:, None]
+            ts.append(np.where(m <= cnt[:, None], (plane - ga[:, ax, None]) / span, 1.0))
+        t = np.sort(np.concatenate(ts, axis=1), axis=1)
+        # crossings closer than a billionth of a cell are one: the segment passes a corner
+        length = np.linalg.norm(b - a, axis=1)
+        tol = 1e-9 * res / np.maximum(length, 1e-300)
+        valid = np.diff(t, axis=1) > tol[:, None]
+        mid = 0.5 * (t[:, :-1] + t[:, 1:])
+        pts = a[:, None, :] + mid[..., None] * (b - a)[:, None, :]
+        cells = np.concatenate([ga[:, None, :], (pts - self.lo) / res, gb[:, None, :]], axis=1)
+        cells = np.clip(np.floor(cells), 0, top).astype(np.intp)
+        keep = np.concatenate([np.ones((q, 1), bool), valid, np.ones((q, 1), bool)], axis=1)
+        # where each element of the sequence (start cell, intervals, end cell) is left
+        leave = np.concatenate([np.zeros((q, 1)), t[:, 1:], np.ones((q, 1))], axis=1)
+        # an interval too short to count takes the cell before it
+        pos = np.maximum.accumulate(np.where(keep, np.arange(keep.shape[1]), 0), axis=1)
+        cells = np.take_along_axis(cells, pos[..., None], axis=1)
+        flat = self.occ.ravel()
+        strides = np.cumprod((1, *self.grid_shape[:0:-1]))[::-1]
+        lin = cells @ strides
+        # consecutive cells differ in several axes only at a shared corner or edge: every
+        # cell meeting there is touched
+        step = (cells[:, 1:] - cells[:, :-1]) * strides
+        touched = lin[:, :-1, None] + step @ _corners(dim)
+        hit = np.concatenate([flat[lin[:, :1]], flat[touched].any(axis=2)], axis=1)
+        # contact is made where the last cell kept before the touched one is left: the first
+        # of crossings merged at a corner
+        first = hit.argmax(axis=1)
+        rows = np.arange(q)
+        before = pos[rows, np.maximum(first - 1, 0)]
+        contact = np.where(first == 0, 0.0, leave[rows, before])
+        return np.where(hit.any(axis=1), contact, np.inf)
 
     def clip(self, points: ArrayLike) -> FloatArray:
         """Points clipped into the bounds (not out of obstacles), ``(Q, d)``."""
@@ -205,10 +299,13 @@ class Arena:
     def with_boxes(self, boxes: Sequence[tuple[Sequence[float], Sequence[float]]]) -> Arena:
         """A copy with axis-aligned box obstacles ``[(lower, upper), ...]`` marked occupied.
 
-        A cell is occupied when its centre lies inside a box.
+        A cell is occupied when its centre lies inside a box. Along an axis where a box inside
+        the bounds is too thin to hold a cell centre, the cells whose centres are nearest its
+        middle are marked instead, so a wall thinner than a cell is kept one cell thick rather
+        than dropped.
         """
         occ = np.zeros(self.grid_shape, bool) if self.occ is None else self.occ.copy()
-        centers = np.meshgrid(*self.cell_centers(), indexing="ij")
+        centers = self.cell_centers()
         for k, (blo, bhi) in enumerate(boxes):
             blo_a, bhi_a = np.asarray(blo, float), np.asarray(bhi, float)
             if blo_a.shape != (self.dim,) or bhi_a.shape != (self.dim,):
@@ -221,7 +318,13 @@ class Arena:
                 raise ConfigError(f"obstacles.boxes[{k}]", "box upper corner must exceed lower")
             inside = np.ones(self.grid_shape, bool)
             for a in range(self.dim):
-                inside &= (centers[a] >= blo_a[a]) & (centers[a] <= bhi_a[a])
+                rows = (centers[a] >= blo_a[a]) & (centers[a] <= bhi_a[a])
+                if not rows.any() and blo_a[a] < self.upper[a] and bhi_a[a] > self.lower[a]:
+                    mid = 0.5 * (max(blo_a[a], self.lower[a]) + min(bhi_a[a], self.upper[a]))
+                    rows[int(np.argmin(np.abs(centers[a] - mid)))] = True
+                shape = [1] * self.dim
+                shape[a] = len(rows)
+                inside &= rows.reshape(shape)
             occ |= inside
         return Arena(self.lower, self.upper, self.resolution, occ)
 
