@@ -11,7 +11,8 @@ each as odorloc's code with the NumPy kernels and with the compiled ones (``back
 maths, with a check that they agree (the deterministic parts: the weights of eqs. 13-14, and the
 direction rewards and the chosen hover point); then
 3. the mean wall time of whole episodes of each algorithm on ``muc-osl-3d`` (3 UAVs,
-   100 x 60 x 30 m), with the two backends one after the other in this process, and whether
+   100 x 60 x 30 m), with the two backends one after the other in this process, each after one
+   untimed warm-up episode of its own (kernels loaded before the timing), and whether
    their metric rows are equal bit for bit (they must be: same seeds, same episodes); with
    MUC-OSL without eq. 16 beside them. An episode's wall time is its simulated length times the
    cost of one simulated second: the table shows both, because MUC-OSL as printed misses the
@@ -63,6 +64,8 @@ ALGORITHMS = ("muc-osl", "col-inf", "col-pf", "adap-pp")
 #: its episodes end at the source
 NO_EQ16 = {"type": "col-pf", "env_pu": "off"}
 TIMING = ("wall_time", "wall_per_step_ms", "world_fraction", "searcher_fraction")
+#: seed key of the untimed warm-up episodes (apart from the timed episodes' "muc-osl-3d")
+WARMUP_KEY = "muc-osl-3d warm-up"
 
 
 def _case(seed: int = 0) -> dict:
@@ -242,7 +245,8 @@ def _episode_rows(
     name: str, backend: str, episodes: int, estimator: dict | None = None
 ) -> tuple[list[float], list[dict]]:
     """Wall times (s) and metric rows of ``episodes`` episodes of one algorithm (``estimator``:
-    its estimator replaced, for the ablation)."""
+    its estimator replaced, for the ablation), after one untimed episode of the same algorithm
+    and backend on seeds of its own."""
     planner = "adap-pp" if name in ("muc-osl", "adap-pp") else "fixed-step-infotaxis"
     searcher = {
         "type": name,
@@ -252,6 +256,9 @@ def _episode_rows(
     if estimator is not None:
         searcher["estimator"] = estimator
     sc = get_scenario("muc-osl-3d").with_overrides({"searcher": searcher})
+    # The first episode of a backend and algorithm in this process loads the kernels the later
+    # ones find ready (about half a second with numba); every side warms up alike, untimed.
+    run_episode(sc, *episode_seeds(2024, WARMUP_KEY, 0), record=False)
     walls, rows = [], []
     for e in range(episodes):
         t0 = time.perf_counter()

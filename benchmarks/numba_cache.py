@@ -17,7 +17,8 @@ episode in the same process (the warm reference). The cache lives in a temporary
 
 Ratios are first episode / second episode of the same process, so they hold better than
 absolute times on a shared machine. The package folder is checked for cache files afterwards
-(there must be none).
+(there must be none). Needs the ``fast`` extra (numba); without it the script stops with one
+line (exit status 2).
 
     .venv/bin/python benchmarks/numba_cache.py [--repeats 3]
 """
@@ -70,11 +71,22 @@ def run(mode: str, cache: Path) -> dict[str, float]:
     return json.loads(r.stdout.strip().splitlines()[-1])
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=3)
-    args = ap.parse_args()
+    args = ap.parse_args(argv)
     import odorloc
+    from odorloc.core import jit
+
+    if not jit.HAVE_NUMBA:
+        # without the extra there is no kernel to cache: the child would fail on the first
+        # kernel statistics it reads
+        print(
+            "numba_cache: numba is not installed, so there are no compiled kernels to cache "
+            "(pip install 'odorloc[fast]')",
+            file=sys.stderr,
+        )
+        raise SystemExit(2)
 
     package = Path(odorloc.__file__).parent
     rows: dict[str, list[dict[str, float]]] = {"cold": [], "cached": [], "run": [], "worker": []}

@@ -1,0 +1,293 @@
+"""The benchmarks' own checks: both sides of a ratio get the same inputs and the same untimed
+work, the RESULT lines carry what they claim, and a missing optional extra stops a benchmark
+with one line instead of a traceback. No benchmark is timed here."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import sys
+from pathlib import Path
+from types import ModuleType, SimpleNamespace
+
+import numpy as np
+import pytest
+
+BENCH = Path(__file__).resolve().parents[1] / "benchmarks"
+
+
+def load(name: str) -> ModuleType:
+    """A benchmark script as a fresh module (the folder is not a package)."""
+    spec = importlib.util.spec_from_file_location(f"bench_{name}", BENCH / f"{name}.py")
+    assert spec is not None and spec.loader is not None
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+# ---------------------------------------------------------------------- plume_speed
+FAKE_POMPY = """
+import os
+
+import numpy as np
+
+
+def _log(what):
+    with open(os.environ["FAKE_POMPY_LOG"], "a") as f:
+        f.write(what + "\\n")
+
+
+class Rectangle:
+    def __init__(self, x0, x1, y0, y1):
+        self.box = (x0, x1, y0, y1)
+
+    def contains(self, x, y):
+        x0, x1, y0, y1 = self.box
+        return x0 <= x <= x1 and y0 <= y <= y1
+
+
+class Puff:
+    def __init__(self, x, y, z, r_sq):
+        self.x, self.y, self.z, self.r_sq = x, y, z, r_sq
+
+
+class WindModel:
+    def __init__(self, region, nx, ny, u_av, v_av, noise_gain, rng):
+        self.u = (u_av, v_av)
+        self.stale = True
+
+    def update(self, dt):
+        self.stale = True  # as pompy: the splines are refitted at the next query
+
+    def velocity_at_pos(self, x, y):
+        self.stale = False
+        return np.array(self.u)
+
+
+class PlumeModel:
+    def __init__(self, region, source, wind, model_z_disp, centre_rel_diff_scale,
+                 puff_init_rad, puff_spread_rate, puff_release_rate, init_num_puffs,
+                 max_num_puffs, rng):
+        self.region, self.wind, self.puffs = region, wind, []
+
+    def update(self, dt):
+        if self.wind.stale:
+            _log("spline refit inside the plume update")
+        for p in self.puffs:
+            v = self.wind.velocity_at_pos(p.x, p.y)
+            p.x += v[0] * dt
+        self.puffs = [p for p in self.puffs if self.region.contains(p.x, p.y)]
+"""
+
+
+@pytest.fixture
+def fake_pompy(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
+    """A stand-in ``pompy.models`` on the path of child processes; returns its log file."""
+    pkg = tmp_path / "fake" / "pompy"
+    pkg.mkdir(parents=True)
+    (pkg / "__init__.py").write_text("")
+    (pkg / "models.py").write_text(FAKE_POMPY)
+    log = tmp_path / "pompy.log"
+    monkeypatch.setenv("PYTHONPATH", str(pkg.parent))
+    monkeypatch.setenv("FAKE_POMPY_LOG", str(log))
+    return log
+
+
+def test_plume_speed_pompy_starts_from_our_puffs(monkeypatch: pytest.MonkeyPatch) -> None:
+    ps = load("plume_speed")
+    sent: dict = {}
+
+    def fake_run(cmd: list[str], input: str, **kw: object) -> SimpleNamespace:
+        sent.update(json.loads(input))
+        rows = {str(n): {"step_s": 1.0, "live": float(n)} for n in ps.COUNTS}
+        return SimpleNamespace(stdout=json.dumps(rows))
+
+    monkeypatch.setattr(ps.subprocess, "run", fake_run)
+    ps.time_pompy(Path(sys.executable), dict.fromkeys(ps.COUNTS, 1))
+    for n in ps.COUNTS:
+        ours = ps.build_ours(n)
+        theirs = sent["prefill"][str(n)]
+        assert np.array_equal(np.asarray(theirs["pos"]), ours.positions), n
+        assert np.array_equal(np.asarray(theirs["s2"]), ours.sigma2), n
+
+
+def test_plume_speed_pompy_wind_refit_not_timed(fake_pompy: Path) -> None:
+    ps = load("plume_speed")
+    out = ps.time_pompy(Path(sys.executable), dict.fromkeys(ps.COUNTS, 2))
+    assert set(out) == set(ps.COUNTS)
+    # every timed (and warm-up) plume update found the wind's splines already refitted
+    assert not fake_pompy.exists(), fake_pompy.read_text()
+
+
+# ---------------------------------------------------------------------- optional extras
+def _one_line(err: str) -> str:
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    return lines[0]
+
+
+def test_numba_cache_without_numba_stops_in_one_line(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from odorloc.core import jit
+
+    nc = load("numba_cache")
+    monkeypatch.setattr(jit, "HAVE_NUMBA", False)
+
+    def no_child(*a: object, **k: object) -> None:
+        pytest.fail("a child process was started although there is nothing to compile")
+
+    monkeypatch.setattr(nc.subprocess, "run", no_child)
+    with pytest.raises(SystemExit) as stop:
+        nc.main(["--repeats", "1"])
+    assert stop.value.code == 2
+    assert "odorloc[fast]" in _one_line(capsys.readouterr().err)
+
+
+def test_env_speed_without_rl_extra_stops_in_one_line(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    monkeypatch.setitem(sys.modules, "gymnasium", None)
+    monkeypatch.setitem(sys.modules, "odorloc.envs", None)
+    es = load("env_speed")
+    with pytest.raises(SystemExit) as stop:
+        es.main(["--rounds", "1"])
+    assert stop.value.code == 2
+    assert "odorloc[rl]" in _one_line(capsys.readouterr().err)
+
+
+def test_env_speed_result_carries_every_case(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    es = load("env_speed")
+    # bare, environment seconds and steps: 10 % over the bare step alone, 80 % for the team
+    fake = {"indoor-ventilated": 1.1, "two-sources-farrell": 1.2, "muc-osl-3d": 1.8}
+    monkeypatch.setattr(es, "lockstep", lambda name, acts, r, n: (1.0, fake[name], 100))
+    es.main(["--rounds", "1"])
+    result = capsys.readouterr().out.strip().splitlines()[-1]
+    keys = dict(kv.split("=") for kv in result.split()[1:])
+    assert keys["env_overhead"] == "0.100"
+    assert keys["env_overhead_farrell"] == "0.200"
+    assert keys["pz_overhead"] == "0.800"
+    assert keys["pz_bare_ms"] == "10.000"
+
+
+def test_replay_memory_without_rosbags_skips_the_bag(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    monkeypatch.setitem(sys.modules, "rosbags", None)
+    rm = load("replay_memory")
+    rm.main(["--frames", "3", "--filaments", "5"])
+    out = capsys.readouterr()
+    result = out.out.strip().splitlines()[-1]
+    assert result.startswith("RESULT gaden_frames=3 ")
+    assert "bag_peak_mb=nan" in result
+    assert "odorloc[ros]" in _one_line(out.err)
+
+
+# ---------------------------------------------------------------------- muc_osl_speed
+def test_muc_osl_speed_episodes_timed_after_a_warm_up(monkeypatch: pytest.MonkeyPatch) -> None:
+    from odorloc.core.seeds import episode_seeds
+
+    ms = load("muc_osl_speed")
+    calls: list[tuple[int, int]] = []
+    clock = [0.0]
+
+    def fake_episode(sc: object, world: int, agent: int, record: bool) -> SimpleNamespace:
+        # the first episode of the process pays a one-off second, as a kernel load would
+        clock[0] += 1.0 if not calls else 0.25
+        calls.append((world, agent))
+        return SimpleNamespace(metrics={"steps": 10, "success": True, "wall_time": 0.0})
+
+    monkeypatch.setattr(ms, "run_episode", fake_episode)
+    monkeypatch.setattr(ms.time, "perf_counter", lambda: clock[0])
+    walls, rows = ms._episode_rows("col-inf", "numpy", 2)
+    timed = [episode_seeds(2024, "muc-osl-3d", e) for e in range(2)]
+    assert calls[-2:] == timed
+    assert len(calls) == 3 and calls[0] not in timed
+    assert walls == [0.25, 0.25]
+    assert rows == [{"steps": 10, "success": True}] * 2
+
+
+# ---------------------------------------------------------------------- odor_path_speed
+def _fake_odor_path_rows(digest_of: dict[str, str]):
+    def fake(noise: float, instances: int, backend: str, seed: int) -> dict:
+        name = "numba" if backend == "auto" else "numpy"
+        return {
+            "fast_ms": 1.0,
+            "fast_dense_ms": 1.0,
+            "full_ms": 2.0,
+            "cell_ms": 3.0,
+            "cells": 10.0,
+            "max_err": 0.0,
+            "digests": [digest_of[name]] * instances,
+        }
+
+    return fake
+
+
+@pytest.mark.parametrize(("numpy_map", "result"), [("same", "yes"), ("other", "no")])
+def test_odor_path_speed_reports_whether_kernels_agree_to_the_bit(
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+    numpy_map: str,
+    result: str,
+) -> None:
+    ops = load("odor_path_speed")
+    monkeypatch.setattr(ops, "HAVE_NUMBA", True)
+    monkeypatch.setattr(
+        ops, "time_odor_path", _fake_odor_path_rows({"numba": "same", "numpy": numpy_map})
+    )
+    ds = {"dense_ms": 1.0, "patch_ms": 1.0, "plan_ms": 1.0, "cells": 1.0}
+    monkeypatch.setattr(ops, "time_ds", lambda grid, repeats, seed: ds)
+    ops.main(["--instances", "2"])
+    last = capsys.readouterr().out.strip().splitlines()[-1]
+    assert last.startswith("RESULT ") and last.endswith(f"maps_bit_equal={result}")
+
+
+def test_odor_path_speed_digests_follow_the_maps() -> None:
+    ops = load("odor_path_speed")
+    if not ops.HAVE_NUMBA:
+        pytest.skip("numba is not installed")
+    a = ops.time_odor_path(0.05, 2, "auto", 11)
+    b = ops.time_odor_path(0.05, 2, "numpy", 11)
+    c = ops.time_odor_path(0.05, 2, "numpy", 12)
+    assert len(a["digests"]) == 2
+    assert a["digests"] == b["digests"]
+    assert a["digests"] != c["digests"]
+    x = np.zeros((2, 3))
+    y = x.copy()
+    y[1, 2] = np.nextafter(0.0, 1.0)
+    assert ops.map_digest(x) == ops.map_digest(x.copy())
+    assert ops.map_digest(x) != ops.map_digest(y)
+    assert ops.map_digest(x) != ops.map_digest(x.reshape(3, 2))
+
+
+# ---------------------------------------------------------------------- infotaxis_vs_otto
+def test_infotaxis_vs_otto_result_names_the_note_when_otto_did_not_run(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    monkeypatch.delenv("OTTO_PYTHON", raising=False)
+    monkeypatch.delenv("OTTO_SRC", raising=False)
+    ivo = load("infotaxis_vs_otto")
+    ivo.main(["--no-statistics", "--states", "2", "--rounds", "1", "--out", str(tmp_path)])
+    last = capsys.readouterr().out.strip().splitlines()[-1]
+    keys = dict(kv.split("=") for kv in last.split()[1:])
+    assert keys["decision_source"] == "note"
+    assert keys["identical_19"] == keys["identical_37"] == "n/a"
+    assert float(keys["decision_speedup_19"]) > 0 and float(keys["decision_speedup_37"]) > 0
+
+
+# ---------------------------------------------------------------------- pf_speed
+def test_pf_speed_result_carries_a_failed_check(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    pfs = load("pf_speed")
+    loop = pfs.update_loop
+    monkeypatch.setattr(pfs, "update_loop", lambda case, params: loop(case, params) + 1e-3)
+    pfs.main(["--repeat", "1", "--no-table1"])
+    out = capsys.readouterr().out.strip().splitlines()
+    keys = dict(kv.split("=") for kv in out[-1].split()[1:])
+    assert keys["agree"] == "no"
+    assert float(keys["pf_update_speedup"]) > 0
+    assert any(line.startswith("PF update") and line.rstrip().endswith("NO") for line in out)
