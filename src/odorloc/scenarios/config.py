@@ -34,14 +34,27 @@ from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, model_valida
 
 from odorloc.core.errors import ConfigError, format_validation_error
 from odorloc.core.loading import load_yaml_mapping
-from odorloc.core.params import Finite, NonNegative, Positive, Seed, no_bools
+from odorloc.core.params import (
+    Finite,
+    NonNegative,
+    Positive,
+    Seed,
+    no_bools,
+    refuse_bools_as_numbers,
+)
 from odorloc.core.registry import ComponentRef
 from odorloc.geometry.regions import check_region
 from odorloc.plume.sources import Source
 
 
 class _Strict(BaseModel):
-    model_config = ConfigDict(frozen=True, extra="forbid")
+    model_config = ConfigDict(frozen=True, extra="forbid", defer_build=True)
+
+    @classmethod
+    def __pydantic_init_subclass__(cls, **kwargs: Any) -> None:
+        super().__pydantic_init_subclass__(**kwargs)
+        # true/false in a numeric field would be read as 1/0
+        refuse_bools_as_numbers(cls)
 
 
 Component = ComponentRef
