@@ -292,3 +292,15 @@ def test_histogram_entropy_needs_weight_inside_the_extent() -> None:
         histogram_entropy(far, (0, 0), (2, 2), 1.0)
     with pytest.raises(ConfigError, match="cell"):
         histogram_entropy(b, (0, 0), (2, 2), 0.0)
+
+
+def test_a_plus_infinite_log_weight_is_an_error_not_uniform_weights() -> None:
+    from odorloc.inference.weights import normalise_log_weights
+
+    with pytest.raises(ConfigError, match=r"\+inf"):
+        normalise_log_weights([math.inf, 0.0, -1.0])
+    # NaN still counts as -inf, and all -inf still reads as uniform
+    _, w = normalise_log_weights([math.nan, 0.0])
+    assert w.tolist() == [0.0, 1.0]
+    _, w = normalise_log_weights([-math.inf, -math.inf])
+    assert w.tolist() == [0.5, 0.5]

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import io
+import math
 import re
 import shutil
 import subprocess
@@ -187,3 +188,44 @@ def test_report_of_a_store_leaves_its_folder_alone(store_path, tmp_path) -> None
     before = sorted(p.name for p in src.iterdir())
     report_main(src / "results.sqlite", tmp_path / "r.html", renderer=None)
     assert sorted(p.name for p in src.iterdir()) == before
+
+
+def test_paper_comparison_gives_no_verdict_where_the_paper_or_the_data_give_no_number() -> None:
+    import pandas as pd
+
+    from odorloc.experiments.report import _paper_section
+
+    summ = pd.DataFrame(
+        {
+            "cell_id": ["w/a", "w/b"],
+            "searcher": ["a", "b"],
+            "success_rate": [0.5, 0.0],
+            "success_lo": [0.3, 0.0],
+            "success_hi": [0.7, 0.2],
+            "mean_time": [100.0, math.nan],
+            "mean_time_lo": [90.0, math.nan],
+            "mean_time_hi": [110.0, math.nan],
+        }
+    )
+    page = _paper_section(
+        summ,
+        {
+            "a": {"success_rate": 0.5, "mean_time": math.nan, "source": "Fig. 1"},
+            "b": {"success_rate": 0.0, "mean_time": 300.0, "source": "Fig. 2"},
+        },
+    )
+    # a paper time of NaN is no claim; no success to time is no evidence either way
+    assert "time outside CI" not in page
+    assert "no time to compare" in page and page.count("success within CI") == 2
+
+
+def test_progress_counts_a_nan_success_as_the_store_does() -> None:
+    from types import SimpleNamespace
+
+    from odorloc.experiments.progress import SweepProgress
+
+    p = SweepProgress(enabled=False)
+    task = SimpleNamespace(cell_id="c")
+    for value in (math.nan, None, True, 1.0, 0.0):
+        p.advance(task, {"success": value, "status": "ok"})
+    assert p._counts["c"] == [5, 2, 0]

@@ -101,7 +101,10 @@ class SweepProgress:
         """Count one finished episode."""
         c = self._counts.setdefault(task.cell_id, [0, 0, 0])
         c[0] += 1
-        c[1] += int(bool(row.get(self.success)) and row.get("status", "ok") != "error")
+        ok = row.get(self.success)
+        # as the store counts it: NaN (or None) is not a success
+        hit = ok is not None and not (isinstance(ok, float) and math.isnan(ok)) and bool(ok)
+        c[1] += int(hit and row.get("status", "ok") != "error")
         c[2] += int(row.get("status") == "error")
         if self._progress is None:
             return

@@ -198,6 +198,14 @@ def _paired_section(df: Any, level: float, seed: int) -> str:
     )
 
 
+def _finite_or_none(v: Any) -> float | None:
+    """A paper's number, or ``None`` where it gives none (``None`` or NaN)."""
+    if v is None:
+        return None
+    v = float(v)
+    return v if math.isfinite(v) else None
+
+
 def _paper_section(summ: Any, reference: Mapping[str, Mapping[str, Any]]) -> str:
     rows = []
     for key, ref in reference.items():
@@ -206,19 +214,23 @@ def _paper_section(summ: Any, reference: Mapping[str, Mapping[str, Any]]) -> str
             rows.append([_e(key), _e(ref.get("source", "")), "–", "–", "–", "–", "no such cell"])
             continue
         for r in match.itertuples():
-            ps = ref.get("success_rate")
-            pt = ref.get("mean_time")
+            ps = _finite_or_none(ref.get("success_rate"))
+            pt = _finite_or_none(ref.get("mean_time"))
             in_s = ps is not None and r.success_lo <= ps <= r.success_hi
-            in_t = (
-                pt is not None
-                and not math.isnan(r.mean_time_lo)
-                and r.mean_time_lo <= pt <= r.mean_time_hi
-            )
+            no_time = math.isnan(r.mean_time_lo)
+            in_t = pt is not None and not no_time and r.mean_time_lo <= pt <= r.mean_time_hi
             verdict = []
             if ps is not None:
                 verdict.append("success within CI" if in_s else "success outside CI")
             if pt is not None:
-                verdict.append("time within CI" if in_t else "time outside CI")
+                # no interval (no success to time) is no evidence either way
+                verdict.append(
+                    "no time to compare"
+                    if no_time
+                    else "time within CI"
+                    if in_t
+                    else "time outside CI"
+                )
             rows.append(
                 [
                     _e(r.cell_id),

@@ -31,7 +31,8 @@ def normalise_log_weights(log_w: ArrayLike) -> tuple[FloatArray, FloatArray]:
     """Normalised log-weights and weights of ``(N,)`` log-weights.
 
     NaN counts as ``-inf``. If every entry is ``-inf`` (all weights underflowed) the weights are
-    read as uniform: the data then carried no usable information.
+    read as uniform: the data then carried no usable information. A ``+inf`` entry (a hypothesis
+    infinitely more likely than all others: a broken likelihood) raises :class:`ConfigError`.
 
     Returns
     -------
@@ -49,6 +50,8 @@ def normalise_log_weights(log_w: ArrayLike) -> tuple[FloatArray, FloatArray]:
         # the replacing pass runs only when needed)
         lw = np.where(np.isnan(lw), -np.inf, lw)
         m = lw.max()
+    if m == math.inf:
+        raise ConfigError("log_weights", "a log-weight of +inf (a likelihood gave +inf)")
     if not np.isfinite(m):
         lw = np.full(lw.shape, -math.log(lw.size))
         return lw, np.exp(lw)
