@@ -143,3 +143,12 @@ def test_a_wall_thinner_than_a_cell_is_kept() -> None:
     assert room.occ is not None and room.occ.sum() == 4 * 12
     # a box wholly outside the bounds marks nothing
     assert coarse.with_boxes([((11.0, 1.0), (11.05, 4.0))]).occ is None
+
+
+def test_cell_index_of_a_point_that_is_not_finite_is_an_error() -> None:
+    from odorloc.geometry.grid import CellGrid
+
+    grid = CellGrid((0.0, 0.0), 1.0, (3, 3))
+    assert grid.index([[2.5, 0.5]]).tolist() == [[2, 0]]
+    with pytest.raises(ConfigError, match="points: must be finite"):
+        grid.index([[np.nan, 0.5]])

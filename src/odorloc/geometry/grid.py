@@ -201,6 +201,9 @@ class CellGrid:
         p = np.atleast_2d(np.asarray(points, float))
         if p.ndim != 2 or p.shape[1] != self.dim:
             raise ConfigError("points", f"expected shape (Q, {self.dim}), got {np.shape(points)}")
+        if not np.isfinite(p).all():
+            # NaN would be cast to an arbitrary index (cell 0 after clipping) without a word
+            raise ConfigError("points", "must be finite")
         idx = np.floor((p - np.asarray(self.lower)) / np.asarray(self.cell_size)).astype(np.intp)
         if clip:
             idx = np.clip(idx, 0, np.asarray(self.shape) - 1)
