@@ -150,3 +150,14 @@ def test_least_favourable_comparison_is_the_largest_shortfall() -> None:
     assert "least favourable: Col-Inf" in ours and "+400 s" in ours and v == "not held"
     ours, _ = claims._best_everywhere(Fake(), [DEFAULT], "success", np.random.default_rng(1))
     assert "least favourable: Col-Inf" in ours and "-40 pts" in ours
+
+
+def test_a_later_sweeps_foreign_store_stops_the_run_before_any_episode(tmp_path) -> None:
+    from odorloc.experiments.store import ResultStore
+
+    with ResultStore(tmp_path / "filament.sqlite") as other:
+        other.bind("0123456789abcdef")
+    with pytest.raises(ConfigError, match="filament.sqlite holds results of a different sweep"):
+        _small().run(tmp_path, episodes=1, workers=1, progress=False)
+    # the rate sweeps, which come first, did not run
+    assert not (tmp_path / "rate.sqlite").exists()

@@ -230,6 +230,16 @@ class Reproduction:
         check_output_dir(out, "out")
         out.mkdir(parents=True, exist_ok=True)
         console = Console(width=shutil.get_terminal_size((CONSOLE_WIDTH, 24)).columns)
+        # every store this run will write is checked before any episode runs: a store of other
+        # settings found only when its sweep's turn comes would stop the run hours in
+        from odorloc.experiments.sweep import config_hash
+
+        for name in chosen:
+            path = out / f"{name}.sqlite"
+            if path.exists():
+                # opened as its sweep will open it (an empty file becomes an empty store)
+                with ResultStore(path) as held:
+                    held.check(config_hash(specs[name]))
         t0 = time.perf_counter()
         frames = []
         stores: dict[str, Path] = {}
