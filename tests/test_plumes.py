@@ -672,7 +672,10 @@ def test_eulerian_3d_steady_state_matches_analytic() -> None:
     pts = np.column_stack([src[0] + xs, src[1] + ys, np.full(3, src[2])])
     r = np.hypot(xs, ys)
     ana = Q / (4 * np.pi * D * r) * np.exp(u * (xs - r) / (2 * D))
-    assert np.allclose(plume.concentration(pts), ana, rtol=0.08)
+    # the grid's own error is about 5 % five cells from the source and 1-2 % beyond; these
+    # bounds fail a diffusivity 10 % off either way (-7 % or +11 % at the farther points)
+    rel = plume.concentration(pts) / ana - 1.0
+    assert (np.abs(rel) <= [0.07, 0.04, 0.03]).all(), rel
 
 
 def test_eulerian_source_in_coarse_obstacle_cell_raises() -> None:
