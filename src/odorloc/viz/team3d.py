@@ -90,7 +90,7 @@ def _draw(ax: Any, rec: Recording, t: float, legend: bool = False) -> None:
     for a in range(n_agents):
         col = AGENT_COLORS[a % len(AGENT_COLORS)]
         p = rec.positions[:k, a]
-        ax.plot(p[:, 0], p[:, 1], p[:, 2], "-", color=col, lw=1.2, label=f"UAV {a + 1}")
+        ax.plot(p[:, 0], p[:, 1], p[:, 2], "-", color=col, lw=1.2, label=f"agent {a}")
         ax.scatter(*p[-1], color=col, edgecolor="k", s=40, depthshade=False)
         snap = snaps.get(a)
         if snap is not None:
@@ -115,7 +115,7 @@ def _draw(ax: Any, rec: Recording, t: float, legend: bool = False) -> None:
                 depthshade=False,
                 label=cue_label,
             )
-            # One legend entry, from the first UAV with a cue (not only when UAV 1 has one).
+            # One legend entry, from the first UAV with a cue (not only when agent 0 has one).
             cue_label = None
     s = rec.sources
     ax.scatter(s[:, 0], s[:, 1], s[:, 2], marker="*", color="k", s=160, label="source")
