@@ -87,6 +87,38 @@ def test_uav_placement_rule() -> None:
         uav_starts(20, width=60.0)
 
 
+@pytest.mark.parametrize(
+    ("kwargs", "field"),
+    [
+        ({"width": 8.0}, "width"),  # no multiple of 10 m inside: the lone UAV sat on x = 0
+        ({"width": 10.0}, "width"),
+        ({"width": math.nan}, "width"),
+        ({"width": math.inf}, "width"),
+        ({"y": 70.0}, "y"),  # beyond the 60 m depth
+        ({"y": -1.0}, "y"),
+        ({"z": 35.0}, "z"),  # above the 30 m ceiling
+        ({"z": math.nan}, "z"),
+        ({"y": 80.0, "depth": 60.0}, "y"),
+        ({"depth": 0.0}, "depth"),
+        ({"height": -5.0}, "height"),
+    ],
+)
+def test_uav_placement_refuses_starts_outside_the_arena(kwargs: dict, field: str) -> None:
+    with pytest.raises(ConfigError, match=f"^{field}: "):
+        uav_starts(1, **kwargs)
+
+
+def test_uav_placement_inside_a_small_or_deep_arena() -> None:
+    # the smallest width with an inner start: the first UAV is inside, the walls come last
+    assert [p[0] for p in uav_starts(3, width=15.0)] == [10.0, 0.0, 15.0]
+    assert uav_starts(2, width=100.0, y=150.0, z=40.0, depth=200.0, height=50.0) == [
+        [10.0, 150.0, 40.0],
+        [30.0, 150.0, 40.0],
+    ]
+    with pytest.raises(ConfigError, match=r"^n_uavs: "):
+        uav_starts(2.0)  # type: ignore[arg-type]
+
+
 def test_presets_are_compositions_of_the_same_member() -> None:
     """``muc-osl`` is the per-agent team of ``uav-pf`` members with Col-PF x Adap-PP."""
     limits = {"limits.time": 60.0}

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -12,6 +13,7 @@ import pytest
 
 from odorloc.core.errors import ConfigError
 from odorloc.papers.muc_osl.reproduction import MucOslReproduction
+from odorloc.scenarios import get_scenario
 
 #: Two worlds (the default and the 4-UAV one) and one more particle count, 20 s episodes.
 VALUES = {"area": [(100.0, 60.0, 30.0)], "uavs": [3], "radius": [30.0], "particles": [20, 100]}
@@ -157,7 +159,88 @@ def test_a_later_sweeps_foreign_store_stops_the_run_before_any_episode(tmp_path)
 
     with ResultStore(tmp_path / "filament.sqlite") as other:
         other.bind("0123456789abcdef")
-    with pytest.raises(ConfigError, match="filament.sqlite holds results of a different sweep"):
+    with pytest.raises(ConfigError, match=r"filament.sqlite holds results of a different sweep"):
         _small().run(tmp_path, episodes=1, workers=1, progress=False)
     # the rate sweeps, which come first, did not run
     assert not (tmp_path / "rate.sqlite").exists()
+
+
+def _default_point_rows(n: int = 6) -> pd.DataFrame:
+    """Made-up episodes at the default point of both worlds: Col-Inf never succeeds (0 %), the
+    others always do (100 %)."""
+    from odorloc.papers.muc_osl.reference import ALGORITHMS
+    from odorloc.papers.muc_osl.sweeps import DEFAULT, cell_of
+
+    frames = []
+    for scenario in ("muc-osl-3d", "muc-osl-filament-3d"):
+        for a in ALGORITHMS:
+            world, label = cell_of(scenario, DEFAULT, a)
+            ok = [a != "col-inf"] * n
+            frames.append(
+                pd.DataFrame(
+                    {
+                        "world_key": world,
+                        "searcher": label,
+                        "episode": np.arange(n),
+                        "status": "ok",
+                        "success": ok,
+                        "time": [100.0 if s else 300.0 for s in ok],
+                        "declared": ok,
+                        "loc_error": 1.0,
+                        "reach_fly_time": 50.0,
+                        "reach_hover_time": 30.0,
+                        "reach_turn_time": 20.0,
+                        "energy_fly": 1e5,
+                        "energy_hover": 1e5,
+                        "energy_turn": 1e4,
+                        "energy_comm": 1e-3,
+                        "energy_compute": 1.0,
+                        "team_hover_time": 10.0,
+                        "team_turn_time": 10.0,
+                        "path_length": 100.0,
+                        "bytes": 1000.0,
+                    }
+                )
+            )
+    return pd.concat(frames, ignore_index=True)
+
+
+def test_notes_give_the_episode_limit_in_force() -> None:
+    """Failures count the limit the episodes ran with, not always 20 minutes."""
+    rep = MucOslReproduction(time_limit=300.0, values={"uavs": [3]}, fig3=False)
+    tables = {t.name: t for t in rep.tables(_default_point_rows(), 0)}
+    for name in ("rate_uavs_mst", "rate_default", "filament_default", "filament_sr_mst"):
+        assert "300 s" in tables[name].note and "1200" not in tables[name].note, name
+    assert tables["filament_sr_mst"].title.endswith("at 5 min")
+    # without a shorter limit, the scenario's own
+    assert MucOslReproduction().limit == get_scenario("muc-osl-3d").limits.time == 1200.0
+
+
+def test_success_axes_leave_room_for_0_and_100_percent(tmp_path, monkeypatch) -> None:
+    """The comparison and the sweep figures show 0 % and 100 % the same way, inside the frame."""
+    from dataclasses import replace
+
+    import matplotlib.figure
+
+    from odorloc.papers.muc_osl import figures as F
+    from odorloc.papers.muc_osl.analysis import Cells, add_uav_search_time
+    from odorloc.papers.muc_osl.reproduction import LABELS
+    from odorloc.papers.muc_osl.sweeps import SWEEPS
+
+    limits: dict[str, list[tuple[float, float]]] = {}
+
+    def keep_limits(fig, path, *args, **kwargs):
+        limits[Path(path).stem] = [
+            ax.get_ylim() for ax in fig.axes if ax.get_ylabel().startswith("success rate")
+        ]
+
+    monkeypatch.setattr(matplotlib.figure.Figure, "savefig", keep_limits)
+    cells = Cells(add_uav_search_time(_default_point_rows(), 300.0))
+    F.comparison_figure(
+        cells, [("rate", "muc-osl-3d")], dict(LABELS), tmp_path / "comparison.png", 0, limit=300.0
+    )
+    uavs = replace(next(s for s in SWEEPS if s.key == "uavs"), values=(3,))
+    F.sweep_figure(cells, "muc-osl-3d", uavs, tmp_path / "sweep.png", 0, "uavs", limit=300.0)
+    assert limits["comparison"] == limits["sweep"] == [F.SUCCESS_YLIM]
+    low, high = F.SUCCESS_YLIM
+    assert low < 0.0 and high > 100.0

@@ -17,6 +17,7 @@ from odorloc.papers.muc_osl.sweeps import DEFAULT, SweepDef, cell_of
 __all__ = [
     "COLORS",
     "LABELS",
+    "SUCCESS_YLIM",
     "comparison_figure",
     "success_curve",
     "success_time_figure",
@@ -31,6 +32,9 @@ COLORS = {
     "adap-pp": "tab:orange",
 }
 _MARKERS = {"muc-osl": "o", "col-inf": "s", "col-pf": "^", "adap-pp": "D"}
+#: Limits of every success-rate axis, %: a little beyond 0-100 so that markers, bars and
+#: interval ends at 0 % or 100 % are not cut by the frame.
+SUCCESS_YLIM = (-2.0, 102.0)
 
 
 def success_curve(g: Any, times: np.ndarray) -> np.ndarray:
@@ -97,7 +101,7 @@ def sweep_figure(
     ax_t.set_ylabel(f"mean search time (s), failures at {limit / 60:g} min")
     ax_t.set_ylim(0, 1.04 * limit)
     ax_s.set_ylabel("success rate (%)")
-    ax_s.set_ylim(-2, 102)
+    ax_s.set_ylim(*SUCCESS_YLIM)
     ax_s.legend(fontsize=8, loc="best")
     n = 0 if math.isinf(n_min) else int(n_min)
     fig.suptitle(f"{title} ({n} episodes per point, 95 % intervals)", fontsize=10)
@@ -155,7 +159,7 @@ def success_time_figure(
             if r == 0:
                 ax.set_title(f"{sw.figure.replace('Fig.', 'cf. Fig.')}: {sw.xlabel}", fontsize=9)
                 ax.legend(fontsize=7, loc="upper left", title_fontsize=7, handlelength=1.2)
-    axes[0, 0].set_ylim(-2, 102)
+    axes[0, 0].set_ylim(*SUCCESS_YLIM)
     axes[0, 0].set_xlim(0, limit / 60)
     n = 0 if math.isinf(n_min) else int(n_min)
     note = "; dashed: rate world" if compare is not None else ""
@@ -214,7 +218,7 @@ def comparison_figure(
             ax.set_ylabel(lab)
             ax.grid(axis="y", alpha=0.3)
             ax.set_title(f"{title} ({rows[0].n if rows else 0} episodes each)", fontsize=9)
-        axes[r, 0].set_ylim(0, 100)
+        axes[r, 0].set_ylim(*SUCCESS_YLIM)
         axes[r, 1].set_ylim(0, 1.04 * limit)
     fig.suptitle("Default setting: 3 UAVs in 100 x 60 x 30 m (95 % intervals)", fontsize=10)
     fig.tight_layout()

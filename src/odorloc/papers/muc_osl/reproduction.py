@@ -57,6 +57,7 @@ from odorloc.papers.muc_osl.sweeps import (
     fig9_settings,
     sweep_files,
 )
+from odorloc.scenarios import get_scenario
 
 __all__ = ["MucOslReproduction", "add_uav_search_time", "record_episode"]
 
@@ -87,11 +88,15 @@ STATEMENTS = {
     "particles": "paper: MST falls and SR rises with more particles; MUC-OSL steady with SR "
     "near 1\nbeyond 160; Col-PF better than Adap-PP with few particles",
 }
-_NOTE = (
-    "SR: success rate % [95 % Wilson]; MST: mean search time s over all episodes, failures "
-    "at 1200 s\n[95 % bootstrap]; search time = flying + hovering + turning time of the first "
-    "UAV within 2 m."
-)
+
+
+def _note(limit: float) -> str:
+    """The note under the success-rate / search-time tables, for an episode limit in seconds."""
+    return (
+        "SR: success rate % [95 % Wilson]; MST: mean search time s over all episodes, failures "
+        f"at {limit:g} s\n[95 % bootstrap]; search time = flying + hovering + turning time of "
+        "the first UAV within 2 m."
+    )
 
 
 def _restrict(sweeps: Sequence[SweepDef], values: Mapping[str, Sequence[Any]] | None) -> list:
@@ -113,7 +118,8 @@ class MucOslReproduction(Reproduction):
     ----------
     params : ReproductionParams, optional
     time_limit : float, optional, seconds
-        A shorter episode limit (tests); default the scenarios' 20 minutes.
+        A shorter episode limit (tests); default the rate scenario's ``limits.time`` (20
+        minutes). The tables, notes and figures count failures at this limit.
     values : mapping of sweep key to values, optional
         Run only these values of each sweep (tests); a sweep without any is left out.
     filament : bool
@@ -142,7 +148,9 @@ class MucOslReproduction(Reproduction):
         super().__init__(params)
         self.fig3 = fig3
         self.time_limit = time_limit
-        self.limit = 1200.0 if time_limit is None else float(time_limit)
+        self.limit = (
+            float(get_scenario(SCENARIO).limits.time) if time_limit is None else float(time_limit)
+        )
         self.rate_sweeps = _restrict(SWEEPS, values)
         self.filament_sweeps = _restrict(fig9_settings(), values) if filament else []
 
@@ -307,7 +315,7 @@ class MucOslReproduction(Reproduction):
                 f"{sw.figure}, {world} world: mean search time s [95 %] against {sw.xlabel}",
                 head,
                 mst_rows,
-                note=f"{_NOTE}\n{STATEMENTS[sw.key]}",
+                note=f"{_note(self.limit)}\n{STATEMENTS[sw.key]}",
             ),
         ]
 
@@ -344,10 +352,10 @@ class MucOslReproduction(Reproduction):
             ),
             Table(
                 "filament_sr_mst",
-                "Filament world: success rate % / mean search time s at 20 min",
+                f"Filament world: success rate % / mean search time s at {self.limit / 60:g} min",
                 head,
                 all_rows,
-                note=_NOTE,
+                note=_note(self.limit),
             ),
         ]
 
@@ -422,9 +430,9 @@ class MucOslReproduction(Reproduction):
                 f"Default setting, {world} world: 3 UAVs in 100 x 60 x 30 m (95 % intervals)",
                 ["algorithm", "n", "success %", "time s", "all s", "decl %", "err m"],
                 rows,
-                note="time: search time of the successes; all: failures count 1200 s; decl: "
-                "episodes with a\ndeclaration, err: its distance from the source; MUC-OSL -env: "
-                "MUC-OSL without eq. 16.",
+                note=f"time: search time of the successes; all: failures count {self.limit:g} s; "
+                "decl: episodes with a\ndeclaration, err: its distance from the source; MUC-OSL "
+                "-env: MUC-OSL without eq. 16.",
             ),
             Table(
                 f"{world}_table2",

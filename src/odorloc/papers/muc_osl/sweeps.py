@@ -133,7 +133,9 @@ class Setting:
             out["world.arena.upper"] = list(self.area)
             out["world.sources.0.position"] = list(source_position(self.area))
         if self.area != DEFAULT_AREA or self.n_uavs != DEFAULT.n_uavs:
-            out["agents.starts"] = uav_starts(self.n_uavs, width=self.area[0])
+            out["agents.starts"] = uav_starts(
+                self.n_uavs, width=self.area[0], depth=self.area[1], height=self.area[2]
+            )
         if self.radius != DEFAULT.radius:
             out["agents.comm_radius"] = float(self.radius)
         return out
