@@ -143,6 +143,33 @@ def test_compiled_model_keeps_the_checks_and_the_large_mean_path() -> None:
     )
 
 
+def test_compiled_outcome_classes_refuse_invalid_means() -> None:
+    """A NaN position or a negative release rate gives NaN or negative means: both backends
+    refuse them as :func:`censored_poisson` does, rather than return NaN or negative classes."""
+    x = np.array([[10.0, 30.0, 25.0], [50.0, 20.0, 5.0], [40.0, 40.0, 10.0]])
+    t = x[:2] + 0.5
+    nan_hyp = x.copy()
+    nan_hyp[1, 2] = np.nan
+    cases = [
+        (t, nan_hyp, {}),
+        (np.array([[np.nan, 1.0, 2.0]]), x, {}),
+        (t, x, {"release": -5.0}),
+        (t, x, {"release": np.array([5.0, -1e-9, 5.0])}),
+        (t, x, {"release": np.array([5.0, np.inf, 5.0])}),
+        (t, x, {"release": -5.0, "n_classes": 4}),
+    ]
+    for method in ("outcome_probabilities", "outcome_values"):
+        for model in _models().values():
+            for sensors, hyp, extra in cases:
+                with pytest.raises(ConfigError, match="expected_counts"):
+                    getattr(model, method)(sensors, hyp, dt=1.0, **extra)
+    # valid extremes stay accepted: a zero release rate, no hypotheses
+    for model in _models().values():
+        q = model.outcome_probabilities(t, x, dt=1.0, release=0.0)
+        assert np.all(q[:, 0, :] == 1.0)
+        assert model.outcome_probabilities(t, x[:0], dt=1.0).shape[::2] == (2, 0)
+
+
 def test_backend_numba_is_refused_without_numba(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(model_kernels, "HAVE_NUMBA", False)
     with pytest.raises(Exception, match="numba is not installed"):

@@ -239,3 +239,72 @@ def test_pang_farrell_rejects_non_finite_wind_and_bad_detections() -> None:
     np.testing.assert_array_equal(
         one, model.log_likelihood(np.bool_(True), sensor, hyp, wind_window=good, dt=0.5)
     )
+
+
+def _outcome_cases() -> dict[str, list[tuple[object, np.ndarray, np.ndarray, dict]]]:
+    """Per registered model: (model, sensors, hypotheses, conditions), in 2-D and 3-D where the
+    model has both, with class counts fixed and chosen from the means."""
+    from odorloc.models.gaussian import GaussianPlumeModel
+    from odorloc.models.kernels import HAVE_NUMBA
+    from odorloc.models.lattice import IsotropicHitModel, IsotropicHitParams
+    from odorloc.models.vergassola import VergassolaModel, VergassolaModelParams
+
+    rng = np.random.default_rng(11)
+    s2, h2 = rng.uniform(0, 5, (3, 2)), rng.uniform(0, 5, (40, 2))
+    s3, h3 = rng.uniform(0, 5, (3, 3)), rng.uniform(0, 5, (40, 3))
+    backends = ("numpy", "numba") if HAVE_NUMBA else ("numpy",)
+    verg = [VergassolaModel(VergassolaModelParams(backend=b)) for b in backends]
+    lattice = IsotropicHitModel(IsotropicHitParams(length=5.0, intensity=30.0, cell=1.0))
+    return {
+        "gaussian": [(GaussianPlumeModel(), s2, h2, {"wind": np.array([0.5, 0.0])})],
+        "pang-farrell": [
+            (PangFarrellModel(), s2, h2, {"wind_window": np.tile([0.4, 0.1], (10, 1)), "dt": 0.5})
+        ],
+        "vergassola": [
+            (m, s, h, {"dt": 1.0, **fixed})
+            for m in verg
+            for s, h in ((s2, h2), (s3, h3))
+            for fixed in ({}, {"n_classes": 7})
+        ],
+        "lattice-isotropic": [(lattice, s2, h2, {}), (lattice, s3, h3, {})],
+    }
+
+
+def test_outcome_values_match_the_outcome_classes_of_every_model() -> None:
+    """``outcome_values`` names one reading per class of ``outcome_probabilities`` (same
+    arguments), also where the class count depends on the means or on the dimension."""
+    from odorloc.core import registry
+
+    cases = _outcome_cases()
+    assert set(cases) == set(registry.names("model"))
+    for name, rows in cases.items():
+        for model, sensors, hyp, cond in rows:
+            z = model.outcome_probabilities(sensors, hyp, **cond).shape[1]
+            assert len(model.outcome_values(sensors, hyp, **cond)) == z, (name, cond)
+            bound = model.bind(**cond)
+            assert len(bound.outcome_values(sensors, hyp)) == z, (name, cond)
+    # the cases cover class counts other than the ones the values used to assume
+    # (``max_classes`` for adaptive counts, the 2-D count of OTTO's rule)
+    verg = cases["vergassola"][0][0]
+    assert any(
+        len(m.outcome_values(s, h, **c)) < verg.params.max_classes
+        for m, s, h, c in cases["vergassola"]
+    )
+    lat = cases["lattice-isotropic"][0][0]
+    assert lat.n_classes(2) != lat.n_classes(3)
+
+
+def test_vergassola_release_of_the_wrong_length_names_the_field() -> None:
+    from odorloc.models.kernels import HAVE_NUMBA
+    from odorloc.models.vergassola import VergassolaModel, VergassolaModelParams
+
+    hyp = np.ones((5, 3))
+    for b in ("numpy", "numba") if HAVE_NUMBA else ("numpy",):
+        model = VergassolaModel(VergassolaModelParams(backend=b))
+        with pytest.raises(ConfigError, match="release"):
+            model.outcome_probabilities(np.zeros((1, 3)), hyp, dt=1.0, release=np.ones(3))
+        with pytest.raises(ConfigError, match="release"):
+            model.log_likelihood(1, np.zeros(3), hyp, dt=1.0, release=np.ones((2, 5)))
+        # one rate, or one per source, stay accepted
+        for release in (2.0, np.ones(1), np.full(5, 2.0)):
+            assert model.log_likelihood(1, np.zeros(3), hyp, dt=1.0, release=release).shape == (5,)

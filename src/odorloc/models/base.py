@@ -71,9 +71,18 @@ class MeasurementModel(ABC):
         For every ``(m, i)`` the ``Z`` classes sum to one.
         """
 
-    def outcome_values(self, **conditions: Any) -> np.ndarray:
-        """The reading each outcome class stands for, ``(Z,)`` (default ``0 .. Z-1``)."""
-        return np.arange(2)
+    def outcome_values(
+        self, sensor_positions: np.ndarray, hypotheses: np.ndarray, **conditions: Any
+    ) -> np.ndarray:
+        """The reading each outcome class of :meth:`outcome_probabilities` stands for, ``(Z,)``.
+
+        Same arguments as :meth:`outcome_probabilities`, since ``Z`` may depend on them (e.g. a
+        class count chosen from the expected counts). Default ``0 .. Z-1``, with ``Z`` from one
+        :meth:`outcome_probabilities` call.
+        """
+        return np.arange(
+            self.outcome_probabilities(sensor_positions, hypotheses, **conditions).shape[1]
+        )
 
     def bind(self, **conditions: Any) -> BoundModel:
         """The model with its conditions fixed (what a planner needs)."""
@@ -96,6 +105,6 @@ class BoundModel:
         """See :meth:`MeasurementModel.outcome_probabilities`."""
         return self.model.outcome_probabilities(sensor_positions, hypotheses, **self.conditions)
 
-    def outcome_values(self) -> np.ndarray:
+    def outcome_values(self, sensor_positions: np.ndarray, hypotheses: np.ndarray) -> np.ndarray:
         """See :meth:`MeasurementModel.outcome_values`."""
-        return self.model.outcome_values(**self.conditions)
+        return self.model.outcome_values(sensor_positions, hypotheses, **self.conditions)

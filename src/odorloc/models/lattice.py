@@ -289,10 +289,14 @@ class IsotropicHitModel(MeasurementModel):
         mu = self.mean_hits(sensor_positions, h, conditions.get("release"))
         return np.moveaxis(censored_poisson(mu, self.n_classes(h.shape[1])), -1, 1)
 
-    def outcome_values(self, **conditions: Any) -> np.ndarray:
-        """Hit count of each class (the last stands for its lower bound); condition ``dim``
-        (default 2) when the number of classes follows OTTO's rule."""
-        return np.arange(self.n_classes(int(conditions.get("dim", 2))))
+    def outcome_values(
+        self, sensor_positions: np.ndarray, hypotheses: np.ndarray, **conditions: Any
+    ) -> np.ndarray:
+        """Hit count of each class, ``(Z,)`` (the last stands for its lower bound); ``Z`` as
+        :meth:`outcome_probabilities` has it (OTTO's rule depends on the dimension of the
+        hypotheses)."""
+        h = np.atleast_2d(np.asarray(hypotheses, float))
+        return np.arange(self.n_classes(h.shape[1]))
 
 
 # ---------------------------------------------------------------------- offset tables

@@ -116,7 +116,12 @@ def _rate_inputs(
     e = unit_direction(direction, dim)
     q = np.asarray(release, float)
     if q.ndim and q.shape != (len(s),):
-        q = np.broadcast_to(q, (len(s),))
+        try:
+            q = np.broadcast_to(q, (len(s),))
+        except ValueError:
+            raise ConfigError(
+                "release", f"needs one rate or {len(s)} (one per source), got shape {q.shape}"
+            ) from None
     return x, s, e, q
 
 
@@ -310,27 +315,52 @@ class VergassolaModel(MeasurementModel):
 
         ``Z`` is chosen by :meth:`n_classes` unless the condition ``n_classes`` fixes it.
         """
+        mu, neg, top, z = self._class_means(sensor_positions, hypotheses, conditions)
+        if neg is not None and z >= 2 and not top > 600.0:
+            out, rest, any_rest = kernels.censored_classes(mu, np.exp(neg), z)
+            if any_rest:
+                out[:, -1, :][rest] = np.maximum(gammainc(z - 1, mu[rest]), 0.0)
+            return out
+        # C order (M, Z, N): planners reduce over the last axis and reshape freely
+        return np.ascontiguousarray(np.moveaxis(censored_poisson(mu, z), -1, 1))
+
+    def outcome_values(
+        self, sensor_positions: np.ndarray, hypotheses: np.ndarray, **conditions: Any
+    ) -> np.ndarray:
+        """Count of each class, ``(Z,)`` (the last class stands for its lower bound).
+
+        ``Z`` is the number of classes :meth:`outcome_probabilities` gives for the same
+        arguments: unless the condition ``n_classes`` fixes it, it depends on the means.
+        """
+        return np.arange(self._class_means(sensor_positions, hypotheses, conditions)[3])
+
+    def _class_means(
+        self, sensor_positions: ArrayLike, hypotheses: ArrayLike, conditions: dict[str, Any]
+    ) -> tuple[np.ndarray, np.ndarray | None, float, int]:
+        """Expected counts ``R dt`` ``(M, N)``, their negatives (compiled path only, else
+        ``None``), their maximum, and the number of count classes ``Z``.
+
+        Raises :class:`ConfigError` (``expected_counts``) for a negative or non-finite mean (a
+        negative release rate, a NaN position), as :func:`censored_poisson` does.
+        """
         dt = _exposure(conditions)
         parts = self._kernel_parts(sensor_positions, hypotheses, conditions)
+        neg: np.ndarray | None = None
         if parts is not None:
             mu, neg, top = kernels.rate_means(*parts, dt)
-            z = int(conditions.get("n_classes") or self._classes_for(top if mu.size else 0.0))
-            if z >= 2 and not top > 600.0:
-                out, rest, any_rest = kernels.censored_classes(mu, np.exp(neg), z)
-                if any_rest:
-                    out[:, -1, :][rest] = np.maximum(gammainc(z - 1, mu[rest]), 0.0)
-                return out
         else:
             mu = dt * self.rate(
                 sensor_positions, hypotheses, conditions.get("release"), conditions.get("direction")
             )
-            z = int(conditions.get("n_classes") or self.n_classes(mu))
-        # C order (M, Z, N): planners reduce over the last axis and reshape freely
-        return np.ascontiguousarray(np.moveaxis(censored_poisson(mu, z), -1, 1))
-
-    def outcome_values(self, **conditions: Any) -> np.ndarray:
-        """Count of each class (the last class stands for its lower bound)."""
-        return np.arange(int(conditions.get("n_classes") or self.params.max_classes))
+            top = float(np.max(mu)) if mu.size else 0.0
+        if mu.size:
+            # one reduction: the minimum is NaN if any mean is, and the kernel's maximum skips
+            # NaN but not +inf
+            if not (top < math.inf and mu.min() >= 0.0):
+                raise ConfigError("expected_counts", "must be finite and >= 0")
+        else:
+            top = 0.0
+        return mu, neg, top, int(conditions.get("n_classes") or self._classes_for(top))
 
     def _kernel_parts(
         self, sensor_positions: ArrayLike, hypotheses: ArrayLike, conditions: dict[str, Any]
