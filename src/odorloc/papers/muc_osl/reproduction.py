@@ -369,15 +369,17 @@ class MucOslReproduction(Reproduction):
             if not len(h):
                 continue
             n = len(h)
-            k = int(h["success"].astype(bool).sum())
+            # a missing success (NaN) is no success, as the store counts it
+            reached = h["success"].astype("boolean").fillna(False).astype(bool)
+            k = int(reached.sum())
             lo, hi = stats.wilson_interval(k, n)
             rng = np.random.default_rng([seed, i])
-            succ = h[h["success"].astype(bool)]
+            succ = h[reached]
             t_s = succ["uav_search_time"].to_numpy(float)
             t_lo, t_hi = stats.bootstrap_ci(t_s, rng)
             t_all = h["uav_search_time"].to_numpy(float)
             a_lo, a_hi = stats.bootstrap_ci(t_all, rng)
-            decl = h["declared"].astype(bool)
+            decl = h["declared"].astype("boolean").fillna(False).astype(bool)
             rows.append(
                 [
                     LABELS[a],
@@ -606,6 +608,8 @@ def _saving_note(ok: Any) -> str:
     if not len(common):
         return ""
     ma, mb = float(a[common].mean()), float(b[common].mean())
+    if not (math.isfinite(ma) and math.isfinite(mb) and mb > 0):
+        return ""
     return (
         f"team totals per episode; movement energy MUC-OSL vs Col-Inf over {len(common)}\n"
         f"paired episodes: {ma:.0f} vs {mb:.0f} kJ ({100 * (ma - mb) / mb:+.1f} %; paper "
