@@ -73,11 +73,11 @@ def test_reproduction_survives_degenerate_results(name, kind, tmp_path, monkeypa
     monkeypatch.setattr(sweep_mod, "run_sweep", _fake_run_sweep(kind))
     r = rp.get(name)
     if name == "indoor-pf-entropy":
-        # the particle snapshots run episodes of their own (covered by the real run below);
-        # here every figure drawn from the stored rows must survive them
+        # the particle snapshots run a stored episode again (covered by the real run below and
+        # tests/test_indoor.py); here every figure drawn from the stored rows must survive them
         import odorloc.papers.indoor_pf_entropy.reproduction as ind
 
-        monkeypatch.setattr(ind, "_episode_figures", lambda seed, path: _blank(path))
+        monkeypatch.setattr(ind, "_episode_figures", lambda df, store, path: _blank(path))
     out = r.run(tmp_path, episodes=1, workers=1, seed=3, progress=False)
     assert out.failed_figures == [], out.failed_figures
     assert out.report is not None and out.report.is_file()

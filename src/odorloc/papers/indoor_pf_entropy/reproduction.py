@@ -4,7 +4,9 @@ Five start points x three methods x ``episodes``: the PF + entropy searcher with
 convergence reading, the same searcher with the paper's test read literally
 (``pf-entropy-literal``: weighted variance as a trace <= 0.5 and a 0.5 m estimate circle), and the
 gradient-bionic hybrid baseline, in the ``indoor-ventilated`` room. Common random numbers: episode
-``i`` of every method at a start faces the same plume.
+``i`` of every method at a start faces the same plume. A third table gives the posterior entropy
+of both PF methods at the first detection and at the end (the paper's Figs. 5 and 7 show it
+falling), and the particle snapshots run one stored PF episode again with every belief recorded.
 """
 
 from __future__ import annotations
@@ -16,7 +18,6 @@ from typing import Any
 import numpy as np
 
 from odorloc.core.registry import register
-from odorloc.core.seeds import episode_seeds
 from odorloc.experiments.reproduction import (
     Figure,
     Reproduction,
@@ -176,10 +177,35 @@ class IndoorReproduction(Reproduction):
                 f8,
                 console=False,
             ),
+            Table(
+                "entropy",
+                "Posterior entropy (nats) at PF initialisation and at the end, ours vs paper",
+                [
+                    "start",
+                    "method",
+                    "n",
+                    "start nats [CI]",
+                    "end nats [CI]",
+                    "fell % [CI]",
+                    "paper",
+                ],
+                _entropy_rows(df, seed),
+                note="Episodes whose filter started (the robot detected); start: the posterior "
+                "at the first detection, end: when the episode ended; 95 % intervals: "
+                "bootstrap for the means, Wilson for the share of episodes where it fell. The "
+                "paper shows it falling (Figs. 5, 7, 15, 16) but gives no values",
+                left=2,
+            ),
         ]
 
     def figures(self, df: Any, store: Any, out: Path, seed: int) -> list[Figure]:
         summ = self._summary(df, seed)
+        pick = _snapshot_episode(df)
+        which = (
+            f"stored episode {pick[1]} of {pick[0]}"
+            if pick is not None
+            else "no stored PF episode of the farthest start"
+        )
         return [
             Figure(
                 "fig8_time_success_vs_distance.png",
@@ -190,8 +216,8 @@ class IndoorReproduction(Reproduction):
             Figure(
                 "particle_snapshots.png",
                 "Particles at the first detection, mid-search and the end of one PF episode "
-                "from the farthest start",
-                lambda p: _episode_figures(seed, p),
+                f"from the farthest start ({which}, run again with every belief recorded)",
+                lambda p: _episode_figures(df, store.path, p),
             ),
         ]
 
@@ -259,23 +285,133 @@ def _fig8(summ: Any, path: Path) -> None:
     plt.close(fig)
 
 
-def _episode_figures(seed: int, path: Path) -> None:
-    """Particle snapshots (``path``), entropy curve and traces of one PF episode of the sweep
-    (the first successful one of the farthest start, episodes 0-9)."""
+#: The searcher and start of the particle snapshots: the PF from the farthest start, as in the
+#: paper's Figs. 13/14 (start 4 is (2.40, 4.55)).
+SNAPSHOT_SEARCHER = "pf-entropy"
+SNAPSHOT_START = 4
+#: Bootstrap stream of the entropy table (apart from the per-cell streams of the summary).
+_ENTROPY_STREAM = 8
+
+
+def _entropy_rows(df: Any, seed: int) -> list[list[str]]:
+    """Rows of the entropy table: both PF methods, over all starts and per start.
+
+    Only episodes with both ``entropy_init`` and ``entropy_end`` finite count (the filter
+    starts at the first detection), so start and end are means over the same episodes.
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+        Stored rows (``searcher``, ``status``, ``scenario.start_index`` and, when any PF
+        episode ran its filter, ``entropy_init`` / ``entropy_end`` in nats).
+    seed : int
+        Root seed; the bootstrap draws from ``Generator([seed, stream, row])``.
+
+    Returns
+    -------
+    list of list of str
+        ``start, method, n, mean start [CI], mean end [CI], fell % [CI], paper`` per row.
+    """
+    from odorloc.experiments.stats import bootstrap_ci, wilson_interval
+
+    rows = []
+    have = {"searcher", "status", "scenario.start_index"} <= set(df.columns)
+    j = 0
+    for method in METHODS[:2]:
+        for idx in ("all", *range(5)):
+            if have:
+                sel = df[(df["searcher"] == method) & (df["status"] != "error")]
+                if idx != "all":
+                    sel = sel[sel["scenario.start_index"].astype(float) == idx]
+            else:
+                sel = df.iloc[:0]
+            h0, h1 = (
+                (np.asarray(sel[c], float) if c in sel.columns else np.full(len(sel), np.nan))
+                for c in ("entropy_init", "entropy_end")
+            )
+            both = np.isfinite(h0) & np.isfinite(h1)
+            h0, h1 = h0[both], h1[both]
+            n = int(both.sum())
+            rng = np.random.default_rng([int(seed), _ENTROPY_STREAM, j])
+            j += 1
+            cells = []
+            for h in (h0, h1):
+                lo, hi = bootstrap_ci(h, rng)
+                cells.append(f"{fmt(h.mean(), 2)} [{fmt(lo, 2)}, {fmt(hi, 2)}]" if n else "-")
+            k = int((h1 < h0).sum())
+            flo, fhi = wilson_interval(k, n)
+            fell = f"{fmt(100 * k / n, 0)} [{fmt(100 * flo, 0)}, {fmt(100 * fhi, 0)}]" if n else "-"
+            rows.append([str(idx), method, str(n), *cells, fell, "falls"])
+    return rows
+
+
+def _snapshot_episode(df: Any) -> tuple[str, int] | None:
+    """``(cell_id, episode)`` of the stored episode the particle snapshots show.
+
+    The first stored success of :data:`SNAPSHOT_SEARCHER` from :data:`SNAPSHOT_START`, else
+    its first stored episode that ran (drawn "at the end"); ``None`` if there is none.
+    """
+    need = {"searcher", "status", "scenario.start_index", "cell_id", "episode", "success"}
+    if not need <= set(df.columns):
+        return None
+    sel = df[
+        (df["searcher"] == SNAPSHOT_SEARCHER)
+        & (df["status"] != "error")
+        & (df["scenario.start_index"].astype(float) == SNAPSHOT_START)
+    ].sort_values("episode")
+    if not len(sel):
+        return None
+    won = sel[sel["success"].astype("boolean").fillna(False).astype(bool)]
+    r = (won if len(won) else sel).iloc[0]
+    return str(r["cell_id"]), int(r["episode"])
+
+
+def _episode_figures(df: Any, store: Path, path: Path) -> list[str]:
+    """Particle snapshots (``path``), entropy curve and traces of one stored episode.
+
+    The episode is :func:`_snapshot_episode`'s pick among the stored rows ``df``: it is run
+    once more with the seeds and cell its row holds (:mod:`odorloc.experiments.rerun`), now
+    with every belief recorded, which the batch does not keep. No other episode runs.
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+        The reproduction's stored rows.
+    store : path
+        Its results store (``.sqlite``), which holds the episode's cell and seeds.
+    path : path
+        Where the snapshots go; ``entropy_curve.png`` and ``traces.png`` go beside it.
+
+    Returns
+    -------
+    list of str
+        The compared metrics in which the new run differs from the stored row (see
+        :func:`~odorloc.experiments.rerun.differences`; empty when it repeated). They are
+        also named on the figure.
+
+    Raises
+    ------
+    RuntimeError
+        No stored episode to draw, or one whose robot never detected.
+    """
     import matplotlib.pyplot as plt
 
     from odorloc.engine.episode import run_episode
+    from odorloc.experiments.rerun import differences, stored_episode
     from odorloc.experiments.runner import cell_scenario
     from odorloc.viz.episode import plot_traces
 
-    sc = cell_scenario({"scenario": SCENARIO, "scenario_params": {"start_index": 4}})
+    pick = _snapshot_episode(df)
+    if pick is None:
+        raise RuntimeError(
+            f"no stored {SNAPSHOT_SEARCHER} episode of start {SNAPSHOT_START} ran without error"
+        )
+    stored = stored_episode(store, *pick, field="store")
+    sc = cell_scenario(stored.cell)
     sc = sc.model_copy(update={"recording": sc.recording.model_copy(update={"belief_stride": 1})})
-    res = None
-    for ep in range(10):
-        res = run_episode(sc, *episode_seeds(seed, _world_key(4), ep), record=True)
-        if res.metrics["success"]:
-            break
-    assert res is not None and res.recording is not None
+    # the sweep runs live plumes (no replay), so the stored seeds alone give the episode again
+    res = run_episode(sc, stored.world_seed, stored.agent_seed, record=True)
+    changed = differences(stored, res.metrics)
     rec = res.recording
     rec.meta.update(searcher="pf-entropy")
     beliefs = [(t, b) for t, b in rec.beliefs if "positions" in b]
@@ -288,6 +424,10 @@ def _episode_figures(seed: int, path: Path) -> None:
         "at declaration" if res.metrics["declared"] else "at the end",
     ]
     fig, axes = plt.subplots(1, 3, figsize=(9.5, 5.2), sharey=True)
+    fig.suptitle(
+        f"{stored.cell_id}, episode {stored.episode}"
+        + (f" (differs from the stored row in {', '.join(changed)})" if changed else "")
+    )
     b = rec.arena_bounds
     sca = None
     for ax, (t, snap), nm in zip(axes, picks, names_, strict=True):
@@ -339,3 +479,4 @@ def _episode_figures(seed: int, path: Path) -> None:
         fig.savefig(path.parent / "entropy_curve.png", dpi=110)
         plt.close(fig)
     plot_traces(rec, path.parent / "traces.png")
+    return changed
