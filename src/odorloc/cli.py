@@ -257,20 +257,9 @@ def run(
     table.add_column("value", justify="right")
     if stored is not None:
         table.add_column("stored", justify="right")
-    for k in (
-        "success",
-        "termination",
-        "search_time",
-        "loc_error",
-        "path_length",
-        "first_detection_time",
-        "energy",
-        "bytes",
-        "start_distance",
-        "steps",
-        "wall_time",
-        "wall_per_step_ms",
-    ):
+    from odorloc.experiments.rerun import COMPARED
+
+    for k in (*COMPARED, "wall_time", "wall_per_step_ms"):
         cells = [k, _fmt(res.metrics.get(k))]
         if stored is not None:
             was = stored.row.get(k)

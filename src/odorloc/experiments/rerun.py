@@ -26,7 +26,8 @@ from odorloc.core.errors import ConfigError
 
 __all__ = ["StoredEpisode", "differences", "rerun", "store_file", "stored_episode"]
 
-#: metrics compared between the stored row and the new run (the timing columns legitimately
+#: an episode's summary metrics, in the order ``odorloc run`` prints them; all are compared
+#: between the stored row and the new run (the timing columns, printed after them, legitimately
 #: differ)
 COMPARED = (
     "success",
@@ -37,8 +38,8 @@ COMPARED = (
     "first_detection_time",
     "energy",
     "bytes",
-    "steps",
     "start_distance",
+    "steps",
 )
 
 
