@@ -128,6 +128,9 @@ def our_decisions(beliefs: np.ndarray, agents: np.ndarray, n: int) -> tuple[list
     model = IsotropicHitModel(IsotropicHitParams(length=length, intensity=intensity))
     table = tabulate(model, 1.0, (n - 1, n - 1))
     planner = GridPolicyPlanner("infotaxis")
+    # one untimed decision first: loading (or compiling) the kernels is a process's one-off cost,
+    # not a decision's (OTTO's NumPy code has none)
+    planner.plan(beliefs[0][None], [table], neighbour_cells(agents[0]))
     choices, times = [], []
     for b, a in zip(beliefs, agents, strict=True):
         joint = b[None]
