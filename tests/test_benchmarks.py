@@ -292,5 +292,5 @@ def test_pf_speed_result_carries_a_failed_check(
     out = capsys.readouterr().out.strip().splitlines()
     keys = dict(kv.split("=") for kv in out[-1].split()[1:])
     assert keys["agree"] == "no"
-    assert float(keys["pf_update_speedup"]) > 0
+    assert math.isfinite(float(keys["pf_update_speedup"]))
     assert any(line.startswith("PF update") and line.rstrip().endswith("NO") for line in out)
