@@ -293,4 +293,5 @@ def test_pf_speed_result_carries_a_failed_check(
     keys = dict(kv.split("=") for kv in out[-1].split()[1:])
     assert keys["agree"] == "no"
     assert math.isfinite(float(keys["pf_update_speedup"]))
-    assert any(line.startswith("PF update") and line.rstrip().endswith("NO") for line in out)
+    # the agree column says NO (a slow cold run may add "(over target)" after it)
+    assert any(line.startswith("PF update") and "NO" in line.split() for line in out)
