@@ -199,3 +199,63 @@ def test_ctrl_c_stops_the_local_cluster_quietly_and_keeps_what_finished(tmp_path
     assert "interrupted" in out
     assert "Traceback" not in err, err[-2000:]
     assert 4 <= _stored(store) < 200
+
+
+def _worker_state() -> tuple[bool, bool]:
+    """(SIGINT ignored, compiled kernels loaded) in the worker process running this."""
+    import signal as sig
+
+    from odorloc.core.jit import HAVE_NUMBA
+
+    ignored = sig.getsignal(sig.SIGINT) == sig.SIG_IGN
+    if not HAVE_NUMBA:
+        return ignored, True
+    from odorloc.inference.odor_path.kernel import dw_kernel_fast
+
+    return ignored, bool(dw_kernel_fast.signatures)
+
+
+def test_restarted_workers_get_the_same_set_up_as_the_first():
+    from odorloc.experiments.backends import DaskBackend
+
+    with DaskBackend(workers=1) as backend:
+        client = backend._client
+        assert list(client.run(_worker_state).values()) == [(True, True)]
+        # a worker that died is replaced by its nanny the same way
+        client.restart()
+        assert list(client.run(_worker_state).values()) == [(True, True)]
+
+
+def test_joined_cluster_is_left_without_the_set_up_plugin():
+    import logging
+
+    from distributed import Client, LocalCluster
+
+    from odorloc.experiments.backends import WORKER_SETUP, DaskBackend
+
+    with LocalCluster(
+        n_workers=1, processes=False, dashboard_address=None, silence_logs=logging.ERROR
+    ) as cluster:
+        with DaskBackend(scheduler=cluster.scheduler_address) as backend:
+            plugins = backend._client.run_on_scheduler(
+                lambda dask_scheduler: list(dask_scheduler.worker_plugins)
+            )
+            assert WORKER_SETUP in plugins
+        with Client(cluster, set_as_default=False) as client:
+            plugins = client.run_on_scheduler(
+                lambda dask_scheduler: list(dask_scheduler.worker_plugins)
+            )
+            assert WORKER_SETUP not in plugins
+
+
+def test_a_failure_while_entering_shuts_the_local_cluster_down(monkeypatch):
+    import odorloc.experiments.backends as backends
+
+    def broken(ignore_sigint: bool):
+        raise RuntimeError("plugin could not be built")
+
+    monkeypatch.setattr(backends, "dask_worker_setup", broken)
+    backend = backends.DaskBackend(workers=1)
+    with pytest.raises(RuntimeError, match="plugin could not be built"):
+        backend.__enter__()
+    assert backend._client is None and backend._cluster is None

@@ -18,6 +18,7 @@ on with the other episodes.
 from __future__ import annotations
 
 import collections
+import contextlib
 import itertools
 import math
 import multiprocessing
@@ -192,6 +193,48 @@ def warm_kernels() -> None:
 def ignore_interrupts() -> None:
     """Worker set-up: ignore SIGINT (the parent that started the worker stops it)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+WORKER_SETUP = "odorloc-worker-setup"
+"""Name of the Dask worker plugin that sets each worker up (see :func:`dask_worker_setup`)."""
+
+
+def dask_worker_setup(ignore_sigint: bool) -> Any:
+    """A Dask worker plugin that sets up every worker of the cluster, present and future.
+
+    Its ``setup`` runs on each worker when the plugin is registered and again on every worker
+    that joins later, among them those Dask starts in place of a worker that died (segfault,
+    out of memory) or restarts: set-up done once with ``Client.run`` would reach only the
+    workers present at that moment, and a restarted worker would then die noisily on Ctrl-C and
+    compile or load its kernels during its first episode.
+
+    Parameters
+    ----------
+    ignore_sigint : bool
+        Ignore SIGINT (:func:`ignore_interrupts`); only for workers this process started and
+        stops itself.
+
+    Returns
+    -------
+    distributed.WorkerPlugin
+        The plugin, named :data:`WORKER_SETUP`; always loads the kernels (:func:`warm_kernels`).
+    """
+    from distributed import WorkerPlugin
+
+    # defined here so that importing this module does not import distributed (an extra); the
+    # class is shipped to the workers by value
+    class OdorlocWorkerSetup(WorkerPlugin):
+        name = WORKER_SETUP
+
+        def __init__(self, ignore_sigint: bool) -> None:
+            self.ignore_sigint = ignore_sigint
+
+        def setup(self, worker: Any) -> None:
+            if self.ignore_sigint:
+                ignore_interrupts()
+            warm_kernels()
+
+    return OdorlocWorkerSetup(ignore_sigint)
 
 
 def init_worker(parent_pid: int) -> None:
@@ -383,7 +426,9 @@ class DaskBackend:
     -----
     The workers of a ``LocalCluster`` started here ignore SIGINT: Ctrl-C stops the sweep in
     this process, which then shuts them down (workers of a cluster joined by address are left
-    as they are).
+    as they are). Every worker loads the compiled kernels before its first episode. Both are
+    done by a worker plugin (:func:`dask_worker_setup`), so they also reach the workers Dask
+    starts later in place of one that died or was restarted.
     """
 
     def __init__(self, workers: int = 2, scheduler: str | None = None, timeout: float = 5.0):
@@ -438,11 +483,21 @@ class DaskBackend:
                 # run): Dask's own retries would only kill more workers first
                 scheduler_kwargs={"allowed_failures": 0},
             )
-            self._client = distributed.Client(self._cluster, set_as_default=False)
-            # Ctrl-C reaches the whole process group: let this process shut its own workers
-            # down instead of each worker dying on the signal with its own tracebacks
-            self._client.run(ignore_interrupts)
-        self._client.run(warm_kernels)
+            try:
+                self._client = distributed.Client(self._cluster, set_as_default=False)
+            except BaseException:
+                self.close()
+                raise
+        try:
+            # Ctrl-C reaches the whole process group: the workers of a cluster started here
+            # ignore it, so that this process shuts them down instead of each dying on the
+            # signal with its own tracebacks; a plugin (not Client.run) so that workers Dask
+            # restarts get it too
+            self._client.register_plugin(dask_worker_setup(ignore_sigint=self._cluster is not None))
+        except BaseException:
+            # a failure (or Ctrl-C) part-way must not leave a cluster of our own running
+            self.close()
+            raise
         return self
 
     def __exit__(self, *exc: object) -> None:
@@ -451,6 +506,10 @@ class DaskBackend:
     def close(self) -> None:
         """Disconnect; a cluster started here is shut down."""
         if self._client is not None:
+            if self._cluster is None:
+                # a cluster joined by address is left as it was found
+                with contextlib.suppress(Exception):
+                    self._client.unregister_worker_plugin(WORKER_SETUP)
             self._client.close()
             self._client = None
         if self._cluster is not None:
