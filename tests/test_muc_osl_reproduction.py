@@ -244,3 +244,97 @@ def test_success_axes_leave_room_for_0_and_100_percent(tmp_path, monkeypatch) ->
     assert limits["comparison"] == limits["sweep"] == [F.SUCCESS_YLIM]
     low, high = F.SUCCESS_YLIM
     assert low < 0.0 and high > 100.0
+
+
+@pytest.mark.parametrize(
+    ("values", "field", "words"),
+    [
+        ({"uav": [3]}, "values", ["'uav'", "area, uavs, radius, particles"]),
+        ({"uavs": [3], "radiuss": [5.0]}, "values", ["'radiuss'", "radius"]),
+        ({"uavs": [9]}, "values.uavs", ["9", "1, 2, 3, 4, 5, 6, 7, 8"]),
+        ({"area": [(10.0, 10.0, 10.0)]}, "values.area", ["(10.0, 10.0, 10.0)", "100x60x30"]),
+        ({"particles": 20}, "values.particles", ["list"]),
+    ],
+)
+def test_unknown_sweep_keys_and_values_are_refused(values, field, words) -> None:
+    """A misspelt key or a value the sweep lacks is an error, not a silently smaller run."""
+    with pytest.raises(ConfigError) as ei:
+        MucOslReproduction(values=values)
+    assert ei.value.field == field and "\n" not in str(ei.value)
+    for w in words:
+        assert w in ei.value.problem, (w, ei.value.problem)
+
+
+def test_sweep_values_may_give_an_area_as_a_list() -> None:
+    rep = MucOslReproduction(values={"area": [[100, 200, 50]], "radius": [5]})
+    assert [(s.key, s.values) for s in rep.rate_sweeps] == [
+        ("area", ((100.0, 200.0, 50.0),)),
+        ("radius", (5.0,)),
+    ]
+    # 5 m is not one of Fig. 9's radii: the filament world keeps only the area
+    assert [s.key for s in rep.filament_sweeps] == ["area"]
+
+
+def _fig9_marks(rep: MucOslReproduction, monkeypatch, tmp_path) -> tuple[str, list[float]]:
+    """Title of Fig. 9 and the x (min) of its dotted marks, drawn from made-up episodes."""
+    import matplotlib.figure
+
+    seen: dict[str, object] = {}
+
+    def keep(fig, path, *args, **kwargs):
+        seen["title"] = fig._suptitle.get_text()
+        seen["marks"] = [
+            float(line.get_xdata()[0])
+            for ax in fig.axes
+            for line in ax.lines
+            if line.get_linestyle() == ":"
+        ]
+
+    monkeypatch.setattr(matplotlib.figure.Figure, "savefig", keep)
+    (fig9,) = [f for f in rep.figures(_default_point_rows(), None, tmp_path, 0) if "fig9" in f.name]
+    fig9.draw(tmp_path / fig9.name)
+    return str(seen["title"]), list(seen["marks"])  # type: ignore[arg-type]
+
+
+def test_eight_minute_mark_follows_the_limit_in_force(tmp_path, monkeypatch) -> None:
+    """A run shorter than 8 minutes reads the success rates at its limit and says so; Fig. 9
+    then has no 8-minute mark (it would lie beyond the time axis)."""
+    short = MucOslReproduction(time_limit=300.0, values={"uavs": [3]}, fig3=False)
+    tables = {t.name: t for t in short.tables(_default_point_rows(), 0)}
+    assert tables["filament_sr8"].title.startswith(
+        "Filament world: success rate % [95 %] within 5 min"
+    )
+    assert "episode limit, 5 min" in tables["filament_sr8"].note
+    assert tables["points"].headers[-1] == "SR 5 min %"
+    title, marks = _fig9_marks(short, monkeypatch, tmp_path)
+    assert marks == [] and "dotted" not in title and "8 min" not in title
+
+    full = MucOslReproduction(values={"uavs": [3]}, fig3=False)
+    tables = {t.name: t for t in full.tables(_default_point_rows(), 0)}
+    assert "within 8 min" in tables["filament_sr8"].title
+    assert "episode limit" not in tables["filament_sr8"].note
+    assert tables["points"].headers[-1] == "SR 8 min %"
+    title, marks = _fig9_marks(full, monkeypatch, tmp_path)
+    assert marks and set(marks) == {8.0} and "dotted: 8 min" in title
+
+
+def test_filament_statements_read_before_8_minutes_are_not_refuted() -> None:
+    """Read at a shorter limit, a low success rate bounds the paper's from below only."""
+    from odorloc.papers.muc_osl.analysis import Cells, add_uav_search_time
+    from odorloc.papers.muc_osl.claims import evaluate_claims
+    from odorloc.papers.muc_osl.sweeps import SWEEPS, fig9_settings
+
+    rows = _default_point_rows()
+    rows["success"] = False  # MUC-OSL (and all) never succeed
+    cells = Cells(add_uav_search_time(rows, 300.0))
+    uavs = [s for s in SWEEPS if s.key == "uavs"]
+    fil = [s for s in fig9_settings() if s.key == "uavs"]
+
+    def verdicts(at: float) -> dict[str, str]:
+        claims = evaluate_claims(
+            cells, "muc-osl-3d", uavs, "muc-osl-filament-3d", fil, at=at, seed=0
+        )
+        return {c.statement: c.verdict for c in claims if "about 90 %" in c.statement}
+
+    assert verdicts(480.0) == {"MUC-OSL succeeds in about 90 % by 8 min (100x60x30 m)": "not held"}
+    assert verdicts(300.0) == {"MUC-OSL succeeds in about 90 % by 8 min (100x60x30 m)": "undecided"}

@@ -47,4 +47,6 @@ LARGEST_AREA_SUCCESS = {"muc-osl": 0.24, "col-inf": 0.0}
 #: Filament (GADEN) world, MUC-OSL (Sect. VI.3, Fig. 9): "about 90 %" success within 8 minutes
 #: in 100 x 60 x 30 m, and "more than 80 %" within 8 minutes with more than 3 UAVs.
 FILAMENT_SUCCESS_8MIN = 0.90
+#: The time, s, at which the paper reads the filament world's success rates (8 minutes).
+FILAMENT_AT = 480.0
 FILAMENT_SUCCESS_8MIN_MANY_UAVS = 0.80
