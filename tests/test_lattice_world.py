@@ -260,3 +260,14 @@ def test_unknown_release_is_learnt() -> None:
     for ep in range(5):
         r = run_episode(sc, *episode_seeds(3, "release", ep), record=False)
         assert r.metrics["termination"] == "reached"
+
+
+def test_a_source_too_strong_for_the_automatic_hit_classes_names_n_hits() -> None:
+    n = 19
+    arena = Arena.box((0.0, 0.0), (float(n), float(n)), 1.0)
+    wind = UniformWind(UniformWindParams(velocity=(0.0, 0.0)), arena)
+    src = [Source(position=(n / 2, n / 2), rate=1e6)]
+    plume = LatticeIsotropicPlume(LatticePlumeParams(start="initial-hit"), arena, wind, src)
+    with pytest.raises(ConfigError) as ei:
+        plume.reset(np.random.default_rng(0))
+    assert ei.value.field == "world.plume.n_hits" and "set n_hits" in ei.value.problem

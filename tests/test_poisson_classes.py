@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from scipy.stats import poisson
 
 from odorloc.models.poisson import censored_poisson
@@ -71,3 +72,62 @@ def test_censored_classes_refuse_invalid_means() -> None:
             censored_poisson(bad, 3)
     # an empty set of means is valid
     assert censored_poisson(np.zeros((0,)), 3).shape == (0, 3)
+
+
+@pytest.mark.parametrize("backend", ["numpy", "auto"])
+@pytest.mark.parametrize("bad", [0, 1, -3, 2.7, True, "3", 10**9])
+def test_fixed_class_counts_are_refused_outside_two_to_the_cap(backend: str, bad: object) -> None:
+    from odorloc.core.errors import ConfigError
+    from odorloc.models.vergassola import VergassolaModelParams
+
+    # 0 used to mean "choose", -3 gave no class values, 2.7 became 2 and 10**9 ran for ever
+    m = VergassolaModel(VergassolaModelParams(backend=backend))
+    x, h = np.array([[0.0, 0.0, 1.0]]), np.array([[1.0, 2.0, 3.0], [4.0, 5.0, 6.0]])
+    for method in (m.outcome_probabilities, m.outcome_values):
+        with pytest.raises(ConfigError) as err:
+            method(x, h, dt=1.0, n_classes=bad)
+        assert err.value.field == "n_classes"
+    with pytest.raises(ConfigError, match="n_classes"):
+        censored_poisson(np.ones(3), bad)  # type: ignore[arg-type]
+
+
+def test_fixed_class_counts_accept_whole_numbers_up_to_the_cap() -> None:
+    from odorloc.models.poisson import MAX_CLASSES
+
+    m = VergassolaModel()
+    x, h = np.array([[0.0, 0.0, 1.0]]), np.array([[1.0, 2.0, 3.0]])
+    for z in (2, np.int64(5), 7.0, MAX_CLASSES):
+        assert m.outcome_probabilities(x, h, dt=1.0, n_classes=z).shape == (1, int(z), 1)
+        assert m.outcome_values(x, h, dt=1.0, n_classes=z).size == int(z)
+
+
+def test_lattice_rule_refuses_thousands_of_hit_classes() -> None:
+    from odorloc.core.errors import ConfigError
+    from odorloc.models.lattice import IsotropicHitModel, IsotropicHitParams
+
+    strong = IsotropicHitModel(IsotropicHitParams(intensity=1e4))
+    with pytest.raises(ConfigError, match="n_hits"):
+        strong.outcome_values(np.zeros((1, 2)), np.ones((3, 2)))
+    fixed = IsotropicHitModel(IsotropicHitParams(intensity=1e4, n_hits=8))
+    assert fixed.outcome_values(np.zeros((1, 2)), np.ones((3, 2))).size == 8
+
+
+@pytest.mark.parametrize("backend", ["numpy", "auto"])
+def test_release_arrays_kept_between_calls_stay_few(backend: str) -> None:
+    from odorloc.models.vergassola import VergassolaModelParams
+
+    # one cached ``a Q`` array per (hypothesis count, release) ever seen grew over an episode
+    m = VergassolaModel(VergassolaModelParams(backend=backend))
+    rng = np.random.default_rng(3)
+    x = np.zeros((1, 3))
+    first = None
+    for i in range(60):
+        h = rng.uniform(0.0, 10.0, (20 + i, 3))
+        rows = m.log_likelihood_rows([1.0], x, h, dt=1.0, release=1.0 + 0.01 * i)
+        if i == 0:
+            first = (h, rows)
+    assert len(m._aq) <= 8
+    # an entry pushed out is rebuilt with the same numbers
+    assert first is not None
+    again = m.log_likelihood_rows([1.0], x, first[0], dt=1.0, release=1.0)
+    np.testing.assert_array_equal(again, first[1])

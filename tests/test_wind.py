@@ -470,3 +470,50 @@ def test_potential_params_round_trip_and_rotation() -> None:
         angles.append(math.degrees(math.atan2(v[1], v[0]) - math.atan2(base[1], base[0])))
     assert max(np.abs(angles)) < 30.0
     assert np.std(angles) > 3.0
+
+
+@pytest.mark.parametrize(
+    ("nodes", "upper", "diffusivity"),
+    [
+        ((1000, 1000), (10.0, 10.0), 1.0),
+        ((15, 15), (0.1, 0.1), 1.0),
+        ((101, 101), (10.0, 10.0), 100.0),
+    ],
+)
+def test_farrell_refuses_grids_that_need_countless_substeps(
+    nodes: tuple[int, int], upper: tuple[float, float], diffusivity: float
+) -> None:
+    from odorloc.wind.farrell import MAX_SUBSTEPS_PER_SECOND
+
+    # each of these took over 10 000 sub-steps per 0.25 s world step: minutes to hours per step
+    params = FarrellWindParams(nodes=nodes, diffusivity=(diffusivity, diffusivity))
+    with pytest.raises(ConfigError, match="fewer nodes") as err:
+        FarrellWind(params, Arena.box((0.0, 0.0), upper, 0.01))
+    assert err.value.field == "nodes"
+    assert str(MAX_SUBSTEPS_PER_SECOND) in err.value.problem
+
+
+def test_farrell_substep_count_follows_the_stability_limit() -> None:
+    w = FarrellWind(FarrellWindParams(nodes=(101, 101)), Arena.box((0.0, 0.0), (10.0, 10.0), 0.1))
+    w.reset(np.random.default_rng(0))
+    rate = np.abs(w.u).max() / w.dx + np.abs(w.v).max() / w.dy + 1.0 / w.dx**2 + 1.0 / w.dy**2
+    assert w.substeps(0.25) == math.ceil(0.25 * rate / 0.5)
+    assert w.substeps(1e-9) == 1
+
+
+def test_farrell_scenarios_keep_their_wind_and_name_the_field_of_a_fine_grid() -> None:
+    from odorloc.scenarios import get_scenario
+    from odorloc.scenarios.build import build_world
+    from odorloc.scenarios.config import Scenario
+
+    for name in ("two-sources-farrell", "muc-osl-filament-3d"):
+        sc = get_scenario(name)
+        w = build_world(sc).wind
+        assert isinstance(w, FarrellWind)
+        w.reset(np.random.default_rng(1))
+        assert w.substeps(sc.world.dt) == 1
+    data = get_scenario("two-sources-farrell").to_dict()
+    data["world"]["wind"].update(nodes=[1000, 1000], diffusivity=[10.0, 10.0])
+    with pytest.raises(ConfigError) as err:
+        build_world(Scenario.from_dict(data))
+    assert err.value.field == "world.wind.nodes"

@@ -46,7 +46,7 @@ from odorloc.core.errors import ConfigError
 from odorloc.core.params import Params, Positive
 from odorloc.core.registry import register
 from odorloc.models.base import BoundModel, MeasurementModel
-from odorloc.models.poisson import censored_poisson
+from odorloc.models.poisson import MAX_CLASSES, censored_poisson
 from odorloc.models.vergassola import vergassola_rate
 
 __all__ = [
@@ -240,9 +240,20 @@ class IsotropicHitModel(MeasurementModel):
             raise ConfigError("length", f"must be at least one cell ({p.cell:g} m)")
 
     def n_classes(self, dim: int) -> int:
-        """``Z``: the parameter, else OTTO's rule."""
+        """``Z``: the parameter, else OTTO's rule (at most :data:`MAX_CLASSES`)."""
         p = self.params
-        return p.n_hits if p.n_hits is not None else auto_n_hits(p.length, p.intensity, p.cell, dim)
+        if p.n_hits is not None:
+            return p.n_hits
+        z = auto_n_hits(p.length, p.intensity, p.cell, dim)
+        if z > MAX_CLASSES:
+            # a strong source makes the rule ask for thousands of classes: (M, Z, N) arrays
+            # that take minutes to build
+            raise ConfigError(
+                "n_hits",
+                f"OTTO's rule gives {z} hit classes at intensity {p.intensity:g} (at most "
+                f"{MAX_CLASSES}): set n_hits or lower the intensity",
+            )
+        return z
 
     def mean_hits(
         self, sensor_positions: ArrayLike, hypotheses: ArrayLike, release: ArrayLike | None = None

@@ -8,6 +8,7 @@ Encounters of odor particles in ``dt`` seconds at a mean rate ``R`` are Poisson 
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -15,7 +16,12 @@ from scipy.special import gammainc, gammaln, xlogy
 
 from odorloc.core.errors import ConfigError
 
-__all__ = ["censored_poisson", "check_counts", "poisson_log_pmf"]
+__all__ = ["MAX_CLASSES", "censored_poisson", "check_counts", "check_n_classes", "poisson_log_pmf"]
+
+MAX_CLASSES = 256
+"""Most count classes a model gives (the last holds the tail). Planners hold ``(M, Z, N)``
+arrays, and the classes are built one after another: a larger ``Z`` costs memory and time
+without a meaningful gain (the models' own ``max_classes`` and ``n_hits`` stop here too)."""
 
 
 def poisson_log_pmf(counts: ArrayLike, mean: ArrayLike) -> np.ndarray:
@@ -46,6 +52,25 @@ def check_counts(counts: np.ndarray) -> None:
         raise ConfigError("counts", "must be non-negative integers")
 
 
+def check_n_classes(n_classes: Any, field: str = "n_classes") -> int:
+    """``n_classes`` as an ``int`` in ``[2, MAX_CLASSES]``.
+
+    Raises
+    ------
+    ConfigError
+        Naming ``field`` for anything else: a bool, a fraction (which ``int`` would truncate),
+        fewer than two classes or more than :data:`MAX_CLASSES`.
+    """
+    whole = not isinstance(n_classes, (bool, np.bool_)) and (
+        isinstance(n_classes, (int, np.integer))
+        or (isinstance(n_classes, (float, np.floating)) and float(n_classes).is_integer())
+    )
+    z = int(n_classes) if whole else 0
+    if not 2 <= z <= MAX_CLASSES:
+        raise ConfigError(field, f"must be an integer in [2, {MAX_CLASSES}], got {n_classes!r}")
+    return z
+
+
 def censored_poisson(mean: ArrayLike, n_classes: int) -> np.ndarray:
     """Probabilities of the count classes ``0, 1, ..., n_classes - 2`` and ``>= n_classes - 1``.
 
@@ -54,15 +79,14 @@ def censored_poisson(mean: ArrayLike, n_classes: int) -> np.ndarray:
     mean : array_like, shape S
         Poisson means ``lambda >= 0``.
     n_classes : int
-        Number of classes (>= 2); the last one holds the whole upper tail.
+        Number of classes, 2 to :data:`MAX_CLASSES`; the last one holds the whole upper tail.
 
     Returns
     -------
     ndarray, shape S + (n_classes,)
         Rows sum to one.
     """
-    if n_classes < 2:
-        raise ConfigError("n_classes", "must be >= 2")
+    n_classes = check_n_classes(n_classes)
     lam = np.asarray(mean, float)
     if lam.size:
         hi, lo = float(lam.max()), float(lam.min())

@@ -25,6 +25,7 @@ the belief of :class:`VergassolaModel`.
 from __future__ import annotations
 
 import math
+from collections import OrderedDict
 from typing import Any
 
 import numpy as np
@@ -38,7 +39,12 @@ from odorloc.core.registry import register
 from odorloc.models import kernels
 from odorloc.models.base import MeasurementModel
 from odorloc.models.kernels import Backend
-from odorloc.models.poisson import censored_poisson, check_counts, poisson_log_pmf
+from odorloc.models.poisson import (
+    censored_poisson,
+    check_counts,
+    check_n_classes,
+    poisson_log_pmf,
+)
 
 __all__ = [
     "VergassolaModel",
@@ -46,6 +52,11 @@ __all__ = [
     "correlation_length",
     "vergassola_rate",
 ]
+
+_AQ_KEEP = 8
+"""``a Q`` arrays a model keeps: a step's calls share a few hypothesis counts (the particles,
+one centre), but the particle count and the release vary over an episode, and one entry per
+value seen would grow without bound."""
 
 
 def correlation_length(V: float, D: float, tau: float) -> float:
@@ -231,8 +242,9 @@ class VergassolaModel(MeasurementModel):
             1.0 / correlation_length(p.V, p.D, p.tau),
             p.sensor_radius * p.sensor_radius,
         )
-        # ``a Q`` per hypothesis for the common case of one release rate for all (by count)
-        self._aq: dict[tuple[int, float], np.ndarray] = {}
+        # ``a Q`` per hypothesis for the common case of one release rate for all (by count),
+        # the most recently used first to go last
+        self._aq: OrderedDict[tuple[int, float], np.ndarray] = OrderedDict()
 
     @property
     def length(self) -> float:
@@ -341,8 +353,13 @@ class VergassolaModel(MeasurementModel):
         ``None``), their maximum, and the number of count classes ``Z``.
 
         Raises :class:`ConfigError` (``expected_counts``) for a negative or non-finite mean (a
-        negative release rate, a NaN position), as :func:`censored_poisson` does.
+        negative release rate, a NaN position), as :func:`censored_poisson` does, and
+        (``n_classes``) for a fixed class count that is not an integer in ``[2, MAX_CLASSES]``.
         """
+        fixed = conditions.get("n_classes")
+        # checked here, not only by censored_poisson: outcome_values and the compiled path
+        # would otherwise take 0 for "choose", -3 for no class, 2.7 for 2 or 10**9 as given
+        z = None if fixed is None else check_n_classes(fixed)
         dt = _exposure(conditions)
         parts = self._kernel_parts(sensor_positions, hypotheses, conditions)
         neg: np.ndarray | None = None
@@ -360,7 +377,7 @@ class VergassolaModel(MeasurementModel):
                 raise ConfigError("expected_counts", "must be finite and >= 0")
         else:
             top = 0.0
-        return mu, neg, top, int(conditions.get("n_classes") or self._classes_for(top))
+        return mu, neg, top, self._classes_for(top) if z is None else z
 
     def _kernel_parts(
         self, sensor_positions: ArrayLike, hypotheses: ArrayLike, conditions: dict[str, Any]
@@ -394,6 +411,10 @@ class VergassolaModel(MeasurementModel):
             if aq is None:
                 # shared between calls: the kernels only read it
                 aq = self._aq[key] = np.full(len(s), float(p.sensor_radius * q))
+                if len(self._aq) > _AQ_KEEP:
+                    self._aq.popitem(last=False)
+            else:
+                self._aq.move_to_end(key)
         else:
             aq = np.ascontiguousarray(p.sensor_radius * q, dtype=float)
         return np.exp(expo), r, aq

@@ -37,7 +37,7 @@ from odorloc.models.lattice import (
     initial_hit_probabilities,
     isotropic_mean_hits,
 )
-from odorloc.models.poisson import censored_poisson
+from odorloc.models.poisson import MAX_CLASSES, censored_poisson
 from odorloc.models.vergassola import vergassola_rate
 from odorloc.plume.base import PlumeModel
 from odorloc.plume.sources import Source
@@ -132,6 +132,13 @@ class LatticeIsotropicPlume(PlumeModel):
         if not intensity > 0:
             raise ConfigError("world.sources[0].rate", "initial-hit needs a positive rate")
         z = p.n_hits if p.n_hits is not None else auto_n_hits(p.length, intensity, cell, dim)
+        if z > MAX_CLASSES:
+            # only the automatic rule can get here (n_hits itself is bounded)
+            raise ConfigError(
+                "world.plume.n_hits",
+                f"OTTO's rule gives {z} hit classes at intensity {intensity:g} (at most "
+                f"{MAX_CLASSES}): set n_hits or lower the rate",
+            )
         ph = initial_hit_probabilities(p.length, intensity, cell, dim, z)
         h0 = int(rng.choice(z, p=ph))
         grid = self.arena.grid

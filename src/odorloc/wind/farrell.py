@@ -25,11 +25,17 @@ import math
 import numpy as np
 from pydantic import Field, field_validator
 
+from odorloc.core.errors import ConfigError
 from odorloc.core.params import Finite, NonNegative, Params, Positive
 from odorloc.core.registry import register
 from odorloc.geometry.arena import Arena
 from odorloc.wind.base import WindModel
 from odorloc.wind.meander import SecondOrderNoise
+
+MAX_SUBSTEPS_PER_SECOND = 10_000
+"""Most explicit sub-steps a Farrell wind may need per simulated second at its mean field. The
+built-in scenarios need about 2; a grid fine for its diffusivity (the diffusive limit falls with
+the square of the node spacing) needs millions per control period and never finishes."""
 
 
 class FarrellWindParams(Params):
@@ -133,6 +139,7 @@ class FarrellWind(WindModel):
         self.noise = SecondOrderNoise(
             8, 2.0 * math.pi * params.frequency * params.frequency_factor, params.damping
         )
+        self._check_substeps()
         self._s = np.linspace(0.0, 1.0, nx)[:, None]
         self._r = np.linspace(0.0, 1.0, ny)[None, :]
         self.u, self.v = self._bilinear_from_corners()
@@ -166,19 +173,47 @@ class FarrellWind(WindModel):
         self.noise.reset(rng)
         self.u, self.v = self._bilinear_from_corners()
 
+    def _stability_rate(self, um: float, vm: float) -> float:
+        """``|u|/dx + |v|/dy + K_x/dx^2 + K_y/dy^2``, 1/s, for the largest speeds ``um, vm``
+        (m/s): the explicit scheme's stability limit is ``courant`` over it."""
+        kx, ky = self.params.diffusivity
+        return um / self.dx + vm / self.dy + kx / self.dx**2 + ky / self.dy**2
+
+    def _check_substeps(self) -> None:
+        """Refuse a grid, diffusivity and courant factor that need more than
+        :data:`MAX_SUBSTEPS_PER_SECOND` sub-steps per simulated second.
+
+        The mean field is the least any field of these parameters needs (the corner noise only
+        adds speed), so nothing that would run is refused.
+        """
+        p = self.params
+        mx, my = np.abs(p.mean)
+        per_second = self._stability_rate(float(mx), float(my)) / p.courant
+        if per_second > MAX_SUBSTEPS_PER_SECOND:
+            raise ConfigError(
+                "nodes",
+                f"{p.nodes[0]}x{p.nodes[1]} nodes ({self.dx:.3g} x {self.dy:.3g} m apart) with "
+                f"diffusivity {p.diffusivity[0]:g}, {p.diffusivity[1]:g} m^2/s and courant "
+                f"{p.courant:g} need {per_second:.3g} stability sub-steps per simulated second "
+                f"(at most {MAX_SUBSTEPS_PER_SECOND}): use fewer nodes, a lower diffusivity or "
+                "a larger courant",
+            )
+
     def max_substep(self) -> float:
         """Largest stable explicit sub-step for the current field, seconds."""
-        kx, ky = self.params.diffusivity
         um = float(np.abs(self.u).max())
         vm = float(np.abs(self.v).max())
-        rate = um / self.dx + vm / self.dy + kx / self.dx**2 + ky / self.dy**2
-        return self.params.courant / rate
+        return self.params.courant / self._stability_rate(um, vm)
+
+    def substeps(self, dt: float) -> int:
+        """Explicit sub-steps a step of ``dt`` seconds takes from the current field."""
+        return max(1, math.ceil(dt / self.max_substep()))
 
     def _advance(self, dt: float, rng: np.random.Generator) -> None:
         self.noise.step(dt, rng)
         self._apply_boundary()
         kx, ky = self.params.diffusivity
-        n = max(1, math.ceil(dt / self.max_substep()))
+        n = self.substeps(dt)
         h = dt / n
         for _ in range(n):
             self.u, self.v = advect_diffuse_step(self.u, self.v, self.dx, self.dy, kx, ky, h)
