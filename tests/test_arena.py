@@ -145,6 +145,78 @@ def test_a_wall_thinner_than_a_cell_is_kept() -> None:
     assert coarse.with_boxes([((11.0, 1.0), (11.05, 4.0))]).occ is None
 
 
+def _strip(start: tuple[float, float], end: tuple[float, float], width: float) -> np.ndarray:
+    """A thin rectangle (4 vertices) of ``width`` metres along ``start -> end``."""
+    s, e = np.asarray(start, float), np.asarray(end, float)
+    d = (e - s) / np.linalg.norm(e - s)
+    n = np.array([-d[1], d[0]]) * 0.5 * width
+    return np.array([s - n, e - n, e + n, s + n])
+
+
+def test_a_polygon_thinner_than_a_cell_is_kept() -> None:
+    room = Arena.box((0.0, 0.0), (5.0, 5.0), 0.1)
+    # 0.03 m thick, between the rows of centres at y = 2.05 and 2.15
+    wall = room.with_polygons([[(1.0, 2.06), (4.0, 2.06), (4.0, 2.09), (1.0, 2.09)]])
+    assert wall.occ is not None and wall.occ.sum() == 30
+    assert not wall.segment_free([2.5, 1.0], [2.5, 3.0])[0]
+    # smaller than a cell on both axes: the cell it lies in
+    speck = room.with_polygons([[(1.01, 1.01), (1.04, 1.01), (1.02, 1.03)]])
+    assert speck.occ is not None and np.argwhere(speck.occ).tolist() == [[10, 10]]
+    # wholly outside the bounds: nothing
+    assert room.with_polygons([[(6.0, 1.0), (7.0, 1.0), (7.0, 2.0)]]).occ is None
+
+
+@pytest.mark.parametrize(
+    "start, end",
+    [
+        ((-0.1, -0.07), (5.1, 5.13)),  # 45 degrees, just off the cell centres
+        ((-0.1, 1.03), (5.1, 2.33)),  # shallow
+        ((1.02, -0.1), (1.9, 5.1)),  # steep
+        ((-0.1, 0.53), (5.1, 4.43)),
+    ],
+)
+def test_a_thin_diagonal_polygon_leaves_no_gap(start, end) -> None:
+    from odorloc.planning.astar import astar_path
+
+    # 0.03 m thick, from wall to wall: it parts the room in two
+    wall = Arena.box((0.0, 0.0), (5.0, 5.0), 0.1).with_polygons([_strip(start, end, 0.03)])
+    assert wall.occ is not None
+    s, e = np.asarray(start), np.asarray(end)
+    d = (e - s) / np.linalg.norm(e - s)
+    across = 0.4 * np.array([-d[1], d[0]])
+    along = s + np.linspace(0.1, 0.9, 60)[:, None] * (e - s)
+    a, b = along - across, along + across
+    both = wall.is_free(a) & wall.is_free(b)
+    assert both.sum() > 30
+    # no straight crossing, and no planned path from one side to the other
+    assert not wall.segment_free(a[both], b[both]).any()
+    k = int(np.flatnonzero(both)[len(np.flatnonzero(both)) // 2])
+    assert astar_path(wall, a[k], b[k]) is None
+
+
+def test_thick_polygons_keep_their_centre_cells() -> None:
+    from matplotlib.path import Path as MplPath
+    from matplotlib.transforms import Bbox
+
+    room = Arena.box((0.0, 0.0), (5.0, 4.0), 0.1)
+    gx, gy = np.meshgrid(*room.cell_centers(), indexing="ij")
+    xy = np.column_stack([gx.ravel(), gy.ravel()])
+    rng = np.random.default_rng(0)
+    for _ in range(30):
+        k = int(rng.integers(3, 9))
+        ang = np.sort(rng.uniform(0.0, 2 * np.pi, k))
+        r = rng.uniform(0.3, 1.0) * rng.uniform(0.5, 1.0, (k, 1))
+        poly = rng.uniform(1.0, 3.0, 2) + r * np.column_stack([np.cos(ang), np.sin(ang)])
+        centres = MplPath(poly).contains_points(xy).reshape(gx.shape)
+        occ = room.with_polygons([poly]).occ
+        assert occ is not None and np.all(occ >= centres)
+        # a cell added without its centre inside (a pointed tip) still overlaps the polygon
+        outline = MplPath(np.vstack([poly, poly[:1]]), closed=True)
+        for i, j in np.argwhere(occ & ~centres):
+            cell = Bbox.from_extents(0.1 * i, 0.1 * j, 0.1 * (i + 1), 0.1 * (j + 1))
+            assert outline.intersects_bbox(cell, filled=True)
+
+
 def test_cell_index_of_a_point_that_is_not_finite_is_an_error() -> None:
     from odorloc.geometry.grid import CellGrid
 

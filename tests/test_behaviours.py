@@ -14,6 +14,7 @@ from odorloc.behaviours.spiral import Spiral, SpiralParams, proximity_index
 from odorloc.behaviours.surge_cast import SurgeCast, SurgeCastParams
 from odorloc.behaviours.wind import WindAverage
 from odorloc.behaviours.zigzag import Zigzag
+from odorloc.core.errors import ConfigError
 from odorloc.core.types import Observation
 from odorloc.geometry.arena import Arena
 from odorloc.geometry.vectors import directions_26, fan, lattice_moves, ring, rotate2, upwind_unit
@@ -36,6 +37,9 @@ def test_vector_helpers() -> None:
     np.testing.assert_allclose(rotate2([1.0, 0.0, 0.5], math.pi / 2), [0.0, 1.0, 0.5], atol=1e-15)
     np.testing.assert_allclose(upwind_unit([2.0, 0.0], 0.0), [-1.0, 0.0])
     np.testing.assert_allclose(upwind_unit([0.0, 0.0], math.pi / 2), [0.0, 1.0], atol=1e-15)
+    # a NaN wind is not calm air
+    with pytest.raises(ConfigError, match="wind"):
+        upwind_unit([math.nan, 0.0], 0.0)
     assert ring(16, 3).shape == (16, 3)
     np.testing.assert_allclose(np.linalg.norm(ring(7, 2), axis=1), 1.0)
     np.testing.assert_allclose(fan([1.0, 0.0], [0, 90])[1], [0.0, 1.0], atol=1e-15)
@@ -167,6 +171,71 @@ def test_fluxotaxis_follows_the_most_negative_flux() -> None:
     _, total2 = mass_flux(np.zeros(2), HEX, rho2, winds)
     assert total2 < 0
     assert fluxotaxis(np.zeros(2), HEX, np.full(6, 0.001), winds, 0.005) is None
+
+
+@pytest.mark.parametrize(
+    ("rule", "field"),
+    [
+        ("chemotaxis-reading", "readings"),
+        ("chemotaxis-centre", "centre"),
+        ("anemotaxis-wind", "winds"),
+        ("anemotaxis-reading", "readings"),
+        ("anemotaxis-threshold", "threshold"),
+        ("fluxotaxis-wind", "winds"),
+        ("fluxotaxis-position", "positions"),
+        ("mass-flux-reading", "readings"),
+    ],
+)
+def test_taxis_rules_refuse_non_finite_samples(rule: str, field: str) -> None:
+    from odorloc.behaviours.taxis import anemotaxis, chemotaxis, fluxotaxis, mass_flux
+    from odorloc.core.errors import ConfigError
+
+    # NaN compares false: before, argmax picked the NaN sample, the mean wind turned into a
+    # NaN direction, or the rule quietly said "no signal"
+    nan = math.nan
+    rho = np.array([0.1, 0.5, nan, 0.0, 0.0, 0.3])
+    winds = np.tile([1.0, 0.0], (6, 1))
+    bad_winds = winds.copy()
+    bad_winds[0, 0] = nan
+    bad_hex = HEX.copy()
+    bad_hex[2, 1] = nan
+    full = np.full(6, 0.02)
+    calls = {
+        "chemotaxis-reading": lambda: chemotaxis(np.zeros(2), HEX, rho),
+        "chemotaxis-centre": lambda: chemotaxis([nan, 0.0], HEX, full),
+        "anemotaxis-wind": lambda: anemotaxis(bad_winds, full, 0.005),
+        "anemotaxis-reading": lambda: anemotaxis(winds, rho, 0.005),
+        "anemotaxis-threshold": lambda: anemotaxis(winds, full, nan),
+        "fluxotaxis-wind": lambda: fluxotaxis(np.zeros(2), HEX, full, bad_winds, 0.005),
+        "fluxotaxis-position": lambda: fluxotaxis(np.zeros(2), bad_hex, full, winds, 0.005),
+        "mass-flux-reading": lambda: mass_flux(np.zeros(2), HEX, rho, winds),
+    }
+    with pytest.raises(ConfigError) as err:
+        calls[rule]()
+    assert err.value.field == field
+
+
+def test_taxis_rules_refuse_samples_that_do_not_pair_up() -> None:
+    from odorloc.behaviours.taxis import chemotaxis, mass_flux
+    from odorloc.core.errors import ConfigError
+
+    with pytest.raises(ConfigError, match="readings"):
+        chemotaxis(np.zeros(2), HEX, np.arange(7.0))  # was an IndexError deep inside
+    with pytest.raises(ConfigError, match="winds"):
+        mass_flux(np.zeros(2), HEX, np.ones(6), np.ones((5, 2)))
+    with pytest.raises(ConfigError, match="positions"):
+        chemotaxis(np.zeros(3), HEX, np.arange(6.0))
+
+
+def test_wind_average_refuses_a_non_finite_reading() -> None:
+    from odorloc.core.errors import ConfigError
+
+    w = WindAverage(3)
+    w.add([1.0, 0.0])
+    with pytest.raises(ConfigError, match="wind"):
+        w.add([math.nan, 0.0])
+    # the refused reading left the average alone
+    np.testing.assert_allclose(w.upwind(0.3), [-1.0, 0.0])
 
 
 def test_losing_the_odor_restarts_narrow_casts_even_without_a_surge() -> None:

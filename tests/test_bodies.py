@@ -135,3 +135,43 @@ def test_overlapping_start_bodies_are_refused() -> None:
     assert "overlap" in ei.value.problem
     d["platform"] = {"type": "holonomic", "radius": 0.1}
     Episode(Scenario.from_dict(d))  # 0.3 m apart, bodies of 0.1 m: fine
+
+
+def test_body_free_is_the_disc_or_ball_against_the_cells() -> None:
+    room = Arena.box((0.0, 0.0), (10.0, 5.0), 0.1).with_boxes([((4.0, 1.0), (5.0, 4.0))])
+    # 0.3 m and 0.25 m left of the box face; 0.2 m and 0.25 m left of and below its corner
+    # (0.28 m and 0.35 m away)
+    pts = [[3.7, 2.5], [3.75, 2.5], [3.8, 0.8], [3.75, 0.75]]
+    assert room.body_free(pts, 0.3).tolist() == [True, False, False, True]
+    assert room.body_free(pts, 0.0).tolist() == [True] * 4
+    assert room.body_free([[4.5, 2.5]], 0.1).tolist() == [False]  # in the box itself
+    cube = Arena.box((0.0, 0.0, 0.0), (4.0, 4.0, 2.0), 0.1).with_boxes(
+        [((1.0, 1.0, 0.0), (2.0, 2.0, 1.0))]
+    )
+    # above the cube's top face (z = 1.0), 0.25 m or 0.15 m clear of it
+    assert cube.body_free([[1.5, 1.5, 1.25], [1.5, 1.5, 1.15]], 0.2).tolist() == [True, False]
+
+
+@pytest.mark.parametrize(
+    "start, boxes, problem",
+    [
+        ([8.0, 2.0], [[[8.1, 1.0], [9.0, 3.0]]], "too close to an obstacle"),
+        ([7.9, 2.0], [[[8.1, 1.0], [9.0, 3.0]]], "too close to an obstacle"),
+        ([9.9, 2.0], [], "from the arena's edge"),
+        ([8.0, 0.1], [], "from the arena's edge"),
+    ],
+)
+def test_a_start_body_inside_a_wall_is_refused(start, boxes, problem) -> None:
+    d = small_scenario_dict("passive")
+    d["agents"] = {"starts": [[2.0, 2.5], start]}
+    d["platform"] = {"type": "holonomic", "radius": 0.3}
+    d["world"]["arena"]["obstacles"] = {"boxes": boxes}
+    with pytest.raises(ConfigError) as ei:
+        Episode(Scenario.from_dict(d))
+    assert ei.value.field == "agents.starts[1]"
+    assert problem in ei.value.problem and "radius 0.3 m" in ei.value.problem
+    # the same start with a point body, or far enough off, is fine
+    d["platform"] = {"type": "holonomic", "radius": 0.0}
+    Episode(Scenario.from_dict(d))
+    d["platform"] = {"type": "holonomic", "radius": 0.1}
+    Episode(Scenario.from_dict(d))

@@ -29,8 +29,18 @@ class WindAverage:
         self._buf: deque[np.ndarray] = deque(maxlen=self.n)
 
     def add(self, wind: ArrayLike) -> np.ndarray:
-        """Add a reading ``(d,)`` m/s; return the mean of the last ``n`` (this one included)."""
-        self._buf.append(np.asarray(wind, float))
+        """Add a reading ``(d,)`` m/s; return the mean of the last ``n`` (this one included).
+
+        Raises
+        ------
+        ConfigError
+            If a component of ``wind`` is not finite: a NaN would spoil the next ``n`` means
+            and turn the upwind direction into the calm-air fallback without a word.
+        """
+        w = np.asarray(wind, float)
+        if not np.all(np.isfinite(w)):
+            raise ConfigError("wind", f"every component must be finite, got {w}")
+        self._buf.append(w)
         return self.mean
 
     @property

@@ -157,6 +157,44 @@ class Arena:
             ok &= ~self.occ[tuple(self.cell_index(p).T)]
         return ok
 
+    def body_free(self, points: ArrayLike, radius: float) -> BoolArray:
+        """``True`` where a body of ``radius`` centred on a point overlaps no obstacle cell.
+
+        The body is a disc (2D) or ball (3D), as for platform collisions; it may touch an
+        obstacle cell (to within a billionth of a cell, so that decimal coordinates exactly
+        ``radius`` from a wall count as touching) but not reach into it. Bounds are not checked
+        (see :meth:`distance_to_bounds`); a point outside them is not free.
+
+        Parameters
+        ----------
+        points : (Q, d) array_like, metres
+        radius : float, metres
+            Body radius, >= 0 (0: the point itself, as :meth:`is_free`).
+
+        Returns
+        -------
+        (Q,) bool ndarray
+        """
+        p = as_points(points, self.dim)
+        ok = self.is_free(p)
+        if self.occ is None or radius <= 0:
+            return ok
+        res = float(self.resolution)
+        top = np.asarray(self.grid_shape) - 1
+        reach = max(radius - 1e-9 * res, 0.0)
+        for q in np.flatnonzero(ok):
+            lo = np.clip(np.floor((p[q] - radius - self.lo) / res), 0, top).astype(np.intp)
+            hi = np.clip(np.floor((p[q] + radius - self.lo) / res), 0, top).astype(np.intp)
+            near = tuple(slice(int(i), int(j) + 1) for i, j in zip(lo, hi, strict=True))
+            cells = np.argwhere(self.occ[near]) + lo
+            if len(cells) == 0:
+                continue
+            # distance from the centre to the nearest point of each occupied cell
+            c_lo = self.lo + cells * res
+            gap = np.maximum(np.maximum(c_lo - p[q], p[q] - (c_lo + res)), 0.0)
+            ok[q] = bool(np.all(np.einsum("ij,ij->i", gap, gap) >= reach * reach))
+        return ok
+
     def segment_free(self, start: ArrayLike, end: ArrayLike) -> BoolArray:
         """``True`` where the straight segment from ``start`` to ``end`` stays in free space.
 
@@ -286,6 +324,15 @@ class Arena:
         contact = np.where(first == 0, 0.0, leave[rows, before])
         return np.where(hit.any(axis=1), contact, np.inf)
 
+    def horizontal_slice(self, z: float) -> Arena:
+        """The 2D arena of the layer of cells holding height ``z`` (metres, clipped into the
+        grid); a 2D arena is its own slice."""
+        if self.dim == 2:
+            return self
+        k = int(self.grid.index([[self.lower[0], self.lower[1], float(z)]])[0, 2])
+        occ = None if self.occ is None else self.occ[:, :, k]
+        return Arena(self.lower[:2], self.upper[:2], self.resolution, occ)
+
     def clip(self, points: ArrayLike) -> FloatArray:
         """Points clipped into the bounds (not out of obstacles), ``(Q, d)``."""
         return np.clip(as_points(points, self.dim), self.lo, self.hi)
@@ -329,7 +376,15 @@ class Arena:
         return Arena(self.lower, self.upper, self.resolution, occ)
 
     def with_polygons(self, polygons: Sequence[Sequence[Sequence[float]]]) -> Arena:
-        """A copy with 2D polygon obstacles (vertex lists, metres); in 3D they span all heights."""
+        """A copy with 2D polygon obstacles (vertex lists, metres); in 3D they span all heights.
+
+        A cell is occupied when its centre lies inside a polygon. As for boxes, a polygon (or a
+        part of one) too thin to hold a cell centre is not dropped: every chord the polygon cuts
+        from a row or column of cell centres marks at least the cell holding its middle (a
+        polygon crossing no such line marks the cell holding the middle of its extent). A thin
+        wall at any angle thus stays a chain of cells meeting at least at their corners, which
+        neither :meth:`segment_free` nor the A* planner passes.
+        """
         from matplotlib.path import Path as MplPath
 
         occ = np.zeros(self.grid_shape, bool) if self.occ is None else self.occ.copy()
@@ -343,8 +398,58 @@ class Arena:
             if not np.all(np.isfinite(v)):
                 raise ConfigError(f"obstacles.polygons[{k}]", "vertices must be finite")
             inside = MplPath(v).contains_points(xy).reshape(gx.shape)
+            inside |= self._chord_cells(v)
             occ |= inside[..., None] if self.dim == 3 else inside
         return Arena(self.lower, self.upper, self.resolution, occ)
+
+    def _chord_cells(self, v: FloatArray) -> BoolArray:
+        """Horizontal cells holding the middle of each chord of polygon ``v`` along a line of
+        cell centres.
+
+        Parameters
+        ----------
+        v : (V, 2) float ndarray, metres
+            Polygon vertices (closed implicitly; even-odd rule).
+
+        Returns
+        -------
+        (nx, ny) bool ndarray
+        """
+        shape = self.grid_shape[:2]
+        marked = np.zeros(shape, bool)
+        lo, hi = self.lo[:2], self.hi[:2]
+        res = float(self.resolution)
+        p, q = v, np.roll(v, -1, axis=0)
+        crossed = False
+        for a in (0, 1):
+            b = 1 - a
+            c = self.grid.axis_centers(b)[:, None]  # (L, 1): the lines b = c
+            # half-open crossing rule: a vertex on a line is counted once, edges along it never
+            crosses = ((p[:, b] <= c) & (c < q[:, b])) | ((q[:, b] <= c) & (c < p[:, b]))
+            if not crosses.any():
+                continue
+            crossed = True
+            span = np.where(crosses, q[:, b] - p[:, b], 1.0)
+            at = np.where(crosses, p[:, a] + (c - p[:, b]) * (q[:, a] - p[:, a]) / span, np.inf)
+            at = np.sort(at, axis=1)[:, : int(crosses.sum(axis=1).max())]
+            # consecutive crossings pair up into the chords inside the polygon
+            c0, c1 = at[:, 0::2], at[:, 1::2]
+            ok = np.isfinite(c1) & (c1 > lo[a]) & (c0 < hi[a])
+            mid = 0.5 * (np.maximum(c0, lo[a]) + np.minimum(c1, hi[a]))
+            line, _ = np.nonzero(ok)
+            cell = np.clip(np.floor((mid[ok] - lo[a]) / res), 0, shape[a] - 1).astype(np.intp)
+            idx = [line, line]
+            idx[a] = cell
+            marked[tuple(idx)] = True
+        vlo, vhi = np.maximum(v.min(axis=0), lo), np.minimum(v.max(axis=0), hi)
+        if not crossed and np.all(vlo < vhi):
+            # smaller than a cell on both axes, between lines of centres: the cell of a vertex
+            # in the arena (on the polygon, so the cell touches it), else of its extent's middle
+            held = np.all((v >= lo) & (v <= hi), axis=1)
+            point = v[int(np.argmax(held))] if held.any() else 0.5 * (vlo + vhi)
+            cell = np.clip(np.floor((point - lo) / res), 0, np.array(shape) - 1)
+            marked[tuple(cell.astype(np.intp))] = True
+        return marked
 
     @classmethod
     def from_grid(

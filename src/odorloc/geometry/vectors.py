@@ -57,10 +57,17 @@ def upwind_unit(wind: ArrayLike, fallback_heading: float) -> FloatArray:
 
     In calm air (horizontal speed below 1e-9 m/s) the direction of ``fallback_heading`` rad is
     returned instead.
+
+    Raises
+    ------
+    ConfigError
+        If the horizontal wind is not finite (a NaN would otherwise read as calm air).
     """
     w = np.asarray(wind, float)
     u = np.zeros(len(w))
     n = math.hypot(w[0], w[1])
+    if not math.isfinite(n):
+        raise ConfigError("wind", f"must be finite, got {w.tolist()}")
     if n > 1e-9:
         u[:2] = -w[:2] / n
     else:

@@ -123,8 +123,7 @@ def build(sc: Scenario, world: World | None = None) -> Built:
     starts = np.asarray(sc.agents.starts, float)
     for k, s in enumerate(starts):
         if not world.arena.is_free(s)[0]:
-            where = "(" + ", ".join(f"{float(x):g}" for x in s) + ")"
-            raise ConfigError(f"agents.starts[{k}]", f"{where} is outside the arena or blocked")
+            raise ConfigError(f"agents.starts[{k}]", f"{_where(s)} is outside the arena or blocked")
     gp = sc.sensors.gas.params("gas_sensor", "sensors.gas")
     ap = sc.sensors.anemometer.params("anemometer", "sensors.anemometer")
     gas_cls = registry.entry("gas_sensor", sc.sensors.gas.type).build
@@ -136,7 +135,9 @@ def build(sc: Scenario, world: World | None = None) -> Built:
     searcher = prefixed("searcher", se.build, sp)
     _check_searcher(sc, searcher)
     platforms = [prefixed("platform", pl_cls, plp) for _ in range(n)]
-    _check_bodies(starts, np.array([float(pl.radius) for pl in platforms]))
+    radii = np.array([float(pl.radius) for pl in platforms])
+    _check_clearance(world.arena, starts, radii)
+    _check_bodies(starts, radii)
     return Built(
         scenario=sc,
         world=world,
@@ -145,6 +146,39 @@ def build(sc: Scenario, world: World | None = None) -> Built:
         platforms=platforms,
         searcher=searcher,
     )
+
+
+def _where(point: np.ndarray) -> str:
+    """A point as ``(x, y[, z])`` for an error message (plain numbers, metres)."""
+    return "(" + ", ".join(f"{float(x):g}" for x in point) + ")"
+
+
+def _check_clearance(arena: Arena, starts: np.ndarray, radii: np.ndarray) -> None:
+    """Refuse start positions where a body (``radius > 0``) reaches past the arena's bounds or
+    into an obstacle: the robot would start inside a wall.
+
+    Parameters
+    ----------
+    arena : Arena
+    starts : (N, d) ndarray, metres
+        Body centres (each already a free point).
+    radii : (N,) ndarray, metres
+    """
+    for k in np.flatnonzero(radii > 0):
+        s, r = starts[k], float(radii[k])
+        margin = float(arena.distance_to_bounds(s)[0])
+        # touching the edge is fine, also when decimal coordinates round it a hair short
+        if margin < r - 1e-9 * arena.resolution:
+            raise ConfigError(
+                f"agents.starts[{k}]",
+                f"{_where(s)} is {margin:.3g} m from the arena's edge: the body (radius {r:g} m) "
+                "reaches past it",
+            )
+        if not arena.body_free(s, r)[0]:
+            raise ConfigError(
+                f"agents.starts[{k}]",
+                f"{_where(s)} is too close to an obstacle: the body (radius {r:g} m) overlaps it",
+            )
 
 
 def _check_bodies(starts: np.ndarray, radii: np.ndarray) -> None:

@@ -436,8 +436,9 @@ class DSRectangularWaveSearcher(Searcher):
 
     The lanes are those of :class:`~odorloc.searchers.simple.RectangularWaveSearcher`
     (:func:`~odorloc.planning.coverage.rectangular_wave`); rounds follow ``round_order`` and the
-    robot moves stop-and-go like the dynamic route (``dwell_periods``). After the last round the
-    mapped sources are declared.
+    robot moves stop-and-go like the dynamic route (``dwell_periods``). Lanes that obstacles cut
+    are swept on both sides of them (:func:`~odorloc.planning.coverage.route_around_obstacles`).
+    After the last round the mapped sources are declared.
     """
 
     params: DSRectangularWaveParams
@@ -456,6 +457,7 @@ class DSRectangularWaveSearcher(Searcher):
             ctx.start[0, :2],
             p.margin,
             p.round_order,
+            ctx.arena,
         )
         self.index = 0
         self.motion = StopAndGo(ctx.max_speed * ctx.dt, p.dwell_periods)

@@ -156,7 +156,9 @@ class RectangularWaveParams(Params):
 class RectangularWaveSearcher(Searcher):
     """Follows a predefined rectangular-wave path for ``rounds`` passes, then stops.
 
-    Every agent follows the same lanes (at its own start height in 3D).
+    Every agent follows the same lanes (in 3D at the first agent's start height). Lanes that
+    obstacles cut are swept on both sides of them, the stretches joined by A* paths
+    (:func:`~odorloc.planning.coverage.route_around_obstacles`).
     """
 
     params: RectangularWaveParams
@@ -166,8 +168,11 @@ class RectangularWaveSearcher(Searcher):
         p = self.params
         region = resolve_region(ctx, p.region)
         start = ctx.start[0, :2]
+        # the lanes are flown at the start height: obstacles are those of that layer
+        height = float(ctx.start[0, 2]) if ctx.arena.dim == 3 else 0.0
+        plane = ctx.arena.horizontal_slice(height)
         self.waypoints = wave_waypoints(
-            region, p.lane_spacing, p.lanes_along, p.rounds, start, p.margin, "alternate"
+            region, p.lane_spacing, p.lanes_along, p.rounds, start, p.margin, "alternate", plane
         )
         if ctx.arena.dim == 3:
             z = np.full((len(self.waypoints), 1), ctx.start[0, 2])
