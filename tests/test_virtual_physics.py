@@ -152,6 +152,29 @@ def test_listens_to_other_groups_repulsion_and_bypass() -> None:
     np.testing.assert_allclose(s.vr, CENTRE - [0.06, 0.0])
 
 
+def test_a_searching_group_out_of_range_is_forgotten_a_located_one_kept() -> None:
+    rng = np.random.default_rng(0)
+    near = Message(6, {"vr": CENTRE + np.array([-1.0, 0.0]), "declared": np.array([0], np.uint8)})
+    s = _searcher(rule="anemotaxis")
+    s.act(_obs(np.full(6, 0.01), messages=[near]), rng)
+    np.testing.assert_allclose(s.vr, CENTRE)  # repelled: no step
+    # not heard next period (out of range): it has moved on, so no push from where it was
+    s.act(_obs(np.full(6, 0.01), t=0.5), rng)
+    assert s.diagnostics()["repelled"] == 0.0
+    np.testing.assert_allclose(s.vr, CENTRE - [0.06, 0.0])
+    # a located group has stopped: its forbidden circle stays closed when it is not heard
+    located = Message(
+        6, {"vr": CENTRE + np.array([-1.52, 0.01]), "declared": np.array([1], np.uint8)}
+    )
+    s = _searcher(rule="anemotaxis", repulsion=False)
+    s.act(_obs(np.full(6, 0.01), messages=[located]), rng)
+    first = s.vr.copy()
+    s.act(_obs(np.full(6, 0.01), t=0.5), rng)
+    assert s.diagnostics()["rotary"] == 1.0
+    # the same sense of rotation: still moving away from the circle's axis, on the same side
+    assert np.sign(s.vr[1] - first[1]) == np.sign(first[1] - CENTRE[1])
+
+
 @pytest.mark.parametrize(
     ("params", "word"),
     [

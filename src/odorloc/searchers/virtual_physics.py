@@ -9,7 +9,8 @@ each other only what they broadcast.
 Each control step (one step of eqs. 7-8):
 
 1. **Listen**: messages from other groups carry their virtual robot (``vr``, metres) and whether
-   they have located a source (``declared``).
+   they have located a source (``declared``). Only the groups heard this period count as where
+   they are (see below for those out of communication range).
 2. **Declare** (Sec. 2.2.3, :class:`~odorloc.behaviours.formation.FluxDeclaration`): the total
    mass flux ``sum_k rho_k v_k . n_k`` through the formation (:func:`~odorloc.behaviours.taxis.
    mass_flux`, normals from the virtual robot) has exceeded ``phi_T`` for ``n_s`` consecutive
@@ -51,6 +52,12 @@ Choices where the paper is silent (all parameters):
   virtual robot and no angular gap of ``pi`` or more between them.
 - Repulsion and the goal force are normalised together (eq. 10 then the unit vector), so the
   virtual robot always steps ``s1`` and its robots can follow.
+- Groups out of communication range (``agents.comm_radius``): the paper does not limit the
+  range. Here a searching group that was not heard this period is forgotten -- it moves on
+  unseen, and a position from periods ago would repel this group from an empty spot (eq. 9
+  takes the virtual robots where they are). A group that has located a source stops (Sec.
+  2.2.2), so the position it declared stays true: it is kept once heard, with its forbidden
+  circle and the rotary sense chosen around it (eqs. 11-16).
 """
 
 from __future__ import annotations
@@ -219,6 +226,8 @@ class VirtualPhysicsSearcher(Searcher):
 
     # ------------------------------------------------------------------ parts
     def _listen(self, observations: Sequence[Observation]) -> None:
+        # a located group has stopped where it declared; any other moves on unheard
+        self.heard = {s: h for s, h in self.heard.items() if h[1]}
         seen: set[int] = set()
         for o in observations:
             for m in o.messages:

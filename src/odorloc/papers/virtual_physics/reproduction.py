@@ -32,6 +32,7 @@ from typing import Any
 
 import numpy as np
 
+from odorloc.core.errors import ConfigError
 from odorloc.core.registry import register
 from odorloc.experiments.reproduction import Figure, Reproduction, ReproductionParams, Table, fmt
 from odorloc.papers.virtual_physics import reference as ref
@@ -283,7 +284,29 @@ class VirtualPhysicsReproduction(Reproduction):
     paper_episodes = 1
     cell_summary = False  # 144 cells: the compact tables and cells.csv say it better
 
+    def __init__(
+        self, params: ReproductionParams | None = None, time_limit: float | None = None
+    ) -> None:
+        """
+        Parameters
+        ----------
+        params : ReproductionParams, optional
+        time_limit : float, optional, seconds
+            A shorter episode limit (tests, a first look); default the scenario's
+            ``limits.time`` (1200 s). The recorded flows follow it, and the tables count
+            failures at it.
+        """
+        super().__init__(params)
+        if time_limit is not None and not (math.isfinite(time_limit) and time_limit > 0):
+            raise ConfigError(
+                "time_limit", f"must be a positive number of seconds, got {time_limit}"
+            )
+        self.time_limit = time_limit
+
     def sweep(self, episodes: int, seed: int) -> dict[str, Any]:
+        fixed = (
+            {} if self.time_limit is None else {"params": {"limits.time": float(self.time_limit)}}
+        )
         return {
             "name": "virtual-physics reproduction",
             "seed": seed,
@@ -296,6 +319,7 @@ class VirtualPhysicsReproduction(Reproduction):
                     "label": "vp",
                     "grid": {"frequency": list(FREQUENCIES)},
                     "agent_grid": {"start_set": list(STARTS)},
+                    **fixed,
                 }
             ],
             "searchers": [
