@@ -10,13 +10,14 @@
    beside it: on a loaded machine they are longer than the CPU times.
 2. The default filament world's episode 0 for the four algorithms, live (every episode
    simulates the filament plume itself) and as one recorded flow replayed four times; the rows
-   must agree in what the searchers saw (the episodes' outcome), and the ratio is the saving.
+   must agree in what the searchers saw (the episodes' outcome: ``same_rows``), and the ratio
+   is the saving.
 
 Targets (the issue): default run of both worlds <= 30 min, the paper's 200 episodes in the
 rate world <= 90 min, on 2 cores. The last line is machine-readable::
 
     RESULT default_min=<x> full_rate_min=<y> rate_task_cpu_s=<a> filament_group_cpu_s=<b>
-    replay_speedup=<c>
+    replay_speedup=<c> same_rows=<yes|no|n/a>
 
 Run: ``python benchmarks/muc_osl_budget.py [--stride 6] [--stride-groups 3]``.
 """
@@ -138,7 +139,8 @@ def main(argv: list[str] | None = None) -> None:
     print(
         f"RESULT default_min={default_min:.1f} full_rate_min={full_rate_min:.1f} "
         f"rate_task_cpu_s={cpu_mean['rate']:.2f} "
-        f"filament_group_cpu_s={cpu_mean['filament']:.2f} replay_speedup={speedup:.2f}"
+        f"filament_group_cpu_s={cpu_mean['filament']:.2f} replay_speedup={speedup:.2f} "
+        f"same_rows={'n/a' if not same else 'yes' if all(same) else 'no'}"
     )
 
 

@@ -8,7 +8,9 @@ Side by side in one run:
   process, so other jobs on a shared machine do not inflate it; wall time is printed too);
 - **replay_speedup**: the wall time of one episode with the live Eulerian plume over the same
   episode (same seeds, same result) on the replay of its recorded flow; the recording itself is
-  timed separately, since a reproduction pays it once per flow for every rule and start;
+  timed separately, since a reproduction pays it once per flow for every rule and start. The
+  replay is bit-exact, so the two episodes must agree: the same positions bit for bit and the
+  same outcome (``same_rows``);
 - **reproduction_min**: wall minutes of ``odorloc reproduce virtual-physics`` with its default
   episode count on 2 workers, in a temporary folder (``--skip-reproduction`` leaves it out). The
   CPU minutes of its episodes and flow recordings, divided by the 2 workers, are printed beside
@@ -16,6 +18,10 @@ Side by side in one run:
 
     .venv/bin/python benchmarks/virtual_physics_speed.py [--skip-reproduction]
         [--reproduction-out DIR]
+
+The last line is machine-readable::
+
+    RESULT vp_step_ms=<x> reproduction_min=<y> replay_speedup=<z> same_rows=<yes|no>
 """
 
 from __future__ import annotations
@@ -37,6 +43,8 @@ from odorloc.scenarios import get_scenario
 
 SCENARIO = "virtual-physics-two-groups"
 RULES = ("chemotaxis", "anemotaxis", "fluxotaxis")
+#: metrics in which the live and the replayed episode must agree (besides every position)
+OUTCOME = ("termination", "success", "steps")
 
 
 def _scenario(rule: str, start: str, frequency: int, limit: float):
@@ -67,7 +75,7 @@ def searcher_step_times(movie, sc, seeds) -> tuple[list[float], list[float]]:
     return cpu, wall
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--skip-reproduction", action="store_true")
     ap.add_argument("--limit", type=float, default=400.0, help="episode time limit, s")
@@ -77,7 +85,7 @@ def main() -> None:
         default=None,
         help="keep the reproduction's output here (a new folder; default a temporary one)",
     )
-    args = ap.parse_args()
+    args = ap.parse_args(argv)
     print(f"cores: {os.cpu_count()}, load average: {os.getloadavg()[0]:.1f}")
 
     # one flow (treble frequency) for the searcher timings and the replay comparison
@@ -105,6 +113,7 @@ def main() -> None:
     # the same episode live and replayed, side by side (alternating, best of 2 each)
     live_w, live_c, rep_w, rep_c = [], [], [], []
     diff = 0.0
+    same = True
     for _ in range(2):
         c0, w0 = time.process_time(), time.perf_counter()
         live = run_episode(sc, *seeds, record=True)
@@ -119,6 +128,7 @@ def main() -> None:
         k = min(len(a), len(b))
         gap = float(np.abs(a[:k] - b[:k]).max()) if len(a) == len(b) else math.inf
         diff = max(diff, gap)
+        same &= gap == 0.0 and all(live.metrics[m] == rep.metrics[m] for m in OUTCOME)
     speedup = min(live_w) / min(rep_w)
     steps = live.metrics["steps"]
     print(f"\none episode (fluxotaxis, P1, treble), {steps} control steps")
@@ -128,7 +138,8 @@ def main() -> None:
     print(f"{'recording the flow (once)':<26} {rec_wall:8.2f} {rec_cpu:8.2f}")
     print(
         f"replay speed-up {speedup:.1f}x (CPU {min(live_c) / min(rep_c):.1f}x); "
-        f"largest position difference live vs replayed {diff:.2g} m"
+        f"largest position difference live vs replayed {diff:.2g} m; "
+        f"same episode: {'yes' if same else 'NO'}"
     )
 
     repro_min = math.nan
@@ -153,7 +164,7 @@ def main() -> None:
         )
     print(
         f"RESULT vp_step_ms={vp_step:.3f} reproduction_min={repro_min:.1f} "
-        f"replay_speedup={speedup:.1f}"
+        f"replay_speedup={speedup:.1f} same_rows={'yes' if same else 'no'}"
     )
 
 

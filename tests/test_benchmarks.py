@@ -295,3 +295,68 @@ def test_pf_speed_result_carries_a_failed_check(
     assert math.isfinite(float(keys["pf_update_speedup"]))
     # the agree column says NO (a slow cold run may add "(over target)" after it)
     assert any(line.startswith("PF update") and "NO" in line.split() for line in out)
+
+
+# ---------------------------------------------------------------------- live against replayed
+def _ticking() -> SimpleNamespace:
+    """A stand-in ``time`` module whose clocks advance one second per reading."""
+    clock = [0.0]
+
+    def tick() -> float:
+        clock[0] += 1.0
+        return clock[0]
+
+    return SimpleNamespace(process_time=tick, perf_counter=tick)
+
+
+@pytest.mark.parametrize(("shift", "result"), [(0.0, "yes"), (1e-9, "no")])
+def test_virtual_physics_speed_result_carries_the_live_replay_check(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str], shift: float, result: str
+) -> None:
+    vps = load("virtual_physics_speed")
+    path = np.zeros((3, 12, 2))
+    metrics = {"termination": "time_limit", "success": False, "steps": 2}
+
+    def fake_episode(sc: object, world: int, agent: int, **kw: object) -> SimpleNamespace:
+        # the replayed episode (run on the replay's components) strays by ``shift``
+        p = path + (shift if kw.get("built") is not None else 0.0)
+        return SimpleNamespace(recording=SimpleNamespace(positions=p), metrics=metrics)
+
+    monkeypatch.setattr(vps, "time", _ticking())
+    monkeypatch.setattr(vps, "record_flow", lambda sc, seed: "movie")
+    monkeypatch.setattr(vps, "on_replay", lambda sc, movie: (sc, "built"))
+    monkeypatch.setattr(vps, "searcher_step_times", lambda movie, sc, seeds: ([1.0], [1.0]))
+    monkeypatch.setattr(vps, "run_episode", fake_episode)
+    vps.main(["--skip-reproduction", "--limit", "1"])
+    last = capsys.readouterr().out.strip().splitlines()[-1]
+    keys = dict(kv.split("=") for kv in last.split()[1:])
+    assert keys["same_rows"] == result
+    assert math.isfinite(float(keys["replay_speedup"]))
+
+
+@pytest.mark.parametrize(("replayed_steps", "result"), [(10, "yes"), (11, "no")])
+def test_muc_osl_budget_result_carries_the_live_replay_check(
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+    replayed_steps: int,
+    result: str,
+) -> None:
+    mob = load("muc_osl_budget")
+    row = {"status": "ok", "success": True}
+    clock = _ticking()
+    monkeypatch.setattr(mob, "_clock", lambda: (clock.process_time(), clock.perf_counter()))
+    monkeypatch.setattr(mob, "run_task", lambda task: {**row, "steps": 10})
+    # the timed sample needs only an ok status; the live episodes below all take 10 steps
+    monkeypatch.setattr(
+        mob, "run_replay_group", lambda tasks: [{**row, "steps": replayed_steps} for _ in tasks]
+    )
+    monkeypatch.setattr(mob, "cell_scenario", lambda cell: None)
+    monkeypatch.setattr(
+        mob,
+        "run_episode",
+        lambda sc, w, a, record: SimpleNamespace(metrics={"success": True, "steps": 10}),
+    )
+    mob.main(["--stride", "1000", "--stride-groups", "1000"])
+    last = capsys.readouterr().out.strip().splitlines()[-1]
+    keys = dict(kv.split("=") for kv in last.split()[1:])
+    assert keys["same_rows"] == result
