@@ -78,6 +78,11 @@ def test_reproduction_survives_degenerate_results(name, kind, tmp_path, monkeypa
         import odorloc.papers.indoor_pf_entropy.reproduction as ind
 
         monkeypatch.setattr(ind, "_episode_figures", lambda df, store, path: _blank(path))
+    if name == "muc-osl":
+        # Fig. 3 and its animation run a new episode whatever is stored (covered by the real run)
+        import odorloc.papers.muc_osl.reproduction as muc
+
+        monkeypatch.setattr(muc, "_fig3", lambda seed, path, time_limit=None: _blank(path))
     out = r.run(tmp_path, episodes=1, workers=1, seed=3, progress=False)
     assert out.failed_figures == [], out.failed_figures
     assert out.report is not None and out.report.is_file()
@@ -129,12 +134,22 @@ def test_console_tables_fit_100_columns(tmp_path) -> None:
             assert "…" not in c.export_text(), (name, tab.name, lines)
 
 
+#: Shorter episodes (s) for the reproductions whose single episode per cell would take many
+#: minutes (144 virtual-physics cells of 20 simulated minutes; every MUC-OSL sweep point in two
+#: worlds; D-S mapping flights of up to 5 000 s): the path from sweep to report is the same, and
+#: the searchers themselves are tested on their own (tests/test_virtual_physics.py,
+#: tests/test_muc_osl*.py, tests/test_ds_mapping.py).
+QUICK = {"virtual-physics": 120.0, "muc-osl": 300.0, "ds-multi-source": 1500.0}
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("name", NAMES)
 def test_every_reproduction_completes_with_one_episode(name, tmp_path) -> None:
     """``odorloc reproduce NAME --episodes 1 --seed 1``: every figure, every table and a report
     that embeds the figures and the tables' titles."""
     r = rp.get(name)
+    if name in QUICK:
+        r = type(r)(time_limit=QUICK[name])
     out = r.run(tmp_path, episodes=1, workers=2, seed=1, progress=False)
     assert out.failed_figures == []
     assert out.figures and all(p.is_file() for p in out.figures)
