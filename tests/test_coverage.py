@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -78,12 +79,16 @@ def test_a_stretch_that_cannot_be_reached_is_left_out() -> None:
     np.testing.assert_array_equal(path[-4:], corners[-4:])  # the lanes beyond it are swept
 
 
-def _wave_scenario(searcher: dict[str, Any], obstacles: bool = True) -> Scenario:
+def _wave_scenario(
+    searcher: dict[str, Any],
+    obstacles: bool = True,
+    starts: list[list[float]] | None = None,
+) -> Scenario:
     d = small_scenario_dict("passive")
     d["searcher"] = searcher
     if obstacles:
         d["world"]["arena"]["obstacles"] = {"boxes": [[list(BOX[0]), list(BOX[1])]]}
-    d["agents"]["starts"] = [[0.5, 0.5]]
+    d["agents"]["starts"] = starts or [[0.5, 0.5]]
     d["limits"]["time"] = 250.0
     return Scenario.from_dict(d)
 
@@ -122,3 +127,63 @@ def test_the_wave_in_3d_routes_around_the_obstacles_at_its_height() -> None:
     corners = wave_waypoints(REGION, 2.0, "y", 1, start)
     np.testing.assert_array_equal(wave_waypoints(REGION, 2.0, "y", 1, start, arena=high), corners)
     assert len(wave_waypoints(REGION, 2.0, "y", 1, start, arena=low)) > len(corners)
+
+
+def test_every_agent_of_the_wave_is_routed_around_the_obstacle() -> None:
+    # the lanes start at the corner (0, 0) nearest to agent 0; the straight way there from
+    # agent 1's start crosses the box, and from agent 2's it passes just below the box
+    starts = [[0.5, 0.5], [6.0, 4.0], [9.5, 2.5]]
+    assert not Arena.box(*REGION, 0.1).with_boxes([BOX]).segment_free([6.0, 4.0], [0.0, 0.0])[0]
+    ep = Episode(
+        _wave_scenario({"type": "rectangular-wave", "lane_spacing": 2.0}, starts=starts),
+        record=False,
+    )
+    agent = ep.built.searcher
+    obs = ep.reset(0, 0)
+    agent.reset(ep.context, ep.agent_rng)
+    sent: list[list[np.ndarray]] = [[] for _ in starts]
+    for _ in range(80):
+        action = agent.act(obs, ep.agent_rng)
+        for k, c in enumerate(action.commands):
+            if c is not None and c.kind == "waypoint":
+                sent[k].append(c.value[:2])
+        obs = ep.step(action).observations
+    arena = ep.context.arena
+    for k, start in enumerate(starts):
+        assert sent[k], k
+        legs = np.vstack([start, *sent[k]])
+        assert arena.segment_free(legs[:-1], legs[1:]).all(), k
+        assert ep.platforms[k].collided == 0, k
+
+
+def test_the_wave_index_stops_at_the_last_waypoint() -> None:
+    sc = _wave_scenario(
+        {"type": "rectangular-wave", "lane_spacing": 5.0, "declare_at_max": True},
+        starts=[[0.5, 0.5], [6.0, 4.0]],
+    )
+    ep = Episode(sc, record=False)
+    agent = ep.built.searcher
+    obs = ep.reset(0, 0)
+    agent.reset(ep.context, ep.agent_rng)
+    # every agent reports its waypoint reached at each step: the path runs out after a few
+    obs = [replace(o, ready=True) for o in obs]
+    sent = [0, 0]
+    holds = [0, 0]
+    for _ in range(60):
+        action = agent.act(obs, ep.agent_rng)
+        for k, c in enumerate(action.commands):
+            assert c is not None
+            if c.kind == "waypoint":
+                sent[k] += 1
+            else:
+                assert c.kind == "hold"
+                holds[k] += 1
+            assert 0 <= agent.index[k] <= sent[k] - 1, (k, agent.index[k], sent[k])
+        assert agent.diagnostics()["waypoint"] <= sent[0] - 1
+        # the strongest reading is declared only once every agent holds at its path's end
+        all_hold = all(c is not None and c.kind == "hold" for c in action.commands)
+        assert bool(action.declarations) == all_hold
+    # the path is finished early on; the index rests on its last waypoint
+    assert min(holds) > 30
+    assert agent.index == [n - 1 for n in sent]
+    assert agent.done

@@ -3,13 +3,21 @@ every rule and start, the extra columns, the tables and the figures."""
 
 from __future__ import annotations
 
-import numpy as np
+import math
 
+import numpy as np
+import pytest
+
+from odorloc.core.errors import ConfigError
 from odorloc.experiments.reproduction import get
 from odorloc.experiments.store import ResultStore
 from odorloc.experiments.sweep import expand_cells, load_sweep, run_sweep
 from odorloc.papers.virtual_physics.calibration import calibrated_rate, steady_report
-from odorloc.papers.virtual_physics.reproduction import VARIANTS, vp_group
+from odorloc.papers.virtual_physics.reproduction import (
+    VARIANTS,
+    VirtualPhysicsReproduction,
+    vp_group,
+)
 from odorloc.scenarios import get_scenario
 
 #: Chemotaxis at treble frequency, mean time per start as the paper quotes it (Sec. 3.1), s.
@@ -48,6 +56,24 @@ def test_the_paper_reference_holds_each_cell_to_its_own_start_and_frequency() ->
                 assert entry["mean_time"] == TREBLE[start]
             else:
                 assert "mean_time" not in entry  # only a mean pooled over the starts is quoted
+
+
+@pytest.mark.parametrize(
+    "bad", [True, False, np.bool_(True), "40", 0, 0.0, -5.0, math.nan, math.inf, -math.inf]
+)
+def test_a_time_limit_that_is_not_a_positive_number_of_seconds_is_refused(bad: object) -> None:
+    with pytest.raises(ConfigError, match="number of seconds") as err:
+        VirtualPhysicsReproduction(time_limit=bad)  # type: ignore[arg-type]
+    assert err.value.field == "time_limit"
+
+
+def test_a_valid_time_limit_shortens_every_cell() -> None:
+    assert VirtualPhysicsReproduction().time_limit is None
+    for ok in (40, 40.0, np.float32(40.0)):
+        r = VirtualPhysicsReproduction(time_limit=ok)
+        assert r.time_limit == 40.0
+        cells = expand_cells(load_sweep(r.sweep(1, 0)))
+        assert {c.spec["scenario_params"]["limits.time"] for c in cells} == {40.0}
 
 
 def test_a_short_run_gives_rows_tables_and_figures(tmp_path) -> None:

@@ -30,7 +30,7 @@ from odorloc.core.registry import register
 from odorloc.core.types import Action, Command, Declaration, Observation, SearchContext
 from odorloc.geometry.regions import resolve_region
 from odorloc.geometry.vectors import heading_vector, rotate2
-from odorloc.planning.coverage import wave_waypoints
+from odorloc.planning.coverage import route_around_obstacles, wave_waypoints
 from odorloc.searchers.base import Searcher
 
 
@@ -158,7 +158,18 @@ class RectangularWaveSearcher(Searcher):
 
     Every agent follows the same lanes (in 3D at the first agent's start height). Lanes that
     obstacles cut are swept on both sides of them, the stretches joined by A* paths
-    (:func:`~odorloc.planning.coverage.route_around_obstacles`).
+    (:func:`~odorloc.planning.coverage.route_around_obstacles`); each agent's path is routed
+    from its own start, since the way into the lanes differs from agent to agent.
+
+    Attributes
+    ----------
+    waypoints : list of (W_k, d) ndarray
+        Each agent's waypoints, metres.
+    index : list of int
+        Each agent's current (last sent) waypoint; it stays at the last one once that is
+        reached, so it is always a valid index into a non-empty path.
+    finished : list of bool
+        Whether each agent has reached its last waypoint (it then holds).
     """
 
     params: RectangularWaveParams
@@ -167,41 +178,42 @@ class RectangularWaveSearcher(Searcher):
         super().reset(ctx, rng)
         p = self.params
         region = resolve_region(ctx, p.region)
-        start = ctx.start[0, :2]
         # the lanes are flown at the start height: obstacles are those of that layer
         height = float(ctx.start[0, 2]) if ctx.arena.dim == 3 else 0.0
         plane = ctx.arena.horizontal_slice(height)
-        self.waypoints = wave_waypoints(
-            region, p.lane_spacing, p.lanes_along, p.rounds, start, p.margin, "alternate", plane
+        corners = wave_waypoints(
+            region, p.lane_spacing, p.lanes_along, p.rounds, ctx.start[0, :2], p.margin, "alternate"
         )
+        paths = [route_around_obstacles(plane, corners, s[:2]) for s in ctx.start]
         if ctx.arena.dim == 3:
-            z = np.full((len(self.waypoints), 1), ctx.start[0, 2])
-            self.waypoints = np.hstack([self.waypoints, z])
+            paths = [np.hstack([w, np.full((len(w), 1), ctx.start[0, 2])]) for w in paths]
+        self.waypoints: list[np.ndarray] = paths
         self.index = [0] * ctx.n_agents
         self.started = [False] * ctx.n_agents
+        self.finished = [False] * ctx.n_agents
         self.tracker = MaxTracker()
+
+    @property
+    def done(self) -> bool:
+        """``True`` once every agent has reached its last waypoint."""
+        return all(self.finished)
 
     def act(self, observations: Sequence[Observation], rng: np.random.Generator) -> Action:
         cmds: list[Command | None] = []
-        done = True
         for k, o in enumerate(observations):
             self.tracker.update(o)
-            i = self.index[k]
-            if not self.started[k] or o.ready:
-                if self.started[k]:
-                    i += 1
+            if not self.finished[k] and (not self.started[k] or o.ready):
+                # before the first waypoint is sent, `ready` says nothing about the path
+                nxt = self.index[k] + 1 if self.started[k] else 0
                 self.started[k] = True
-                self.index[k] = i
-                if i < len(self.waypoints):
-                    cmds.append(Command.waypoint(self.waypoints[i]))
-                    done = False
-                else:
-                    cmds.append(Command.hold())
-            else:
-                cmds.append(None)
-                done = False
+                if nxt < len(self.waypoints[k]):
+                    self.index[k] = nxt
+                    cmds.append(Command.waypoint(self.waypoints[k][nxt]))
+                    continue
+                self.finished[k] = True
+            cmds.append(Command.hold() if self.finished[k] else None)
         decl = None
-        if done and self.params.declare_at_max and self.tracker.pos is not None:
+        if self.done and self.params.declare_at_max and self.tracker.pos is not None:
             decl = Declaration(self.tracker.pos[None, :], confidence=0.0)
         return Action(cmds, declaration=decl)
 

@@ -294,13 +294,20 @@ class VirtualPhysicsReproduction(Reproduction):
         time_limit : float, optional, seconds
             A shorter episode limit (tests, a first look); default the scenario's
             ``limits.time`` (1200 s). The recorded flows follow it, and the tables count
-            failures at it.
+            failures at it. Anything but a finite number > 0 (a bool, a string, NaN, inf,
+            zero or less) is refused with a :class:`~odorloc.core.errors.ConfigError`.
         """
-        super().__init__(params)
-        if time_limit is not None and not (math.isfinite(time_limit) and time_limit > 0):
-            raise ConfigError(
-                "time_limit", f"must be a positive number of seconds, got {time_limit}"
+        if time_limit is not None:
+            # a bool is an int to Python: True would silently run 1 s episodes
+            numeric = isinstance(time_limit, int | float | np.number) and not isinstance(
+                time_limit, bool
             )
+            if not (numeric and math.isfinite(float(time_limit)) and float(time_limit) > 0):
+                raise ConfigError(
+                    "time_limit", f"must be a finite number of seconds > 0, got {time_limit!r}"
+                )
+            time_limit = float(time_limit)
+        super().__init__(params)
         self.time_limit = time_limit
 
     def sweep(self, episodes: int, seed: int) -> dict[str, Any]:
