@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import copy
+
 import numpy as np
 import pytest
 
@@ -11,7 +13,7 @@ from odorloc.core.params import Params
 from odorloc.core.types import Action, Command, Declaration
 from odorloc.engine.episode import run_episode
 from odorloc.scenarios import Scenario
-from odorloc.scenarios.build import build
+from odorloc.scenarios.build import build, search_context
 from odorloc.searchers.base import Searcher
 
 
@@ -52,16 +54,38 @@ def test_messages_reach_only_neighbours_and_bytes_are_counted() -> None:
     assert res.metrics["bytes"] == n_steps * 2 * 64
 
 
-def test_per_agent_zigzag_team_runs_and_members_are_independent() -> None:
+def test_per_agent_zigzag_team_runs_and_says_nothing() -> None:
     sc = _team_scenario([[8.0, 1.0], [8.0, 4.0]], float("inf"))
     res = run_episode(sc, 3, 4)
-    pos = res.recording.positions
-    assert pos.shape[1] == 2
+    assert res.recording.positions.shape[1:] == (2, 2)
     assert res.metrics["bytes"] == 0  # zigzag members say nothing
-    # independence: moving agent 1 elsewhere leaves agent 0's path as it was, to the bit (its
-    # member has its own random stream, and nothing passes between the members)
-    moved = run_episode(_team_scenario([[8.0, 1.0], [5.0, 3.0]], float("inf")), 3, 4)
-    other = moved.recording.positions
+
+
+def test_members_draw_from_separate_streams() -> None:
+    # one generator shared by the members (or two seeded alike) would give equal draws
+    sc = _team_scenario([[8.0, 1.0], [8.0, 4.0], [5.0, 3.0]], float("inf"), member="random-walk")
+    b = build(sc)
+    team = b.searcher
+    team.reset(search_context(sc, b), np.random.default_rng(7))
+    # each random-walk member draws its agent's first heading from the stream it was reset with
+    headings = [float(m.headings[0]) for m in team.members]
+    assert len(set(headings)) == 3
+    # and acts with another one, one per member
+    draws = [tuple(copy.deepcopy(g).random(4).tolist()) for g in team._rngs]
+    assert len(set(draws)) == 3
+
+
+def test_an_agents_path_does_not_depend_on_where_the_others_are() -> None:
+    # random-walk members draw every step: moving agent 1 elsewhere must leave agent 0's path as
+    # it was, to the bit (nothing passes between members that say nothing, and the bodies stay
+    # apart), while agent 1's own path changes
+    starts = [[8.0, 1.0], [8.0, 4.0]]
+    pos = run_episode(_team_scenario(starts, float("inf"), "random-walk"), 3, 4).recording.positions
+    moved = [[8.0, 1.0], [5.0, 3.0]]
+    other = run_episode(
+        _team_scenario(moved, float("inf"), "random-walk"), 3, 4
+    ).recording.positions
+    assert not np.array_equal(pos[1:, 0], pos[:-1, 0])  # agent 0 does move
     np.testing.assert_array_equal(other[:, 0], pos[:, 0])
     assert not np.array_equal(other[:, 1], pos[:, 1])
 

@@ -8,9 +8,14 @@ the scenario (``agents.groups``), which sees the observations of its group's age
 know of each other only what they tell each other in messages.
 
 Members keep the global agent ids (observations, messages, declarations), their own random
-streams, and their beliefs are all recorded. A member's declaration is forwarded tagged with its
-agent and group, so the scenario's end rule (``task.end``) decides whether it ends the episode;
-with ``declare: all`` the team instead declares once, when every member has declared.
+streams, and their beliefs are all recorded. A member's first stream (its :meth:`reset`) depends
+only on its place in the team; its second (its actions) is spawned after every member's first,
+so it depends on the team's size too: a member of a team of three draws other numbers than the
+same member of a team of two (seeds give the same episode for the same team, as everywhere).
+
+A member's declaration is forwarded tagged with its agent and group, so the scenario's end rule
+(``task.end``) decides whether it ends the episode; with ``declare: all`` the team instead
+declares once, when every member has declared.
 """
 
 from __future__ import annotations
@@ -67,7 +72,8 @@ class PerAgentTeam(Searcher):
         entry_cls = None
         self.units = self._units(ctx)
         self.members: list[Searcher] = []
-        # Each member draws from its own stream, so adding an agent does not change the others.
+        # Each member draws from streams of its own, so no member's draws depend on what the
+        # others do (the streams of its actions, spawned below, do depend on the team size).
         for (agents, g), child in zip(self.units, rng.spawn(len(self.units)), strict=True):
             m = ref.build("searcher", field="searcher.member")
             entry_cls = type(m)
