@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -11,13 +13,32 @@ from odorloc.core.errors import ConfigError
 from odorloc.engine.episode import EpisodeResult
 from odorloc.engine.recorder import Recording
 from odorloc.scenarios import Scenario
+from odorloc.scenarios.build import build_world
+
+
+def _filament_movie(dim: int, path: Path) -> Path:
+    """A filament movie of the contract arena in a meandering wind, so that the replayed wind
+    turns from frame to frame; it lasts longer than the wind check's 2.5 s."""
+    sc = checks.small_scenario({"type": "zigzag"}, dim).with_overrides(
+        {"world.wind": {"type": "meander", "speed": 0.6, "vertical_std": 0.05}}
+    )
+    world = build_world(sc)
+    rng = np.random.default_rng(3)
+    world.reset(rng)
+    world.record(3.0, 0.5, rng, dt=0.1).save(path)
+    return path
 
 
 @pytest.mark.parametrize("name", registry.names("wind"))
-def test_every_wind(name: str) -> None:
-    if name == "replay":
-        pytest.skip("the replayed wind is checked with the replayed plume")
-    checks.check_wind(name)
+def test_every_wind(name: str, tmp_path: Path) -> None:
+    if name != "replay":
+        checks.check_wind(name)
+        return
+    # a replayed wind needs a movie, one per dimension
+    for dim in (2, 3):
+        movie = _filament_movie(dim, tmp_path / f"movie-{dim}d.npz")
+        report = checks.check_wind(name, {"path": str(movie)}, dims=(dim,))
+        assert report == f"wind replay: {dim}D"
 
 
 @pytest.mark.parametrize("name", registry.names("plume"))
@@ -25,9 +46,34 @@ def test_every_plume(name: str) -> None:
     checks.check_plume(name)
 
 
-@pytest.mark.parametrize("name", registry.names("gas_sensor"))
-def test_every_gas_sensor(name: str) -> None:
-    checks.check_sensor(name)
+@pytest.mark.parametrize(
+    ("name", "params"),
+    [(name, {}) for name in registry.names("gas_sensor")]
+    + [
+        # thresholds above one hit or unit: a detection that ignores the threshold is caught
+        ("encounter", {"threshold": 3}),
+        ("pid-count", {"ppm_per_hit": 10.0, "threshold": 2}),
+        ("concentration", {"threshold": 5.0}),
+    ],
+)
+def test_every_gas_sensor(name: str, params: dict) -> None:
+    report = checks.check_sensor(name, params)
+    assert report.startswith(f"gas sensor {name}: ")
+
+
+@pytest.mark.parametrize(
+    ("name", "params", "detections"),
+    [
+        ("pid-count", {"ppm_per_hit": 1000.0}, 0),  # far above the world's peak: never a hit
+        ("concentration", {"threshold": 0.0}, 22),  # clean air reads 0 >= 0: always detects
+    ],
+)
+def test_sensor_check_needs_readings_on_both_sides_of_the_threshold(
+    name: str, params: dict, detections: int
+) -> None:
+    # with every reading on one side the threshold agreement would be checked on nothing
+    with pytest.raises(checks.ContractError, match=rf"^sensor {name}: {detections} of 22 "):
+        checks.check_sensor(name, params)
 
 
 @pytest.mark.parametrize("name", registry.names("platform"))
@@ -38,7 +84,12 @@ def test_every_platform(name: str) -> None:
 @pytest.mark.parametrize("name", registry.names("searcher"))
 def test_every_searcher(name: str) -> None:
     report = checks.check_searcher(name)
-    assert name in report
+    # every dimension the searcher supports, alone (or its fewest agents) and as a team of 3
+    cls = registry.entry("searcher", name).build
+    dims = [d for d in (2, 3) if d in getattr(cls, "dims", (2, 3))]
+    counts = sorted({max(1, cls.min_agents), max(3, cls.min_agents)})
+    runs = ", ".join(f"{d}D x{n}" for d in dims for n in counts)
+    assert dims and report == f"searcher {name}: {runs}"
 
 
 @pytest.mark.parametrize("name", registry.names("searcher"))

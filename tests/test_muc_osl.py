@@ -52,14 +52,30 @@ def test_the_start_corner_is_downwind_of_the_source() -> None:
 def test_the_searchers_model_is_the_worlds_rate_model(name: str) -> None:
     """The four teams believe the rate model the world runs: Q, V, D, tau and the sensor
     radius (which the paper leaves open and the scenario calibrates) all agree."""
-    sc = get_scenario("muc-osl-3d").with_overrides({"searcher": {"type": name}})
-    world = sc.world.plume.params("plume")
-    ref = build(sc).searcher.preset.model  # type: ignore[attr-defined]
-    assert ref is None  # the preset leaves the model to the member's default
-    model = default_model(3).params("model")
-    assert world.sensor_radius == model.sensor_radius == SENSOR_RADIUS
-    assert (world.V, world.D, world.tau) == (model.V, model.D, model.tau)
-    assert sc.world.sources[0].rate == model.Q
+    sc = _scenario({"type": name})
+    ep = Episode(sc, record=False)
+    ep.reset(1, 2)
+    searcher = ep.built.searcher
+    searcher.reset(ep.context, ep.agent_rng)
+    plume = ep.world.plume
+    world = plume.params
+    source = plume.source_positions
+    np.testing.assert_array_equal(source, [sc.world.sources[0].position])
+    # downwind on the axis, off the axis, upwind and near the source: the rate's every regime
+    points = np.array(
+        [[10.0, 10.0, 25.0], [14.0, 16.0, 22.0], [10.0, 45.0, 25.0], [11.0, 29.0, 26.0]]
+    )
+    truth = plume.encounter_rate(points)
+    assert np.all(truth > 0)
+    members = searcher.members
+    assert len(members) == len(sc.agents.starts)
+    for member in members:
+        model = member.model
+        np.testing.assert_allclose(model.rate(points, source)[:, 0], truth, rtol=1e-12, atol=0)
+        p = model.params
+        assert p.sensor_radius == world.sensor_radius == SENSOR_RADIUS
+        assert (p.V, p.D, p.tau) == (plume.V, world.D, world.tau)
+        assert plume.sources[0].rate == p.Q
 
 
 def test_default_model_fits_the_dimension() -> None:

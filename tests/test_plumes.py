@@ -29,12 +29,13 @@ from odorloc.plume import (
     filament_concentration,
     record_movie,
 )
+from odorloc.plume.lattice import LatticePlumeParams
 from odorloc.plume.sources import Modulation, Source
 from odorloc.wind.base import WindModel
 from odorloc.wind.uniform import UniformWind, UniformWindParams
 from odorloc.world.world import World
 
-FAMILIES = ["filament", "gaussian", "vergassola", "eulerian", "replay"]
+FAMILIES = ["filament", "gaussian", "vergassola", "eulerian", "lattice-isotropic", "replay"]
 
 
 class RotatingWind(WindModel):
@@ -79,6 +80,8 @@ def make_params(name: str, dim: int):
         return VergassolaParams(sensor_radius=0.5)
     if name == "eulerian":
         return EulerianParams(cell=0.25 if dim == 2 else 0.5, D=0.05)
+    if name == "lattice-isotropic":
+        return LatticePlumeParams(length=1.5)
     return ReplayParams()
 
 
@@ -110,6 +113,10 @@ def run(plume, steps: int = 20, dt: float = 0.1, seed: int = 7) -> None:
 
 
 # ---------------------------------------------------------------------- contract
+def test_the_contract_covers_every_registered_plume() -> None:
+    assert sorted(FAMILIES) == sorted(registry.names("plume"))
+
+
 @pytest.mark.parametrize("dim", [2, 3])
 @pytest.mark.parametrize("name", FAMILIES)
 class TestContract:
@@ -165,7 +172,7 @@ class TestContract:
             plume.step(dt, np.random.default_rng(0))
 
 
-@pytest.mark.parametrize("name", ["filament", "gaussian", "vergassola", "eulerian"])
+@pytest.mark.parametrize("name", [f for f in FAMILIES if f != "replay"])
 def test_invalid_sources_name_the_field(name: str) -> None:
     arena = make_arena(2)
     wind = UniformWind(UniformWindParams(velocity=(1.0, 0.0)), arena)
@@ -182,7 +189,7 @@ def test_invalid_sources_name_the_field(name: str) -> None:
     assert "obstacle" in err.value.problem
 
 
-@pytest.mark.parametrize("name", ["filament", "gaussian", "vergassola", "eulerian", "replay"])
+@pytest.mark.parametrize("name", FAMILIES)
 def test_unknown_parameter_is_rejected_by_name(name: str) -> None:
     with pytest.raises(ConfigError) as err:
         registry.make_params("plume", name, {"sigma_zero": 1.0}, field="plume")

@@ -127,14 +127,21 @@ def test_taxis_rules_count_a_reading_at_the_sensor_threshold_as_odor() -> None:
 
 
 def test_fluxotaxis_heads_for_the_inflow() -> None:
-    s = _build(FluxotaxisSearcher, memory=4)
     # samples around (10, 10); wind towards +x: the sample on the upwind side (x = 9) has the
-    # inflowing flux rho v . n < 0 (n points to -x, v to +x)
+    # inflowing flux rho v . n < 0 (n points to -x, v to +x). The strongest reading sits
+    # crosswind (y = 11), where v . n = 0: chemotaxis would go there, fluxotaxis must not.
     pts = [(9.0, 10.0), (10.0, 9.0), (10.0, 11.0), (11.0, 10.0)]
-    for p, c in zip(pts[:-1], (3.0, 2.0, 2.0), strict=True):
-        s.act([_obs(p, c)], np.random.default_rng(0))
-    d = _move(s, _obs(pts[-1], 2.0))
-    np.testing.assert_allclose(d / np.linalg.norm(d), [-1.0, 0.0], atol=1e-12)
+    readings = (2.0, 2.0, 3.0, 2.0)
+    directions = {}
+    for cls in (FluxotaxisSearcher, ChemotaxisSearcher):
+        s = _build(cls, memory=4)
+        for p, c in zip(pts[:-1], readings[:-1], strict=True):
+            s.act([_obs(p, c)], np.random.default_rng(0))
+        d = _move(s, _obs(pts[-1], readings[-1]))
+        directions[cls] = d / np.linalg.norm(d)
+    np.testing.assert_allclose(directions[FluxotaxisSearcher], [-1.0, 0.0], atol=1e-12)
+    # the same samples tell the two rules apart
+    np.testing.assert_allclose(directions[ChemotaxisSearcher], [0.0, 1.0], atol=1e-12)
 
 
 def test_three_d_casts_sweep_heights() -> None:

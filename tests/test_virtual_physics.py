@@ -87,12 +87,18 @@ def test_anemotaxis_goes_upwind_of_the_mean_wind_inside_the_plume() -> None:
 
 
 def test_fluxotaxis_goes_towards_the_most_negative_flux() -> None:
+    # wind along +x: the upwind robot (3, normal -x) has flux -rho_3 * 5, the most negative;
+    # the strongest robot (1, normal (0.5, 0.87)) has outflowing flux, so only chemotaxis
+    # would step towards it
+    gas = np.array([0.01, 0.03, 0.02, 0.02, 0.02, 0.01])
     s = _searcher(rule="fluxotaxis")
-    # wind along +x: the upwind robot (3, normal -x) has flux -rho_3 * 5, the most negative
-    gas = np.array([0.01, 0.01, 0.02, 0.04, 0.02, 0.01])
     s.act(_obs(gas), np.random.default_rng(0))
-    u = (RING[3] - CENTRE) / np.linalg.norm(RING[3] - CENTRE)
-    np.testing.assert_allclose(s.vr, CENTRE + 0.06 * u)  # eqs. 5-7
+    np.testing.assert_allclose(s.vr, CENTRE + 0.06 * np.array([-1.0, 0.0]), atol=1e-12)  # eqs. 5-7
+    s = _searcher(rule="chemotaxis")
+    s.act(_obs(gas), np.random.default_rng(0))
+    u = (RING[1] - CENTRE) / np.linalg.norm(RING[1] - CENTRE)
+    np.testing.assert_allclose(u, [0.5, math.sqrt(3.0) / 2.0], atol=1e-12)
+    np.testing.assert_allclose(s.vr, CENTRE + 0.06 * u, atol=1e-12)
 
 
 def _source_inside() -> np.ndarray:

@@ -185,9 +185,18 @@ def check_plume(
 # ---------------------------------------------------------------------- sensors
 def check_sensor(name: str, params: Mapping[str, Any] | None = None) -> str:
     """A gas sensor: finite readings, a detection consistent with the threshold it states,
-    determinism per seed."""
+    determinism per seed.
+
+    The sensor is carried along the plume's axis from clean air upwind of the source, past the
+    source and downwind, so that its readings fall on both sides of its threshold; a sensor
+    whose readings there are all detections, or none, fails (with its parameters the threshold
+    could not be checked): give ``params`` that place the threshold inside the readings.
+    """
     e = registry.entry("gas_sensor", name)
     p = registry.make_params("gas_sensor", name, dict(params or {}))
+    # two points upwind of the source (x = 1.5) read nothing; 5 cm downwind of it the gaussian
+    # world gives about 120 concentration units, falling to about 1.3 at x = 9
+    xs = np.concatenate(([0.5, 1.0], np.linspace(1.55, 9.0, 20)))
 
     def roll(seed: int) -> list[Any]:
         w = _world(2, "gaussian")
@@ -196,7 +205,7 @@ def check_sensor(name: str, params: Mapping[str, Any] | None = None) -> str:
         w.reset(rng)
         s.reset(rng)
         out = []
-        for x in np.linspace(1.6, 9.0, 20):
+        for x in xs:
             out.append(s.measure(w.plume, np.array([x, 3.0]), 0.5, rng))
         return out
 
@@ -212,11 +221,18 @@ def check_sensor(name: str, params: Mapping[str, Any] | None = None) -> str:
                 r.detection == (r.value >= info.threshold),
                 f"sensor {name}: detection disagrees with its stated threshold",
             )
+    detections = sum(bool(r.detection) for r in a)
+    _require(
+        0 < detections < len(a),
+        f"sensor {name}: {detections} of {len(a)} probe readings are detections (threshold "
+        f"{info.threshold:g} {info.unit}); the check needs readings on both sides of the "
+        "threshold: give parameters that detect near the source and not in clean air",
+    )
     _require(
         [(r.value, r.detection) for r in a] == [(r.value, r.detection) for r in b],
         f"sensor {name}: not deterministic per seed",
     )
-    return f"gas sensor {name}: ok"
+    return f"gas sensor {name}: {detections} of {len(a)} readings detected"
 
 
 # ---------------------------------------------------------------------- platforms
