@@ -18,7 +18,7 @@ import math
 import numpy as np
 from pydantic import Field
 
-from odorloc.core.params import Params, Positive
+from odorloc.core.params import NonNegative, Params, Positive
 
 __all__ = ["Spiral", "SpiralParams", "proximity_index"]
 
@@ -27,10 +27,10 @@ class SpiralParams(Params):
     """Settings of the spiral (see the module docstring; lengths in metres)."""
 
     initial_step: Positive = 0.6
-    step_increment: float = Field(0.3, ge=0.0)
+    step_increment: NonNegative = 0.3
     measure_periods: int = Field(2, ge=1, le=10_000)
-    kmu: float = Field(0.5, ge=0.0)
-    kp: float = Field(1.0, ge=0.0)
+    kmu: NonNegative = 0.5
+    kp: NonNegative = 1.0
     patience: int = Field(3, ge=0, le=10_000)
     decay: float = Field(0.5, gt=0.0, le=1.0)
 

@@ -17,7 +17,7 @@ import math
 import numpy as np
 from pydantic import Field
 
-from odorloc.core.params import Params, Positive
+from odorloc.core.params import Finite, Params, Positive
 from odorloc.geometry.arena import Arena
 from odorloc.geometry.vectors import rotate2
 
@@ -30,7 +30,7 @@ class SurgeCastParams(Params):
     surge_steps: int = Field(4, ge=0, le=1_000_000)
     cast_angle_deg: float = Field(80.0, ge=0.0, le=90.0)
     cast_amplitude: Positive = 0.4
-    cast_growth: float = Field(1.5, ge=1.0)
+    cast_growth: Finite = Field(1.5, ge=1.0)
     cast_max: Positive = 3.0
     cast_elevation_deg: float = Field(0.0, ge=0.0, lt=90.0)
 

@@ -13,6 +13,8 @@ from typing import Annotated, Any
 
 from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict, Field
 
+from odorloc.core.errors import ConfigError
+
 
 def _refuse_bool(v: Any) -> Any:
     if isinstance(v, bool):
@@ -20,24 +22,95 @@ def _refuse_bool(v: Any) -> Any:
     return v
 
 
-_NUMBER_NOT_BOOL = BeforeValidator(_refuse_bool)
+def _is_guard(meta: Any) -> bool:
+    """Whether the validator ``meta`` refuses true/false already."""
+    func = getattr(meta, "func", None)
+    return func in (_refuse_bool, _not_bool, no_bools) or getattr(func, "refuses_bools", False)
 
 
-def _is_number(annotation: Any) -> bool:
-    """``int``, ``float`` or either ``| None``: a field where true/false would be read as 1/0."""
+def _union_args(annotation: Any) -> tuple[Any, ...] | None:
+    """The members of a union other than ``None``; ``None`` if ``annotation`` is no union."""
+    if isinstance(annotation, types.UnionType) or typing.get_origin(annotation) is typing.Union:
+        return tuple(a for a in typing.get_args(annotation) if a is not type(None))
+    return None
+
+
+def _unguarded(annotation: Any) -> Any:
+    """``annotation`` without its ``Annotated`` wrapper; ``None`` if that wrapper already
+    refuses true/false (its own validator then reports it)."""
+    if typing.get_origin(annotation) is Annotated:
+        if any(_is_guard(m) for m in annotation.__metadata__):
+            return None
+        return typing.get_args(annotation)[0]
+    return annotation
+
+
+def _holds_numbers(annotation: Any) -> bool:
+    """Whether values of ``annotation`` have numbers where true/false would be read as 1/0:
+    ``int``, ``float`` (constrained or optional), and lists, tuples and dicts of them."""
+    annotation = _unguarded(annotation)
     if annotation in (int, float):
         return True
-    if isinstance(annotation, types.UnionType) or typing.get_origin(annotation) is typing.Union:
-        args = [a for a in typing.get_args(annotation) if a is not type(None)]
-        return len(args) == 1 and args[0] in (int, float)
+    members = _union_args(annotation)
+    if members is not None:
+        return len(members) == 1 and _holds_numbers(members[0])
+    origin, args = typing.get_origin(annotation), typing.get_args(annotation)
+    if origin in (list, tuple):
+        return any(_holds_numbers(a) for a in args if a is not Ellipsis)
+    if origin is dict and len(args) == 2:
+        return _holds_numbers(args[1])
     return False
+
+
+def _find_bool(annotation: Any, value: Any, at: str = "") -> tuple[str, bool] | None:
+    """The first true/false in ``value`` where ``annotation`` expects a number, as its place
+    (``""`` the value itself, ``"[0][1]"`` an item) and the bool; ``None`` if there is none."""
+    annotation = _unguarded(annotation)
+    members = _union_args(annotation)
+    if members is not None:
+        return _find_bool(members[0], value, at) if len(members) == 1 else None
+    if annotation in (int, float):
+        return (at, value) if isinstance(value, bool) else None
+    origin, args = typing.get_origin(annotation), typing.get_args(annotation)
+    if origin in (list, tuple) and args and isinstance(value, list | tuple):
+        if origin is list or args[-1] is Ellipsis:
+            items: Any = [args[0]] * len(value)
+        else:
+            items = args  # a fixed tuple; a wrong length is pydantic's own error
+        for i, (a, v) in enumerate(zip(items, value, strict=False)):
+            found = _find_bool(a, v, f"{at}[{i}]")
+            if found is not None:
+                return found
+    elif origin is dict and len(args) == 2 and isinstance(value, dict):
+        for k, v in value.items():
+            found = _find_bool(args[1], v, f"{at}.{k}")
+            if found is not None:
+                return found
+    return None
+
+
+def _bool_refuser(annotation: Any) -> BeforeValidator:
+    """A validator refusing true/false wherever ``annotation`` expects a number."""
+
+    def _refuse_bool_items(v: Any) -> Any:
+        found = _find_bool(annotation, v)
+        if found is None:
+            return v
+        at, b = found
+        problem = f"must be a number, not {str(b).lower()}"
+        # an item is named by its index under the field ("world.arena.lower[0]")
+        raise ConfigError(at, problem) if at else ValueError(problem)
+
+    _refuse_bool_items.refuses_bools = True  # type: ignore[attr-defined]
+    return BeforeValidator(_refuse_bool_items)
 
 
 class Params(BaseModel):
     """Frozen, validated parameter set of a component.
 
-    Numeric fields (``int``, ``float``, optionally ``None``) refuse ``true``/``false``: pydantic
-    would read them as 1 and 0, so ``n_particles: true`` would silently run one particle.
+    Numeric fields (``int``, ``float``, optionally ``None``, and lists and tuples of them)
+    refuse ``true``/``false``: pydantic would read them as 1 and 0, so ``n_particles: true``
+    would silently run one particle.
     """
 
     model_config = ConfigDict(
@@ -55,9 +128,8 @@ def refuse_bools_as_numbers(cls: type[BaseModel]) -> None:
     ``__pydantic_init_subclass__``; :class:`Params` does)."""
     changed = False
     for f in cls.model_fields.values():
-        guarded = any(getattr(m, "func", None) in (_refuse_bool, _not_bool) for m in f.metadata)
-        if _is_number(f.annotation) and not guarded:
-            f.metadata.append(_NUMBER_NOT_BOOL)
+        if _holds_numbers(f.annotation) and not any(_is_guard(m) for m in f.metadata):
+            f.metadata.append(_bool_refuser(f.annotation))
             changed = True
     # with ``defer_build`` the schema is made at first use, from the fields as changed here
     if changed and cls.__pydantic_complete__:

@@ -90,6 +90,13 @@ class PlumeModel(TimeStepped, ABC):
         super().step(dt, rng)
         self._sync()
 
+    def check_step(self, dt: float) -> None:
+        """Raise :class:`ConfigError` if steps of ``dt`` seconds cannot run with these settings.
+
+        Called when a scenario's world is built (``dt`` the world step), so that what the step
+        size rules out is refused before any episode; default: every step size can run.
+        """
+
     def _sync(self) -> None:
         """Recompute what follows from ``t`` and the wind alone, after every reset and step.
 

@@ -419,19 +419,28 @@ class FilamentPlume(PlumeModel):
             new += (p.noise_std * np.sqrt(dtc)) * rng.standard_normal(pos.shape)
         return new
 
+    def check_step(self, dt: float) -> None:
+        """Refuse a source that would release more filaments in one step than may be alive
+        (at its peak, modulation included)."""
+        self._check_release(np.array([s.peak_rate for s in self.sources]) * dt, dt)
+
+    def _check_release(self, released: np.ndarray, dt: float) -> None:
+        """Refuse more filaments released in one step (``released``, per source) than
+        ``max_filaments``: the arrays of one step alone would be huge, or the count overflow."""
+        if released.size and not released.max() <= self.params.max_filaments:
+            k = int(np.argmax(released))
+            raise ConfigError(
+                f"world.sources[{k}].rate",
+                f"releases {released[k]:.3g} filaments in one {dt:g} s step; at most "
+                f"world.plume.max_filaments ({self.params.max_filaments})",
+            )
+
     def _advance(self, dt: float, rng: np.random.Generator) -> None:
         p = self.params
         arena = self.arena
         rates = np.array([s.rate_at(self.t + 0.5 * dt) for s in self.sources]) * dt
-        if rates.size and not rates.max() <= p.max_filaments:
-            # more in one step than may ever be alive: the arrays of one step alone would be
-            # huge (or the count overflows), so refuse the rate at the first step
-            k = int(np.argmax(rates))
-            raise ConfigError(
-                f"world.sources[{k}].rate",
-                f"releases {rates[k]:.3g} filaments in one {dt:g} s step; at most "
-                f"world.plume.max_filaments ({p.max_filaments})",
-            )
+        # scenarios are checked when built (check_step); this guards other step sizes
+        self._check_release(rates, dt)
         if p.release == "poisson":
             counts = rng.poisson(rates)
         else:

@@ -102,6 +102,9 @@ class LatticeIsotropicPlume(PlumeModel):
             self.origin = grid.center(grid.index(o))[0]
         if params.start == "initial-hit" and len(sources) != 1:
             raise ConfigError("plume.start", "initial-hit draws one source; configure exactly one")
+        if params.start == "initial-hit":
+            # a rate that gives no first hit is refused with the scenario, not at the first reset
+            self._first_hit_law()
         self._initial: int | None = None
         self._src = self.source_positions
         self._sync()
@@ -125,13 +128,17 @@ class LatticeIsotropicPlume(PlumeModel):
             self._draw_start(rng)
         super().reset(rng)
 
-    def _draw_start(self, rng: np.random.Generator) -> None:
-        p, dim, cell = self.params, self.dim, self.cell
-        src = self.sources[0]
-        intensity = src.rate_at(0.0) * p.exposure
+    def _first_hit_law(self) -> tuple[float, int]:
+        """Intensity ``I`` of the first reading and its number of hit classes."""
+        p = self.params
+        intensity = self.sources[0].rate_at(0.0) * p.exposure
         if not intensity > 0:
             raise ConfigError("world.sources[0].rate", "initial-hit needs a positive rate")
-        z = p.n_hits if p.n_hits is not None else auto_n_hits(p.length, intensity, cell, dim)
+        z = (
+            p.n_hits
+            if p.n_hits is not None
+            else auto_n_hits(p.length, intensity, self.cell, self.dim)
+        )
         if z > MAX_CLASSES:
             # only the automatic rule can get here (n_hits itself is bounded)
             raise ConfigError(
@@ -139,6 +146,12 @@ class LatticeIsotropicPlume(PlumeModel):
                 f"OTTO's rule gives {z} hit classes at intensity {intensity:g} (at most "
                 f"{MAX_CLASSES}): set n_hits or lower the rate",
             )
+        return intensity, z
+
+    def _draw_start(self, rng: np.random.Generator) -> None:
+        p, dim, cell = self.params, self.dim, self.cell
+        src = self.sources[0]
+        intensity, z = self._first_hit_law()
         ph = initial_hit_probabilities(p.length, intensity, cell, dim, z)
         h0 = int(rng.choice(z, p=ph))
         grid = self.arena.grid

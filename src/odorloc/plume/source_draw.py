@@ -17,7 +17,7 @@ from abc import ABC, abstractmethod
 from collections.abc import Sequence
 
 import numpy as np
-from pydantic import Field
+from pydantic import Field, model_validator
 
 from odorloc.core.errors import ConfigError
 from odorloc.core.params import NonNegative, Params
@@ -49,6 +49,11 @@ class SourceDraw(ABC):
             for s, p in zip(sources, pos, strict=True)
         ]
 
+    def check(self, arena: Arena) -> None:
+        """Raise :class:`ConfigError` if the draw cannot work in ``arena`` (called when the
+        scenario is checked, before any episode); default: nothing to check."""
+        return None
+
     @abstractmethod
     def positions(
         self, n: int, arena: Arena, starts: np.ndarray, rng: np.random.Generator
@@ -77,6 +82,13 @@ class UniformSourceDrawParams(Params):
     min_separation: NonNegative = 0.0
     max_tries: int = Field(1000, ge=1, le=1_000_000)
 
+    @model_validator(mode="after")
+    def _check(self) -> UniformSourceDrawParams:
+        if self.region is not None:
+            # a NaN or inverted box is refused with the scenario, not at the first draw
+            check_region(self.region, "region")
+        return self
+
 
 @register("source_draw", "uniform", UniformSourceDrawParams, "uniform source positions")
 class UniformSourceDraw(SourceDraw):
@@ -86,6 +98,18 @@ class UniformSourceDraw(SourceDraw):
 
     def __init__(self, params: UniformSourceDrawParams | None = None) -> None:
         self.params = params or UniformSourceDrawParams()
+
+    def check(self, arena: Arena) -> None:
+        """The region must fit the arena's dimension and overlap it."""
+        if self.params.region is None:
+            return
+        rlo, rhi = self.params.region
+        if len(rlo) > arena.dim:
+            raise ConfigError("region", f"has more components than the {arena.dim}D arena")
+        # a 2-component box in a 3D arena keeps the arena's vertical extent
+        box = zip(rlo, rhi, arena.lo, arena.hi, strict=False)
+        if any(r1 <= a0 or r0 >= a1 for r0, r1, a0, a1 in box):
+            raise ConfigError("region", "does not overlap the arena")
 
     def positions(
         self, n: int, arena: Arena, starts: np.ndarray, rng: np.random.Generator

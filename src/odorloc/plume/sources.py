@@ -8,7 +8,7 @@ from typing import Literal
 import numpy as np
 from pydantic import model_validator
 
-from odorloc.core.params import NonNegative, Params, Positive, Vector
+from odorloc.core.params import Finite, NonNegative, Params, Positive, Vector
 
 
 class Modulation(Params):
@@ -25,7 +25,7 @@ class Modulation(Params):
     period: Positive = 10.0
     duty: float = 0.5
     depth: NonNegative = 0.5
-    phase: float = 0.0
+    phase: Finite = 0.0
     frequency_factor: Positive = 1.0
 
     @model_validator(mode="after")
@@ -38,6 +38,11 @@ class Modulation(Params):
     def effective_period(self) -> float:
         """The period in force, ``period / frequency_factor`` (seconds)."""
         return self.period / self.frequency_factor
+
+    @property
+    def peak_factor(self) -> float:
+        """The largest :meth:`factor` over time."""
+        return 1.0 + self.depth if self.kind == "sine" else 1.0
 
     def factor(self, t: float) -> float:
         """Release-rate factor at time ``t`` (seconds), dimensionless >= 0."""
@@ -75,6 +80,11 @@ class Source(Params):
     def rate_at(self, t: float) -> float:
         """Instantaneous release rate at ``t`` seconds."""
         return self.rate * self.modulation.factor(t)
+
+    @property
+    def peak_rate(self) -> float:
+        """The largest release rate over time."""
+        return self.rate * self.modulation.peak_factor
 
     @property
     def pos(self) -> np.ndarray:

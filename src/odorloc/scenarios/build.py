@@ -81,6 +81,9 @@ def build_world(sc: Scenario) -> World:
         wind,
         tuple(sc.world.sources),
     )
+    # what the world step rules out (a filament release too large for one step) is refused
+    # here, with the scenario, rather than at the first step of the first episode
+    prefixed("world.plume", plume.check_step, sc.world.dt)
     return World(arena, wind, plume)
 
 

@@ -26,11 +26,11 @@ import json
 import math
 import re
 from pathlib import Path
-from typing import Annotated, Any, Literal
+from typing import Any, Literal
 
 import pydantic
 import yaml
-from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, model_validator
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from odorloc.core.errors import ConfigError, format_validation_error
 from odorloc.core.loading import load_yaml_mapping
@@ -39,7 +39,7 @@ from odorloc.core.params import (
     NonNegative,
     Positive,
     Seed,
-    no_bools,
+    Vector,
     refuse_bools_as_numbers,
 )
 from odorloc.core.registry import ComponentRef
@@ -137,7 +137,8 @@ class GroupConfig(_Strict):
     agents: list[int] = Field(min_length=1)
 
 
-Point = Annotated[tuple[float, ...], BeforeValidator(no_bools)]
+Point = Vector
+"""A point, metres: finite components, true/false refused (the arena checks how many)."""
 
 
 class AgentsConfig(_Strict):

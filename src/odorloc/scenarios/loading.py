@@ -99,6 +99,9 @@ def check_scenario(sc: Scenario, world: Any = None) -> Any:
 
     if world is None:
         world = build_world(sc)
+    if sc.world.source_draw is not None:
+        drawer = sc.world.source_draw.build("source_draw", field="world.source_draw")
+        prefixed("world.source_draw", drawer.check, world.arena)
     built = build(sc, world=world)
     ctx = search_context(sc, built)
     # a throwaway generator: the check must not touch any episode's stream

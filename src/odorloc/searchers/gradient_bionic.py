@@ -37,7 +37,7 @@ from pydantic import Field
 
 from odorloc.behaviours.escape import first_free
 from odorloc.behaviours.surge_cast import SurgeCast, SurgeCastParams
-from odorloc.core.params import NonNegative, Params, Positive
+from odorloc.core.params import Finite, NonNegative, Params, Positive
 from odorloc.core.registry import register
 from odorloc.core.types import Action, Command, Declaration, Observation, SearchContext
 from odorloc.geometry.vectors import fan, upwind_unit
@@ -86,7 +86,7 @@ class GradientBionicParams(Params):
     surge_steps: int = Field(4, ge=0, le=1_000_000)
     cast_angle_deg: float = Field(80.0, ge=0.0, le=90.0)
     cast_amplitude: Positive = 0.4
-    cast_growth: float = Field(1.5, ge=1.0)
+    cast_growth: Finite = Field(1.5, ge=1.0)
     cast_max: Positive = 3.0
     step_length: Positive | None = None
     declare_radius: Positive = 0.5

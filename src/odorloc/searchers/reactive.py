@@ -49,7 +49,7 @@ from odorloc.behaviours.spiral import Spiral, SpiralParams
 from odorloc.behaviours.surge_cast import SurgeCast, SurgeCastParams
 from odorloc.behaviours.taxis import anemotaxis, chemotaxis, fluxotaxis
 from odorloc.behaviours.wind import WindAverage
-from odorloc.core.params import Params, Positive
+from odorloc.core.params import Finite, NonNegative, Params, Positive
 from odorloc.core.registry import register
 from odorloc.core.types import Action, Command, Observation, SearchContext
 from odorloc.geometry.vectors import fan, ring
@@ -89,10 +89,10 @@ class ReactiveParams(Params):
 
     step_length: Positive | None = None
     wind_average: int = Field(4, ge=1, le=10_000)
-    threshold: float | None = None
+    threshold: Finite | None = None
     cast_angle_deg: float = Field(80.0, ge=0.0, le=90.0)
     cast_amplitude: Positive = 0.4
-    cast_growth: float = Field(1.5, ge=1.0)
+    cast_growth: Finite = Field(1.5, ge=1.0)
     cast_max: Positive = 3.0
     cast_elevation_deg: float = Field(0.0, ge=0.0, lt=90.0)
 
@@ -212,7 +212,7 @@ class SurgeSpiralParams(ReactiveParams):
 
     surge_steps: int = Field(4, ge=1, le=1_000_000)
     spiral_step: Positive = 1.0
-    spiral_increment: float = Field(0.4, ge=0.0)
+    spiral_increment: NonNegative = 0.4
     max_skips: int = Field(3, ge=0, le=10_000)
 
 

@@ -25,7 +25,7 @@ from odorloc.behaviours.escape import first_free, free_step
 from odorloc.behaviours.monitor import MaxTracker, PassiveMonitor
 from odorloc.behaviours.wind import WindAverage
 from odorloc.behaviours.zigzag import Zigzag
-from odorloc.core.params import Params, Positive
+from odorloc.core.params import NonNegative, Params, Positive
 from odorloc.core.registry import register
 from odorloc.core.types import Action, Command, Declaration, Observation, SearchContext
 from odorloc.geometry.regions import resolve_region
@@ -39,7 +39,7 @@ class RandomWalkParams(Params):
     """Correlated random walk: speed fraction of the platform limit and heading noise."""
 
     speed_fraction: float = Field(1.0, gt=0, le=1)
-    turn_std_deg: float = Field(30.0, ge=0)
+    turn_std_deg: NonNegative = 30.0
 
 
 @register("searcher", "random-walk", RandomWalkParams, "correlated random walk")
@@ -148,7 +148,7 @@ class RectangularWaveParams(Params):
     lanes_along: Literal["x", "y"] = "y"
     region: tuple[tuple[float, float], tuple[float, float]] | None = None
     rounds: int = Field(1, ge=1, le=1000)
-    margin: float = Field(0.0, ge=0)
+    margin: NonNegative = 0.0
     declare_at_max: bool = False
 
 
