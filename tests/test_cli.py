@@ -98,11 +98,32 @@ class FailLater(Searcher):
         if self.k > self.params.after:
             raise RuntimeError("this searcher fails on purpose")
         return Action([Command.hold() for _ in observations])
+
+
+class FailConfig(FailLater):
+    def act(self, observations, rng):
+        from odorloc.core.errors import ConfigError
+
+        if self.k >= self.params.after:
+            raise ConfigError("searcher.after", "refused while running")
+        return super().act(observations, rng)
 """
 
 
+def _failed_summary(stderr: str, failed: int, total: int, first: str, out) -> None:
+    """stderr is exactly one summary line of the failed episodes, no traceback."""
+    lines = [ln for ln in stderr.splitlines() if ln.strip()]
+    assert len(lines) == 1, stderr
+    assert "Traceback" not in stderr
+    summary = " ".join(stderr.split())
+    assert summary.startswith(f"batch: {failed} of {total} episodes failed (first: {first}")
+    assert summary.endswith(f"; see {out / 'errors.log'}")
+
+
 def test_batch_records_failing_episode_and_goes_on(tmp_path) -> None:
-    """An episode that fails while running is stored as an error; the other cells complete."""
+    """An episode that fails while running is stored as an error; the other cells complete,
+    every result is written, stderr holds one summary line (tracebacks go to errors.log) and
+    the exit status is 1."""
     (tmp_path / "failmod.py").write_text(_FAILING_SEARCHER)
     sweep = {
         "name": "t",
@@ -118,7 +139,7 @@ def test_batch_records_failing_episode_and_goes_on(tmp_path) -> None:
     out = tmp_path / "out"
     env = {**os.environ, "PYTHONPATH": str(tmp_path)}
     r = _cli("batch", str(f), "--out", str(out), "--workers", "1", "--no-progress", env=env)
-    assert r.returncode == 0, r.stderr
+    assert r.returncode == 1, r.stderr
     import pandas as pd
 
     df = pd.read_csv(out / "results.csv")
@@ -128,6 +149,37 @@ def test_batch_records_failing_episode_and_goes_on(tmp_path) -> None:
     assert (df[df["status"] == "ok"]["searcher"] == "zigzag").all()
     assert (out / "results.parquet").exists()
     assert "Traceback" in (out / "errors.log").read_text()
+    _failed_summary(r.stderr, 2, 4, "RuntimeError: this searcher fails on purpose", out)
+    # resuming runs nothing new; the stored failures still set the exit status
+    r = _cli("batch", str(f), "--out", str(out), "--workers", "1", "--no-progress", env=env)
+    assert r.returncode == 1, r.stderr
+    _failed_summary(r.stderr, 2, 4, "RuntimeError: this searcher fails on purpose", out)
+
+
+def test_batch_episode_refused_at_run_time_is_one_summary_line(tmp_path) -> None:
+    """A setting refused only while an episode runs (a ConfigError) is stored as an error row;
+    the summary names its field, the pool's workers print no traceback, exit status 1."""
+    (tmp_path / "failmod.py").write_text(_FAILING_SEARCHER)
+    sweep = {
+        "name": "t",
+        "seed": 1,
+        "episodes": 3,
+        "scenarios": [
+            {"name": "indoor-ventilated", "params": {"limits.time": 5.0, "world.warmup": 1.0}}
+        ],
+        "searchers": [{"name": "failmod:FailConfig"}],
+    }
+    f = tmp_path / "sweep.yaml"
+    f.write_text(yaml.safe_dump(sweep))
+    out = tmp_path / "out"
+    env = {**os.environ, "PYTHONPATH": str(tmp_path)}
+    r = _cli("batch", str(f), "--out", str(out), "--workers", "2", "--no-progress", env=env)
+    assert r.returncode == 1, r.stderr
+    _failed_summary(r.stderr, 3, 3, "searcher.after: refused while running)", out)
+    log = (out / "errors.log").read_text()
+    assert log.count("Traceback") == 3 and "refused while running" in log
+    for name in ("results.sqlite", "results.csv", "results.parquet"):
+        assert (out / name).stat().st_size > 0
 
 
 def test_batch_refuses_options_the_sweep_file_sets(tmp_path) -> None:
@@ -219,3 +271,128 @@ def test_batch_names_a_malformed_scheduler_as_its_option(tmp_path) -> None:
     assert r.exit_code == 2
     assert r.stderr.startswith("error: --scheduler: expected an address like tcp://host:8786")
     assert len(r.stderr.strip().splitlines()) == 1
+
+
+def test_batch_with_an_unreachable_scheduler_writes_nothing(tmp_path) -> None:
+    pytest.importorskip("distributed")
+    out = tmp_path / "o"
+    r = runner.invoke(
+        app,
+        [
+            "batch",
+            "-s",
+            "lattice-isotropic-2d",
+            "--episodes",
+            "1",
+            "--scheduler",
+            "tcp://127.0.0.1:1",
+            "--out",
+            str(out),
+            "--no-progress",
+        ],
+    )
+    assert r.exit_code == 2, r.output
+    assert r.stderr.startswith("error: --scheduler: cannot reach Dask scheduler"), r.stderr
+    assert not out.exists()  # no empty results.sqlite left behind
+
+
+def test_reproduce_list_with_a_name(tmp_path) -> None:
+    """``--list`` with a name describes that reproduction; an unknown name is refused."""
+    for args in (["nosuch", "--list"], ["--list", "nosuch"]):
+        r = runner.invoke(app, ["reproduce", *args])
+        assert r.exit_code == 2, r.output
+        assert r.stderr.startswith("error: paper: unknown reproduction 'nosuch'"), r.stderr
+        assert len(r.stderr.strip().splitlines()) == 1
+    r = runner.invoke(app, ["reproduce", "single-agent", "--list"])
+    assert r.exit_code == 0, r.output
+    assert "single-agent" in r.stdout and "muc-osl" not in r.stdout
+    r = runner.invoke(app, ["reproduce", "--list"])
+    assert r.exit_code == 0 and "single-agent" in r.stdout and "muc-osl" in r.stdout
+
+
+def test_reproduce_with_failed_episodes_exits_1_after_writing_everything(
+    tmp_path, monkeypatch
+) -> None:
+    import odorloc.experiments.sweep as sweep_mod
+    from test_reproductions import _fake_run_sweep
+
+    monkeypatch.setattr(sweep_mod, "run_sweep", _fake_run_sweep("all-errors"))
+    out = tmp_path / "o"
+    r = runner.invoke(
+        app, ["reproduce", "single-agent", "--out", str(out), "--episodes", "1", "--workers", "1"]
+    )
+    assert r.exit_code == 1, (r.output, r.exception)
+    lines = [ln for ln in r.stderr.splitlines() if ln.strip()]
+    assert len(lines) == 1, r.stderr
+    summary = " ".join(r.stderr.split())
+    assert summary.startswith("reproduce: ") and "episodes failed (first: RuntimeError: boom)" in (
+        summary
+    )
+    assert summary.endswith(f"see {out / 'errors.log'}")
+    assert (out / "errors.log").read_text().count("RuntimeError: boom") >= 1
+    assert (out / "results.csv").is_file() and (out / "report.html").is_file()
+
+
+def _sweep_file(tmp_path, **kw):
+    f = tmp_path / "sweep.yaml"
+    d = {
+        "seed": 1,
+        "episodes": 1,
+        "scenarios": [{"name": "lattice-isotropic-2d"}],
+        "searchers": [{"name": "zigzag"}],
+        **kw,
+    }
+    f.write_text(yaml.safe_dump(d))
+    return f
+
+
+def test_errors_name_the_option_the_user_typed(tmp_path) -> None:
+    from odorloc.experiments.store import ResultStore
+
+    other = tmp_path / "other"
+    other.mkdir()
+    with ResultStore(other / "results.sqlite") as st:
+        st.bind("0" * 16)
+    (tmp_path / "bad.sqlite").write_text("not a database at all")
+    for args, expect in (
+        (
+            ["batch", str(_sweep_file(tmp_path)), "--out", str(other), "--no-progress"],
+            f"error: --out: {other / 'results.sqlite'} holds results of a different sweep",
+        ),
+        (
+            ["run", "--from-batch", str(tmp_path / "bad.sqlite"), "--out", str(tmp_path / "r")],
+            "error: --from-batch: ",
+        ),
+        (["batch", "--scenario", "nosuch", "--out", str(tmp_path / "b")], "error: --scenario: "),
+        (
+            ["run", "muc-osl-3d", "--searcher", "ds-mapping", "--out", str(tmp_path / "m")],
+            "error: --searcher: ",
+        ),
+    ):
+        r = runner.invoke(app, args)
+        assert r.exit_code == 2, (args, r.output)
+        assert r.stderr.startswith(expect), (args, r.stderr)
+        assert len(r.stderr.strip().splitlines()) == 1, r.stderr
+
+
+def test_a_file_of_the_other_kind_is_named_as_such(tmp_path) -> None:
+    """A scenario file given as a sweep (or the reverse) says so, not that a dozen fields are
+    missing."""
+    d = filament_scenario_dict("zigzag")
+    scen = tmp_path / "scen.yaml"
+    scen.write_text(yaml.safe_dump(d))
+    sweep = _sweep_file(tmp_path)
+    r = runner.invoke(app, ["batch", str(scen), "--out", str(tmp_path / "o"), "--no-progress"])
+    assert r.exit_code == 2
+    assert r.stderr.startswith("error: sweep: scen.yaml looks like a scenario file (it has world")
+    assert r.stderr.strip().endswith("give it with --scenario"), r.stderr
+    r = runner.invoke(app, ["run", str(sweep), "--out", str(tmp_path / "o")])
+    assert r.exit_code == 2
+    assert r.stderr.startswith("error: scenario: sweep.yaml looks like a sweep file (it has "), (
+        r.stderr
+    )
+    assert "odorloc batch" in r.stderr
+    r = runner.invoke(app, ["batch", "--scenario", str(sweep), "--out", str(tmp_path / "o")])
+    assert r.exit_code == 2
+    assert r.stderr.startswith("error: --scenario: sweep.yaml looks like a sweep file"), r.stderr
+    assert not (tmp_path / "o").exists()

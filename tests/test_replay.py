@@ -487,3 +487,73 @@ def test_cli_replay_log(tmp_path, episode) -> None:
     r = CliRunner().invoke(app, ["replay-log", str(tmp_path / "b"), "--topics", str(topics)])
     assert r.exit_code == 2
     assert "anemometer.topic" in r.output and "Traceback" not in r.output
+
+
+def _replay_log(*args: str):
+    from typer.testing import CliRunner
+
+    from odorloc.cli import app
+
+    return CliRunner().invoke(app, ["replay-log", *args])
+
+
+def test_cli_replay_log_unreadable_bag_is_one_line(tmp_path) -> None:
+    """A plain file, or a folder without a ROS 2 metadata.yaml, is refused like a garbage .bag:
+    one ``bag:`` line, exit 2."""
+    pytest.importorskip("rosbags")
+    import yaml
+
+    topics = tmp_path / "topics.yaml"
+    topics.write_text(yaml.safe_dump(MAPPING))
+    (tmp_path / "afile").write_text("not a bag\n")
+    (tmp_path / "nometa").mkdir()
+    out = tmp_path / "out"
+    for bag in ("afile", "nometa"):
+        r = _replay_log(str(tmp_path / bag), "--topics", str(topics), "--out", str(out))
+        assert r.exit_code == 2, (r.output, r.exception)
+        assert r.stderr.startswith("error: bag: ") and "is not a readable ROS bag" in r.stderr
+        assert len(r.stderr.strip().splitlines()) == 1, r.stderr
+    assert not out.exists()
+
+
+@pytest.mark.parametrize(
+    ("change", "args", "expect"),
+    [
+        ({}, ["--estimator", "nosuch"], "error: --estimator: unknown searcher 'nosuch'"),
+        (
+            {"arena": {"lower": [float("nan"), 0.0], "upper": [10.0, 6.0]}},
+            [],
+            "error: arena.lower: ",
+        ),
+        (
+            {"gas": {**MAPPING["gas"], "threshold": float("nan")}},
+            [],
+            "error: gas.threshold: must be finite",
+        ),
+        ({"sources": [[True, 3.0]]}, [], "error: sources[0]: "),
+    ],
+)
+def test_cli_replay_log_checks_options_and_topics_before_reading_the_bag(
+    tmp_path, episode, monkeypatch, change, args, expect
+) -> None:
+    """An unknown estimator and a bad static field of the topics file (a NaN bound, a NaN
+    threshold that would detect nothing, true read as 1.0) are named before the bag is read."""
+    pytest.importorskip("rosbags")
+    import yaml
+
+    from odorloc.replay.bag import BagLog, write_bag
+
+    write_bag(tmp_path / "b", episode.recording, MAPPING)
+    topics = tmp_path / "topics.yaml"
+    topics.write_text(yaml.safe_dump({**MAPPING, **change}))
+
+    def never(self):
+        raise AssertionError("the bag was read before its settings were checked")
+
+    monkeypatch.setattr(BagLog, "observations", never)
+    out = tmp_path / "out"
+    r = _replay_log(str(tmp_path / "b"), "--topics", str(topics), *args, "--out", str(out))
+    assert r.exit_code == 2, (r.output, r.exception)
+    assert r.stderr.startswith(expect), r.stderr
+    assert len(r.stderr.strip().splitlines()) == 1, r.stderr
+    assert not out.exists()

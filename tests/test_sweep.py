@@ -110,6 +110,7 @@ def test_yaml_file_expands_deterministically(tmp_path):
             "searchers[0].grid.k",
         ),
         ({"seed": True}, "seed"),
+        ({"keep_episodes": [0, True]}, "keep_episodes[1]"),  # not read as episode 1
         (
             {"searchers": [{"name": "a", "agent_grid": {"start_index": [0, 1]}}]},
             "searchers[0].agent_grid",

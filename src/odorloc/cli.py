@@ -107,6 +107,83 @@ def _check_backend(backend: str, scheduler: str | None) -> str:
     return backend
 
 
+_SCENARIO_KEYS = ("world", "agents", "searcher", "sensors", "platform", "task", "limits")
+_SWEEP_KEYS = ("scenarios", "searchers", "episodes", "seed", "adaptive")
+
+
+def _wrong_kind(path: str | Path, expected: str, field: str, hint: str) -> ConfigError | None:
+    """An error saying that ``path`` is the other kind of file (a scenario given as a sweep or
+    the reverse), or ``None``; called once loading it has failed, so that the user reads which
+    option takes the file instead of the first of a dozen missing fields."""
+    from odorloc.core.loading import load_yaml_mapping
+
+    p = Path(path)
+    try:
+        data = load_yaml_mapping(p, expected) if p.is_file() else None
+    except OdorlocError:
+        return None
+    if not isinstance(data, dict):
+        return None
+    # the key the expected kind cannot do without is missing, the other kind's is there
+    if expected == "sweep" and "scenarios" not in data and "world" in data:
+        other, keys = "scenario", [k for k in _SCENARIO_KEYS if k in data]
+    elif expected == "scenario" and "world" not in data and "scenarios" in data:
+        other, keys = "sweep", [k for k in _SWEEP_KEYS if k in data]
+    else:
+        return None
+    listed = ", ".join(keys[:3]) + (", ..." if len(keys) > 3 else "")
+    return ConfigError(field, f"{p.name} looks like a {other} file (it has {listed}); {hint}")
+
+
+def _renamed(exc: ConfigError, field: str, option: str) -> ConfigError:
+    """``exc`` naming the command-line ``option`` the user typed when it names ``field``."""
+    return ConfigError(option, exc.problem) if exc.field == field else exc
+
+
+def _failure_line(df: Any) -> str | None:
+    """``"N of M episodes failed (first: ...)"`` for the error rows of ``df``, or ``None``."""
+    if not len(df) or "status" not in df:
+        return None
+    bad = df[df["status"] == "error"]
+    if not len(bad):
+        return None
+    first = str(bad.iloc[0].get("error") or "").strip().splitlines()
+    what = first[0] if first else "no error text stored"
+    # an invalid setting reads as "field: problem", like the refusals before a run
+    for name in ("ConfigError: ", "OdorlocError: "):
+        what = what.removeprefix(name)
+    if len(what) > 300:
+        what = what[:297] + "..."
+    return f"{len(bad)} of {len(df)} episodes failed (first: {what})"
+
+
+def _write_errors_log(df: Any, path: Path) -> None:
+    """Every error row of ``df`` with its stored traceback."""
+    bad = df[df["status"] == "error"]
+    with path.open("w") as fh:
+        for r in bad.itertuples():
+            where = f"{r.sweep}: " if "sweep" in bad.columns else ""
+            fh.write(f"== {where}{r.cell_id} episode {r.episode}\n{r.error}\n\n")
+
+
+def _report_failures(command: str, df: Any, out: Path) -> bool:
+    """With failed episodes: write ``out/errors.log``, print one summary line on stderr and
+    return ``True`` (the command then exits 1; its stored results stay as they are)."""
+    line = _failure_line(df)
+    if line is None:
+        return False
+    log = out / "errors.log"
+    try:
+        _write_errors_log(df, log)
+        where = f"; see {log}"
+    except OSError as exc:  # the results are stored; say so rather than fail on the log
+        where = f"; cannot write {log} ({exc.strerror or exc}), the store holds the tracebacks"
+    err_console.print(
+        escape(_one_line(f"{command}: {line}{where}")), highlight=False, soft_wrap=True
+    )
+    return True
+
+
 def _fmt(v: Any) -> str:
     if isinstance(v, bool):
         return "yes" if v else "no"
@@ -220,7 +297,13 @@ def run(
             if world_key is not None and not world_key.strip():
                 raise ConfigError("--world-key", "is empty")
             key = world_key if world_key is not None else ref
-            sc = load_scenario(ref)
+            try:
+                sc = load_scenario(ref)
+            except ConfigError:
+                wrong = _wrong_kind(ref, "scenario", "scenario", "run it with odorloc batch")
+                if wrong is None:
+                    raise
+                raise wrong from None
             if searcher:
                 from odorloc.core import registry
                 from odorloc.experiments.runner import cell_scenario
@@ -229,7 +312,11 @@ def run(
                 sc = cell_scenario({"scenario": ref, "searcher": searcher})
             if seed is not None:
                 sc = sc.model_copy(update={"seed": seed})
-            check_scenario(sc)
+            try:
+                check_scenario(sc)
+            except ConfigError as exc:
+                # the searcher the user chose does not fit the scenario: name the option
+                raise (_renamed(exc, "searcher.type", "--searcher") if searcher else exc) from None
             world_seed, agent_seed = episode_seeds(sc.seed, key, episode)
             console.print(
                 f"running [bold]{escape(sc.name)}[/] with searcher "
@@ -371,7 +458,9 @@ def batch(
     """Run (or resume) a Monte Carlo set; every finished episode is stored at once.
 
     Re-running the same command resumes: finished episodes are skipped. Writes
-    ``results.sqlite``, ``results.csv`` and ``results.parquet`` into ``--out``.
+    ``results.sqlite``, ``results.csv`` and ``results.parquet`` into ``--out``. Episodes that
+    fail are stored as error rows, their tracebacks written to ``errors.log``, one summary line
+    goes to stderr and the exit status is 1 (2: invalid input, nothing run).
     """
     from odorloc.experiments.store import ResultStore
     from odorloc.experiments.sweep import MAX_EPISODES, load_sweep, run_sweep
@@ -399,14 +488,29 @@ def batch(
                 "scenarios": [{"name": s} for s in scenario],
                 "searchers": [{"name": a} for a in (searcher or [])] or None,
             }
-            if spec["searchers"] is None:
-                from odorloc.scenarios.loading import load_scenario
+            from odorloc.scenarios.loading import load_scenario
 
-                names = sorted({load_scenario(s).searcher.type for s in scenario})
+            # each --scenario as typed, so that a refusal names the option
+            loaded: dict[str, Any] = {}
+            for s in scenario:
+                try:
+                    loaded[s] = load_scenario(s)
+                except ConfigError as exc:
+                    hint = "give it as the sweep argument"
+                    wrong = _wrong_kind(s, "scenario", "--scenario", hint)
+                    raise (wrong or _renamed(exc, "scenario", "--scenario")) from None
+            if spec["searchers"] is None:
+                names = sorted({sc.searcher.type for sc in loaded.values()})
                 spec["searchers"] = [{"name": n} for n in names]
             spec = load_sweep(spec)
         else:
-            spec = load_sweep(sweep)
+            try:
+                spec = load_sweep(sweep)
+            except ConfigError:
+                wrong = _wrong_kind(sweep, "sweep", "sweep", "give it with --scenario")
+                if wrong is None:
+                    raise
+                raise wrong from None
         store_path = out / "results.sqlite"
         check_output_file(store_path, "--out")
         df = run_sweep(
@@ -418,10 +522,13 @@ def batch(
             progress=progress,
         )
     except ConfigError as exc:
-        # the cluster is the command's --scheduler
-        if exc.field == "scheduler":
-            exc = ConfigError("--scheduler", exc.problem)
-        _fail(str(exc))
+        # the store and the cluster are the command's --out and --scheduler
+        if exc.field == "store":
+            exc = ConfigError(
+                "--out",
+                exc.problem.replace("use another store path", "use another --out folder"),
+            )
+        _fail(str(_renamed(exc, "scheduler", "--scheduler")))
         return
     except OdorlocError as exc:
         _fail(str(exc))
@@ -429,14 +536,10 @@ def batch(
     with ResultStore(store_path, readonly=True) as store:
         csv = store.to_csv(out / "results.csv")
         pq = store.to_parquet(out / "results.parquet")
-    errors = df[df["status"] == "error"] if len(df) else df
-    if len(errors):
-        log = out / "errors.log"
-        with log.open("w") as fh:
-            for r in errors.itertuples():
-                fh.write(f"== {r.cell_id} episode {r.episode}\n{r.error}\n\n")
-        console.print(f"{len(errors)} episode(s) failed; tracebacks in {log}")
     console.print(f"{len(df)} episodes -> {store_path}, {csv}, {pq}")
+    # every result is stored and exported above; failed episodes make the exit status 1
+    if _report_failures("batch", df, out):
+        raise typer.Exit(code=1)
 
 
 @app.command()
@@ -477,18 +580,33 @@ def reproduce(
             "by commas); the others' stored rows are still shown."
         ),
     ] = None,
-    list_: Annotated[bool, typer.Option("--list", help="List the reproductions.")] = False,
+    list_: Annotated[
+        bool,
+        typer.Option(
+            "--list", help="List the reproductions (with a name: describe only that one)."
+        ),
+    ] = False,
 ) -> None:
     """Reproduce a paper's headline comparison: table beside the paper's numbers, figures, report.
 
-    Results are stored as they finish; running the same command again resumes.
+    Results are stored as they finish; running the same command again resumes. Episodes that
+    fail are stored as error rows (tracebacks in ``errors.log``): one summary line goes to
+    stderr and the exit status is 1, after the tables, figures and report of the rest.
     """
     from odorloc.experiments import reproduction as rp
 
     if list_ or not paper:
         import textwrap
 
-        for n in rp.names_of_reproductions():
+        shown = rp.names_of_reproductions()
+        if paper:
+            try:
+                rp.get(paper)  # an unknown name is refused, not ignored
+            except OdorlocError as exc:
+                _fail(str(exc))
+                return
+            shown = [paper]
+        for n in shown:
             r = rp.get(n)
             console.print(f"[bold]{n}[/]  ({r.paper})")
             text = (
@@ -513,7 +631,7 @@ def reproduce(
         parts = [w.strip() for o in only for w in o.split(",") if w.strip()] if only else None
         if only and not parts:
             raise ConfigError("--only", "names no sweep")
-        r.run(
+        outcome = r.run(
             target,
             episodes=episodes,
             workers=workers,
@@ -534,8 +652,13 @@ def reproduce(
         elif exc.field == "scheduler":
             exc = ConfigError("--scheduler", exc.problem)
         _fail(str(exc))
+        return
     except OdorlocError as exc:
         _fail(str(exc))
+        return
+    # the tables, figures and report are written; failed episodes make the exit status 1
+    if _report_failures("reproduce", outcome.results, target):
+        raise typer.Exit(code=1)
 
 
 @app.command("replay-log")
@@ -559,8 +682,12 @@ def replay_log(
     try:
         check_seed(seed, "--seed")
         check_output_dir(out, "--out")
+        if estimator != "odor-path":
+            from odorloc.core import registry
+
+            registry.entry("searcher", estimator, field="--estimator")
         try:
-            from odorloc.replay.bag import BagLog
+            from odorloc.replay.bag import BagLog, load_mapping
         except ImportError:
             raise ConfigError(
                 "bag", "reading bags needs the ros extra (pip install odorloc[ros])"
@@ -570,7 +697,10 @@ def replay_log(
         from odorloc.replay.offline import replay_estimator
         from odorloc.viz.episode import plot_belief_map
 
-        log = BagLog(bag, topics)
+        # the options and the topics file are checked before the bag is opened; context()
+        # below reads the whole bag
+        mapping = load_mapping(topics)
+        log = BagLog(bag, mapping)
         src = np.asarray(log.mapping.sources, float) if log.mapping.sources else None
         rec = replay_estimator(
             log.observations(), log.context(), estimator, seed=seed, sources=src, name=bag.name

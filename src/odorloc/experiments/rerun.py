@@ -108,7 +108,12 @@ def stored_episode(
     from odorloc.experiments.store import STANDARD_METRICS, ResultStore
 
     path = store_file(source, field)
-    with ResultStore(path, readonly=True) as store:
+    try:
+        opened = ResultStore(path, readonly=True)
+    except ConfigError as exc:
+        # the file the caller named (e.g. the option --from-batch), not the library's word
+        raise ConfigError(field, exc.problem) from None
+    with opened as store:
         con = store._con
         cells = [r[0] for r in con.execute("SELECT DISTINCT cell_id FROM episodes ORDER BY 1")]
         if not cells:

@@ -1,8 +1,9 @@
 """Episode tasks: the picklable unit of work that every backend runs.
 
 :func:`run_task` turns a task (scenario cell + episode index + seeds) into one flat result row.
-It never raises for a failing episode: the row then has ``status="error"`` and the error text,
-and the traceback goes to the log.
+It never raises for a failing episode: the row then has ``status="error"``, the error text and
+its traceback, which also goes to the ``odorloc.runner`` log (shown where the application
+configures logging).
 """
 
 from __future__ import annotations
@@ -21,6 +22,10 @@ from odorloc.engine.replay import on_replay, record_flow
 from odorloc.scenarios import Scenario, get_scenario
 
 log = logging.getLogger("odorloc.runner")
+# The row carries the traceback (stored, and written to errors.log by the command line); without
+# this, Python's last-resort handler would print every failed episode's traceback on stderr of
+# whichever process ran it, even when the application configured no logging at all.
+log.addHandler(logging.NullHandler())
 
 #: Metric columns every row carries (NaN/defaults for failed episodes).
 ROW_DEFAULTS: dict[str, Any] = {

@@ -69,10 +69,10 @@ import math
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Literal
+from typing import Annotated, Any, Literal
 
 import pydantic
-from pydantic import Field, field_validator, model_validator
+from pydantic import BeforeValidator, Field, field_validator, model_validator
 from pydantic_core import PydanticCustomError
 
 from odorloc.core.errors import ConfigError, OdorlocError, format_validation_error
@@ -92,6 +92,16 @@ MAX_EPISODES = 1_000_000
 """Most episodes per cell (``episodes``, ``adaptive.max_episodes``)."""
 MAX_CELLS = 10_000
 """Most cells of a sweep's cross product (every one is validated before the first episode)."""
+
+
+def _index_not_bool(v: Any) -> Any:
+    # YAML's true/false would be read as episodes 1 and 0
+    if isinstance(v, bool):
+        raise ValueError(f"must be an episode index (an integer), not {str(v).lower()}")
+    return v
+
+
+_EpisodeIndex = Annotated[int, BeforeValidator(_index_not_bool)]
 
 
 def _check_value(v: Any, where: str) -> Any:
@@ -221,7 +231,7 @@ class SweepSpec(Params):
     scenarios: list[ComponentSpec] = Field(min_length=1)
     searchers: list[ComponentSpec] = Field(min_length=1)
     keep_arrays: bool = False
-    keep_episodes: list[int] = Field(default_factory=list, max_length=10_000)
+    keep_episodes: list[_EpisodeIndex] = Field(default_factory=list, max_length=10_000)
     replay: bool = False
     adaptive: AdaptiveSpec | None = None
     base_dir: str | None = Field(default=None, exclude=True)
@@ -808,9 +818,10 @@ def run_sweep(
         with ResultStore(store_path, readonly=True) as probe:
             probe.check(chash)
     runner = make_backend(backend, workers=workers, scheduler=scheduler, timeout=timeout)
-    with ResultStore(store_path) as store:
+    # connect first: an unreachable scheduler must not leave a new, empty store behind
+    with runner, ResultStore(store_path) as store:
         store.check(chash)
-        with runner, SweepProgress(enabled=progress, success=success) as prog:
+        with SweepProgress(enabled=progress, success=success) as prog:
             store.bind(chash, spec)
             if retry_errors:
                 store.delete_errors()

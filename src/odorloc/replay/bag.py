@@ -55,7 +55,7 @@ from pydantic import Field
 
 from odorloc.core.errors import ConfigError, format_validation_error
 from odorloc.core.loading import load_yaml_mapping
-from odorloc.core.params import Params, Positive
+from odorloc.core.params import Finite, Params, Positive, Vector
 from odorloc.core.types import Observation, SearchContext, SensorInfo
 from odorloc.geometry.arena import Arena
 
@@ -69,7 +69,8 @@ class GasTopic(Params):
     topic: str
     field: str = "data"
     msgtype: str | None = None
-    threshold: float = 0.0
+    # NaN would compare false with every reading: a log without a single detection
+    threshold: Finite = 0.0
     reduce: Literal["last", "mean", "max"] = "last"
     missing: Literal["error", "hold"] = "error"
 
@@ -97,9 +98,19 @@ class PoseTopic(Params):
 class ArenaBox(Params):
     """Bounds of the map, metres."""
 
-    lower: tuple[float, ...]
-    upper: tuple[float, ...]
+    lower: Vector
+    upper: Vector
     resolution: Positive = 0.1
+
+    @pydantic.model_validator(mode="after")
+    def _check_box(self) -> ArenaBox:
+        if len(self.upper) != len(self.lower):
+            raise ConfigError("upper", f"has {len(self.upper)} components, lower {len(self.lower)}")
+        if any(h <= lo for lo, h in zip(self.lower, self.upper, strict=True)):
+            raise ConfigError(
+                "upper", f"must exceed lower in every axis ({self.upper} vs {self.lower})"
+            )
+        return self
 
 
 class BagMapping(Params):
@@ -111,18 +122,22 @@ class BagMapping(Params):
     anemometer: WindTopic
     pose: PoseTopic
     arena: ArenaBox | None = None
-    sources: list[tuple[float, ...]] = Field(default_factory=list)
+    # true/false refused: YAML would read them as 1 and 0
+    sources: list[Vector] = Field(default_factory=list)
     max_speed: Positive = 1.0
 
     @pydantic.model_validator(mode="after")
-    def _check_sources(self) -> BagMapping:
+    def _check_dims(self) -> BagMapping:
+        # checked with the file, before the bag is read (BagLog.context reads it whole)
+        if self.arena is not None and len(self.arena.lower) != self.dim:
+            raise ConfigError(
+                "arena.lower", f"has {len(self.arena.lower)} components, the log is {self.dim}-D"
+            )
         for i, src in enumerate(self.sources):
             if len(src) != self.dim:
                 raise ConfigError(
                     f"sources[{i}]", f"has {len(src)} components, the log is {self.dim}-D"
                 )
-            if not all(math.isfinite(v) for v in src):
-                raise ConfigError(f"sources[{i}]", "must be finite")
         return self
 
 
@@ -229,8 +244,10 @@ class BagLog:
 
     def _open(self) -> Any:
         """An opened reader (use it as a context manager to close it)."""
-        r = self._reader_cls([self.path], default_typestore=self._typestore)
         try:
+            # the constructor already reads the file or folder (a plain file, a folder without
+            # metadata.yaml fail here), so it belongs in the guarded part as much as open()
+            r = self._reader_cls([self.path], default_typestore=self._typestore)
             r.open()
         except Exception as exc:  # rosbags raises its own error types per format
             raise ConfigError("bag", f"{self.path} is not a readable ROS bag ({exc})") from None
@@ -394,9 +411,7 @@ class BagLog:
         first: Observation | None = None
         outside: Observation | None = None
         box = None
-        if m.arena is not None:
-            if len(m.arena.lower) != d or len(m.arena.upper) != d:
-                raise ConfigError("arena.lower", f"needs {d} components")
+        if m.arena is not None:  # its dimension is checked with the mapping
             box = (np.asarray(m.arena.lower, float), np.asarray(m.arena.upper, float))
         for o in self.observations():
             lo = np.minimum(lo, o.position)
