@@ -1,8 +1,9 @@
 """First-episode time of a fresh process: cold kernel cache, warm cache, warm cache + warm-up.
 
 Each measurement is a new Python process running one short episode that uses both compiled
-kernels (filament plume queries and the odor-path map of the D-S searcher) and then a second
-episode in the same process (the warm reference). The cache lives in a temporary folder
+kernels (filament plume queries and the odor-path map of the D-S searcher) and then the same
+episode again, same seeds, in the same process (the warm reference: both do the same work, so
+the ratio is the start-up cost alone). The cache lives in a temporary folder
 (``ODORLOC_CACHE_DIR``), so the first mode really compiles:
 
 - ``cold``: empty cache (the first process on a machine compiles and writes the cache);
@@ -16,9 +17,13 @@ episode in the same process (the warm reference). The cache lives in a temporary
   does, so its first episode costs what the others do.
 
 Ratios are first episode / second episode of the same process, so they hold better than
-absolute times on a shared machine. The package folder is checked for cache files afterwards
-(there must be none). Needs the ``fast`` extra (numba); without it the script stops with one
-line (exit status 2).
+absolute times on a shared machine. Target (README): a fresh process's first episode within 2x
+of a warm one. Read plainly, that is the ``cached`` mode: a new process on a machine where the
+cache exists, which calls nothing beforehand (as any script using odorloc does); ``run`` and
+``worker`` are what odorloc's own entry points do about it, and ``cold`` is the one process
+per machine that compiles. The table marks every mode whose ratio is over 2x as over target.
+The package folder is checked for cache files afterwards (there must be none). Needs the
+``fast`` extra (numba); without it the script stops with one line (exit status 2).
 
     .venv/bin/python benchmarks/numba_cache.py [--repeats 3]
 """
@@ -33,6 +38,9 @@ import subprocess
 import sys
 import tempfile
 from pathlib import Path
+
+#: first episode / warm episode of the same process (README target)
+TARGET_RATIO = 2.0
 
 CHILD = r"""
 import json, sys, time
@@ -51,7 +59,7 @@ cell = {"scenario": "two-sources-farrell", "searcher": "ds-mapping",
         "scenario_params": {"limits.time": 20.0}}
 sc = cell_scenario(cell)
 ta = time.perf_counter(); run_episode(sc, 1, 2, record=True); tb = time.perf_counter()
-run_episode(sc, 3, 4, record=True); tc = time.perf_counter()
+run_episode(sc, 1, 2, record=True); tc = time.perf_counter()
 from odorloc.plume import filament
 from odorloc.inference.odor_path import kernel
 misses = sum(sum(k.stats.cache_misses.values()) for k in (filament._cell_kernel,
@@ -107,7 +115,12 @@ def main(argv: list[str] | None = None) -> None:
         ratio = statistics.median(r["first"] / r["second"] for r in rs)
         misses = max(r["misses"] for r in rs)
         summary[mode] = (first, second, ratio, misses)
-        print(f"{mode:8} {start:8.2f} {first:8.3f} {second:9.3f} {ratio:10.2f} {misses:6d}")
+        flag = "  (over target)" if ratio > TARGET_RATIO else ""
+        print(f"{mode:8} {start:8.2f} {first:8.3f} {second:9.3f} {ratio:10.2f} {misses:6d}{flag}")
+    print(
+        f"target: first/2nd <= {TARGET_RATIO:.0f}x for a fresh process (the cached mode: "
+        f"{summary['cached'][2]:.2f}x)"
+    )
     print(f"cache files under {package}: {len(in_src)}")
     print(
         "RESULT "

@@ -106,9 +106,10 @@ def decision_loop(case: dict, params: PangFarrellParams) -> tuple[int, np.ndarra
     for dx, dy in dirs:
         target = case["robot"] + 0.11 * np.array([dx, dy])
         p1 = reference_detection_probability(target, case["wind"], DT, case["hyp"], params)
+        p1 = p1.tolist()
         eh = 0.0
         for z in (0, 1):
-            joint = [wi * (pi if z else 1.0 - pi) for wi, pi in zip(w, p1.tolist(), strict=True)]
+            joint = [wi * (pi if z else 1.0 - pi) for wi, pi in zip(w, p1, strict=True)]
             pz = sum(joint)
             if pz > 0:
                 eh -= sum(j * math.log(j / pz) for j in joint if j > 0)

@@ -1,6 +1,6 @@
 """Speed of the filament plume against pompy 0.1.1 (a public Python Farrell puff model).
 
-Run: ``python benchmarks/plume_speed.py [--quick]``.
+Run: ``python benchmarks/plume_speed.py [--quick] [--rounds 3]``.
 
 Both models use the same 50 m x 20 m arena, a 21 x 21 wind grid carrying a uniform 1 m/s wind
 (pompy's ``WindModel`` with its boundary noise switched off; ours interpolates the same grid),
@@ -12,6 +12,12 @@ speed-up is per puff-step. pompy needs NumPy < 2, so it runs in a throwaway virt
 wind update is excluded, including the refit of its interpolating splines, which pompy defers
 to the first velocity query after each wind update.
 
+The two sides are timed side by side in time: for each of ``--rounds`` rounds and each count,
+ours (a fresh plume in this process) then pompy (a fresh plume in a subprocess of its own, its
+imports done before the plume is built), each from the same puffs with the same warm-up; the
+fastest round of each side and count is kept, so a slow spell of a shared machine cannot fall on
+one side only.
+
 Also measured: a 1 000-point concentration query over 5 000 filaments, and the peak memory of a
 100 000-point grid query over 20 000 filaments (in a fresh subprocess, via ``ru_maxrss`` minus
 the baseline after setup).
@@ -22,6 +28,7 @@ speedup_vs_pompy_200=<a> speedup_vs_pompy_5000=<b>`` (speed-ups ``nan`` when pom
 
 from __future__ import annotations
 
+import argparse
 import json
 import math
 import os
@@ -127,8 +134,9 @@ def ensure_pompy() -> tuple[Path | None, str]:
 
 
 def time_pompy(py: Path, steps: dict[int, int]) -> dict[int, dict[str, float]]:
+    """pompy's mean plume-update time and live puffs per count in ``steps`` (one subprocess)."""
     pre = {}
-    for n in COUNTS:
+    for n in steps:
         # the very puffs build_ours starts from (a generator of its own per count)
         pos, s2 = prefill(n, np.random.default_rng(PREFILL_SEED))
         pre[str(n)] = {"pos": pos.tolist(), "s2": s2.tolist()}
@@ -141,7 +149,7 @@ def time_pompy(py: Path, steps: dict[int, int]) -> dict[int, dict[str, float]]:
         "noise": NOISE,
         "sigma0": SIGMA0,
         "gamma": GAMMA,
-        "runs": [[n, release_rate(n), steps[n]] for n in COUNTS],
+        "runs": [[n, release_rate(n), steps[n]] for n in steps],
         "warmup": WARMUP,
         "prefill": pre,
     }
@@ -257,29 +265,45 @@ def query_memory() -> tuple[float, float]:
     return float(mb), float(sec)
 
 
-def main() -> None:
-    quick = "--quick" in sys.argv
-    steps = {200: 100, 1000: 40, 5000: 10} if not quick else {200: 20, 1000: 10, 5000: 3}
-    # the same untimed and timed steps on both sides
-    ours = {n: time_ours(n, steps[n]) for n in COUNTS}
+def ns_per_puff_step(row: dict[str, float]) -> float:
+    """Per puff-step, as the live counts of the two models drift apart a little."""
+    return 1e9 * row["step_s"] / row["live"]
+
+
+def main(argv: list[str] | None = None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="fewer timed steps")
+    ap.add_argument(
+        "--rounds", type=int, default=3, help="alternating rounds per count (fastest kept)"
+    )
+    args = ap.parse_args(argv)
+    steps = {200: 100, 1000: 40, 5000: 10} if not args.quick else {200: 20, 1000: 10, 5000: 3}
     py, why = ensure_pompy()
-    if py is not None:
-        try:
-            theirs = time_pompy(py, steps)
-        except subprocess.CalledProcessError as exc:
-            theirs, why = {}, f"pompy run failed: {exc.stderr.strip().splitlines()[-1:]}"
-    else:
-        theirs = {}
+    # the same untimed and timed steps on both sides, one side right after the other
+    ours: dict[int, list[float]] = {n: [] for n in COUNTS}
+    theirs: dict[int, list[float]] = {n: [] for n in COUNTS}
+    for _ in range(max(args.rounds, 1)):
+        for n in COUNTS:
+            ours[n].append(ns_per_puff_step(time_ours(n, steps[n])))
+            if py is None:
+                continue
+            try:
+                theirs[n].append(ns_per_puff_step(time_pompy(py, {n: steps[n]})[n]))
+            except subprocess.CalledProcessError as exc:
+                # a comparison with some rounds missing on one side would not be like for like
+                py, why = None, f"pompy run failed: {exc.stderr.strip().splitlines()[-1:]}"
+                theirs = {k: [] for k in COUNTS}
     print(f"filament plume step, dt = {DT} s, 21x21 wind grid, 2D dispersion")
+    print(f"{len(ours[COUNTS[0]])} alternating rounds per count, fastest of each side")
     print(
         f"{'puffs':>7} | {'ours ns/puff/step':>17} | {'pompy ns/puff/step':>18} | {'speed-up':>8}"
     )
     speedups = {}
     for n in COUNTS:
-        o = 1e9 * ours[n]["step_s"] / ours[n]["live"]
-        if n in theirs:
-            p = 1e9 * theirs[n]["step_s"] / theirs[n]["live"]
-            speedups[n] = p / o  # per puff-step (the live counts drift apart a little)
+        o = min(ours[n])
+        if theirs[n]:
+            p = min(theirs[n])
+            speedups[n] = p / o
             print(f"{n:>7} | {o:>17.1f} | {p:>18.1f} | {speedups[n]:>7.1f}x")
         else:
             print(f"{n:>7} | {o:>17.1f} | {'n/a':>18} | {'n/a':>8}")

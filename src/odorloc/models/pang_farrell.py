@@ -303,10 +303,13 @@ def reference_detection_probability(
     """Plain per-particle, per-record loop of eqs. 8, 10, 11 (for tests and benchmarks).
 
     Same arguments and result as :meth:`PangFarrellModel.detection_probability` for a single
-    ``(d,)`` robot position; written without NumPy vectorisation on purpose.
+    ``(d,)`` robot position; written without NumPy vectorisation on purpose. Eq. 11's density
+    times ``mu S_p`` is evaluated as ``c_l exp(-sum_a delta_a^2 / (2 v_a))`` with
+    ``c_l = mu S_p / prod_a sqrt(2 pi v_a)`` (``mu S_p / (2 pi sqrt(vx vy))`` in 2-D): one
+    exponential per record and particle, as the vector code takes.
     """
     p = params or PangFarrellParams()
-    winds = [list(map(float, row)) for row in np.asarray(wind_window, float)]
+    winds = np.asarray(wind_window, float).tolist()
     n_rec, dim = len(winds), len(winds[0])
     if wind_var is None:
         sig2 = []
@@ -317,29 +320,44 @@ def reference_detection_probability(
             sig2.append(max(v, p.min_wind_variance))
     else:
         sig2 = [max(float(v), p.min_wind_variance) for v in wind_var]
-    rp = [float(x) for x in robot_pos]
-    # what does not depend on the particle, once per record l and axis a: the robot position
-    # shifted back by the wind since record l (eq. 10), twice the variance and the normaliser
-    # of eq. 11
+    rp = np.asarray(robot_pos, float).tolist()
+    mu_s = p.mu * p.sensor_area
+    floor = p.p_floor
+    # what does not depend on the particle, once per record l: the robot position shifted back
+    # by the wind since record l (eq. 8), 1 / (2 v_a) per axis, and mu S_p over eq. 11's
+    # normaliser
     per_record = []
     for l in range(n_rec):  # noqa: E741 - the paper's record index
         steps = n_rec - l  # k - l
-        axes = []
+        shifted, inv_two_var, norm = [], [], 1.0
         for a in range(dim):
             s_a = sum(winds[j][a] * dt for j in range(l, n_rec))
             var = p.initial_variance + sig2[a] * p.time_scale * steps * dt
-            axes.append((rp[a] - s_a, 2.0 * var, math.sqrt(2.0 * math.pi * var)))
-        per_record.append(axes)
+            shifted.append(rp[a] - s_a)
+            inv_two_var.append(1.0 / (2.0 * var))
+            norm *= math.sqrt(2.0 * math.pi * var)
+        per_record.append((shifted, inv_two_var, mu_s / norm))
     out = []
-    for hyp in np.asarray(hypotheses, float):
-        h = [float(v) for v in hyp]
+    if dim == 2:
+        # eq. 11 as printed, the axes written out
+        recs = [(sx, sy, ix, iy, c) for (sx, sy), (ix, iy), c in per_record]
+        for hx, hy in np.asarray(hypotheses, float).tolist():
+            prod_miss = 1.0
+            for sx, sy, ix, iy, c in recs:
+                dx = sx - hx
+                dy = sy - hy
+                prod_miss *= min(1.0, max(0.0, 1.0 - math.exp(-(dx * dx * ix + dy * dy * iy)) * c))
+            p1 = 1.0 - prod_miss
+            out.append(min(max(p1, floor), 1.0 - floor))
+        return np.asarray(out)
+    for h in np.asarray(hypotheses, float).tolist():
         prod_miss = 1.0
-        for axes in per_record:
-            dens = 1.0
-            for a, (shifted, two_var, norm) in enumerate(axes):
-                delta = shifted - h[a]
-                dens *= math.exp(-(delta * delta) / two_var) / norm
-            prod_miss *= min(1.0, max(0.0, 1.0 - p.mu * p.sensor_area * dens))
+        for shifted, inv_two_var, c in per_record:
+            e = 0.0
+            for s_a, h_a, i_a in zip(shifted, h, inv_two_var, strict=True):
+                d = s_a - h_a
+                e += d * d * i_a
+            prod_miss *= min(1.0, max(0.0, 1.0 - math.exp(-e) * c))
         p1 = 1.0 - prod_miss
-        out.append(min(max(p1, p.p_floor), 1.0 - p.p_floor))
+        out.append(min(max(p1, floor), 1.0 - floor))
     return np.asarray(out)
