@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 import shlex
 import sys
+from collections.abc import Callable
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -133,6 +134,20 @@ def _wrong_kind(path: str | Path, expected: str, field: str, hint: str) -> Confi
         return None
     listed = ", ".join(keys[:3]) + (", ..." if len(keys) > 3 else "")
     return ConfigError(field, f"{p.name} looks like a {other} file (it has {listed}); {hint}")
+
+
+def _load_or_name_kind(
+    load: Callable[[Any], Any], path: str | Path, expected: str, field: str, hint: str
+) -> Any:
+    """``load(path)``; if that fails and ``path`` is the other kind of file, an error saying so
+    (:func:`_wrong_kind`) instead of the loader's."""
+    try:
+        return load(path)
+    except ConfigError:
+        wrong = _wrong_kind(path, expected, field, hint)
+        if wrong is None:
+            raise
+        raise wrong from None
 
 
 def _renamed(exc: ConfigError, field: str, option: str) -> ConfigError:
@@ -297,13 +312,9 @@ def run(
             if world_key is not None and not world_key.strip():
                 raise ConfigError("--world-key", "is empty")
             key = world_key if world_key is not None else ref
-            try:
-                sc = load_scenario(ref)
-            except ConfigError:
-                wrong = _wrong_kind(ref, "scenario", "scenario", "run it with odorloc batch")
-                if wrong is None:
-                    raise
-                raise wrong from None
+            sc = _load_or_name_kind(
+                load_scenario, ref, "scenario", "scenario", "run it with odorloc batch"
+            )
             if searcher:
                 from odorloc.core import registry
                 from odorloc.experiments.runner import cell_scenario
@@ -504,13 +515,9 @@ def batch(
                 spec["searchers"] = [{"name": n} for n in names]
             spec = load_sweep(spec)
         else:
-            try:
-                spec = load_sweep(sweep)
-            except ConfigError:
-                wrong = _wrong_kind(sweep, "sweep", "sweep", "give it with --scenario")
-                if wrong is None:
-                    raise
-                raise wrong from None
+            spec = _load_or_name_kind(
+                load_sweep, sweep, "sweep", "sweep", "give it with --scenario"
+            )
         store_path = out / "results.sqlite"
         check_output_file(store_path, "--out")
         df = run_sweep(
