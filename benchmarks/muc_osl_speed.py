@@ -1,15 +1,19 @@
 """Speed of MUC-OSL's parts and of whole team episodes (multi-UAV paper).
 
-1. One Col-PF update of one UAV (N = 160 particles, two neighbour messages): confidence factors
-   (eq. 10), weights (eqs. 13-14), low-variance resampling, PUGL (eqs. 15-17), the count of
-   eq. 18 and the Gaussian fit (eqs. 19-20);
+1. One Col-PF update of one UAV (N = 160 particles, two neighbour messages, iteration 5, the
+   default parameters): confidence factors (eq. 10), weights (eqs. 13-14), low-variance
+   resampling with its 1 m jitter (N_eff is below N / 2 here), PUGL on N_s = 160 particles
+   (eq. 15): env-pu 0-2 m upwind (eq. 16; col-pu, eq. 17, is skipped: the UAV's own count is a
+   cue), the count of eq. 18 and the Gaussian fit (eqs. 19-20);
 2. one Adap-PP decision of one UAV at N = 160: 26 directions x the Poisson outcome classes
    (eqs. 21-25), then the step length (eqs. 26-28);
 
 each as odorloc's code with the NumPy kernels and with the compiled ones (``backend: numpy`` /
 ``numba``; the ``fast`` extra) and as a straightforward per-particle Python loop of the same
-maths, with a check that they agree (the deterministic parts: the weights of eqs. 13-14, and the
-direction rewards and the chosen hover point); then
+maths, step for step, with a check that they agree: the weights of eqs. 13-14, and the whole
+Col-PF update from Generators of the same seed (the loop draws its random numbers with the same
+calls in the same order, so it ends with the same particles, N_s, count and fit); the direction
+rewards and the chosen hover point of Adap-PP; then
 3. the mean wall time of whole episodes of each algorithm on ``muc-osl-3d`` (3 UAVs,
    100 x 60 x 30 m), with the two backends one after the other in this process, each after one
    untimed warm-up episode of its own (kernels loaded before the timing), and whether
@@ -47,6 +51,7 @@ from odorloc.core.types import SearchContext
 from odorloc.engine.episode import run_episode
 from odorloc.geometry.arena import Arena
 from odorloc.inference.belief import ParticleBelief
+from odorloc.inference.particles.adaptive_count import spacing_minimum
 from odorloc.inference.particles.collaborative import fit_payload
 from odorloc.inference.particles.team_estimators import ColPFEstimator, ColPFParams, Measurement
 from odorloc.models.kernels import HAVE_NUMBA
@@ -66,6 +71,9 @@ from odorloc.searchers.uav_team import SENSOR_RADIUS
 
 N = 160
 WIND = np.array([0.0, -1.0, 0.0])
+#: the arena's upper corner (the lower one is the origin) and the UAV's start
+UPPER = (100.0, 60.0, 30.0)
+START = (10.0, 10.0, 5.0)
 Q, V, D, TAU, A = 5.0, 1.0, 1.0, 100.0, SENSOR_RADIUS
 ALGORITHMS = ("muc-osl", "col-inf", "col-pf", "adap-pp")
 #: MUC-OSL without the upwind moves of eq. 16 (the reproduction's ablation): the same parts, but
@@ -80,7 +88,7 @@ def _case(seed: int = 0) -> dict:
     """A mid-search state: particles spread around the source, the UAV 8 m downwind."""
     rng = np.random.default_rng(seed)
     src = np.array([10.0, 30.0, 25.0])
-    x = np.clip(src + rng.normal(0, [6.0, 10.0, 4.0], (N, 3)), [0, 0, 0], [100, 60, 30])
+    x = np.clip(src + rng.normal(0, [6.0, 10.0, 4.0], (N, 3)), [0, 0, 0], UPPER)
     lw = rng.normal(0, 0.5, N)
     lw -= np.log(np.exp(lw).sum())
     pos = np.array([10.0, 22.0, 23.0])
@@ -92,15 +100,29 @@ def _case(seed: int = 0) -> dict:
         1: fit_payload(mean + 1.0, cov * 1.2, 1.0, [16.0, 18.0, 25.0], True),
         2: fit_payload(mean - 2.0, cov * 0.8, 0.0, [4.0, 14.0, 21.0], False),
     }
-    return {"x": x, "lw": lw, "pos": pos, "hist": hist, "inbox": inbox, "count": 1.0}
+    return {
+        "x": x,
+        "lw": lw,
+        "pos": pos,
+        "hist": hist,
+        "inbox": inbox,
+        "count": 1.0,
+        # the estimator's state besides its particles and fit: the iteration, the cues captured
+        # before it, the count eq. 18 chose last time, and how far the UAV started from the
+        # prior's mean (the arena's centre), which fixes eq. 18's reference g_0
+        "k": 5,
+        "cues": [],
+        "target_n": N,
+        "start_distance": math.dist(START, [0.5 * h for h in UPPER]),
+    }
 
 
 def _ctx() -> SearchContext:
     return SearchContext(
-        arena=Arena.box((0.0, 0.0, 0.0), (100.0, 60.0, 30.0), 2.0),
+        arena=Arena.box((0.0, 0.0, 0.0), UPPER, 2.0),
         dt=1.0,
         agent_ids=(0,),
-        start=[[10.0, 10.0, 5.0]],
+        start=[list(START)],
         speed_limits=[1.0],
     )
 
@@ -133,21 +155,32 @@ def _kl(m0: np.ndarray, s0: np.ndarray, m1: np.ndarray, s1: np.ndarray) -> float
     )
 
 
-def colpf_weights_loop(case: dict, fit: tuple[np.ndarray, np.ndarray]) -> list[float]:
+def _neighbours_loop(case: dict, fit: tuple[np.ndarray, np.ndarray]) -> list[tuple]:
+    """Per message, in sender order: ``beta`` (eq. 10), the count, ``log d!``, where it was
+    taken, the cue flag and the sender's mean."""
+    out = []
+    for s in sorted(case["inbox"]):
+        f = case["inbox"][s]["fit"]
+        m = case["inbox"][s]["measurement"]
+        d = float(m[0])
+        beta = math.exp(-max(_kl(fit[0], fit[1], f[:3], f[3:].reshape(3, 3)), 0.0))
+        out.append((beta, d, math.lgamma(d + 1.0), m[1:4].tolist(), m[4] > 0.5, f[:3].tolist()))
+    return out
+
+
+def colpf_weights_loop(
+    case: dict, fit: tuple[np.ndarray, np.ndarray], nbrs: list[tuple] | None = None
+) -> list[float]:
     """Eqs. 10, 13, 14 particle by particle."""
     pos = case["pos"].tolist()
     own = (float(case["count"]), math.lgamma(case["count"] + 1.0))
-    betas, meas = [], []
-    for s in sorted(case["inbox"]):
-        f = case["inbox"][s]["fit"]
-        betas.append(math.exp(-_kl(fit[0], fit[1], f[:3], f[3:].reshape(3, 3))))
-        m = case["inbox"][s]["measurement"]
-        d = float(m[0])
-        meas.append((d, math.lgamma(d + 1.0), m[1:4].tolist()))
+    if nbrs is None:
+        nbrs = _neighbours_loop(case, fit)
+    meas = [(b, d, lf, u) for b, d, lf, u, _, _ in nbrs]
     new = []
     for o, lw in zip(case["x"].tolist(), case["lw"].tolist(), strict=True):
         v = lw + _log_poisson(own[0], _rate(pos, o), own[1])
-        for b, (d, lf, u) in zip(betas, meas, strict=True):
+        for b, d, lf, u in meas:
             v += b * _log_poisson(d, _rate(u, o), lf)
         new.append(v)
     top = max(new)
@@ -155,39 +188,156 @@ def colpf_weights_loop(case: dict, fit: tuple[np.ndarray, np.ndarray]) -> list[f
     return [math.exp(v - z) for v in new]
 
 
-def colpf_update_loop(case: dict, fit: tuple, rng: np.random.Generator) -> list[list[float]]:
-    """The whole Col-PF iteration with per-particle loops (the random draws differ)."""
-    w = colpf_weights_loop(case, fit)
-    n = len(w)
-    ess = 1.0 / sum(v * v for v in w)
+def _weighted_mean(w: list[float], x: list[list[float]]) -> list[float]:
+    """``sum_n w_n x_n`` in one pass."""
+    sx = sy = sz = 0.0
+    for wi, q in zip(w, x, strict=True):
+        sx += wi * q[0]
+        sy += wi * q[1]
+        sz += wi * q[2]
+    return [sx, sy, sz]
+
+
+def colpf_update_loop(
+    case: dict, fit: tuple[np.ndarray, np.ndarray], p: ColPFParams, rng: np.random.Generator
+) -> dict[str, object]:
+    """One ``ColPFEstimator.update`` particle by particle, step for step: the weights
+    (eqs. 10, 13-14) and the estimate the filter records after them, the effective sample size,
+    low-variance resampling with the resampler's Gaussian jitter and its projection into the
+    arena, PUGL on ``N_s`` particles (eq. 15: env-pu upwind by the invariant reading of eq. 16,
+    col-pu towards ``gbest`` of eq. 17 while no cue is captured), the next count (eq. 18) and the
+    Gaussian fit (eqs. 19-20). The random numbers are drawn by the same Generator calls in the
+    same order as the vector code draws them (one call per kind: a call per number would time
+    NumPy's call overhead, not the maths), so from the same seed both end with the same
+    particles. Returns the estimate recorded after the weighting, the particles ``x`` and weights
+    ``w``, ``n_s``, the next count ``n_next`` and the fit ``mean``, ``cov``."""
+    ref = p.resampler
+    if ref.type not in ("low-variance", "systematic") or p.env_pu == "literal":
+        raise ValueError("the loop follows low-variance resampling and the invariant env-pu")
+    # the configuration, read once (attribute look-ups per particle would be the loop's own cost)
+    jitter = float(ref.params("resampler").jitter_std)
+    hx, hy, hz = UPPER
+    k, count, pos = case["k"], float(case["count"]), case["pos"].tolist()
+    nbrs = _neighbours_loop(case, fit)
+    w = colpf_weights_loop(case, fit, nbrs)
     x = case["x"].tolist()
-    if ess < 0.5 * n:
+    n = len(w)
+    cues = [*case["cues"], k] if count > 0 else list(case["cues"])
+    # the filter records its estimate after every weighting (its history), so the loop does too
+    recorded = _weighted_mean(w, x)
+
+    # ---- low-variance resampling (eq. 12's N_eff; or to the count eq. 18 chose last time)
+    target = case["target_n"]
+    ess = 1.0 / sum(v * v for v in w)
+    if target != n or ess < p.resample_threshold * n:
         u0 = rng.random()
-        # the jitter drawn in one call, as the vector resampler draws it: a Generator call per
-        # number would time NumPy's call overhead, not the maths
-        jitter = rng.normal(0.0, 1.0, (n, 3)).tolist()
+        noise = rng.normal(0.0, jitter, (target, 3)).tolist() if jitter > 0 else None
         out, c, i = [], w[0], 0
-        for k in range(n):
-            p = (u0 + k) / n
-            while p > c and i < n - 1:
+        for j in range(target):
+            ptr = (u0 + j) / target
+            while c <= ptr and i < n - 1:
                 i += 1
                 c += w[i]
-            out.append([v + e for v, e in zip(x[i], jitter[k], strict=True)])
-        x, w = out, [1.0 / n] * n
-    n_s = round(n * (1 - (5 / 800) ** 1.8) ** 4)
-    moved = rng.choice(n, n_s, replace=False).tolist()
-    for k, r in zip(moved, rng.random(n_s).tolist(), strict=True):
-        x[k][1] = min(x[k][1] + r * 2.0, 60.0)
-    mean = [sum(wi * p[a] for wi, p in zip(w, x, strict=True)) for a in range(3)]
+            q = x[i]
+            if noise is not None:
+                e = noise[j]
+                r = [
+                    min(max(q[0] + e[0], 0.0), hx),
+                    min(max(q[1] + e[1], 0.0), hy),
+                    min(max(q[2] + e[2], 0.0), hz),
+                ]
+                # the arena's free test (an obstacle-free box: its bounds); a copy that fails
+                # it falls back onto its parent
+                ok = 0.0 <= r[0] <= hx and 0.0 <= r[1] <= hy and 0.0 <= r[2] <= hz
+                q = r if ok else q[:]
+            else:
+                q = q[:]
+            out.append(q)
+        x, n = out, target
+        w = [1.0 / n] * n
+
+    # ---- PUGL (eqs. 15-17)
+    n_s = 0
+    if k < p.k_max:
+        frac = (1.0 - (k / p.k_max) ** p.gamma1) ** p.gamma2
+        n_s = int(min(n, math.floor(n * frac + 0.5)))
+    if n_s:
+        sel = rng.choice(n, size=n_s, replace=False).tolist()
+        # eq. 16 moves particles horizontally: the wind's vertical part sets no direction
+        ux, uy, uz = -float(WIND[0]), -float(WIND[1]), 0.0
+        norm = math.hypot(ux, uy)
+        env = p.env_pu != "off" and (p.env_pu_from == "start" or bool(cues))
+        if env and norm >= 1e-12:
+            ux, uy = ux / norm, uy / norm
+            step = p.env_step
+            for s, r in zip(sel, rng.random(n_s).tolist(), strict=True):
+                q, sr = x[s], step * r
+                x[s] = [
+                    min(max(q[0] + sr * ux, 0.0), hx),
+                    min(max(q[1] + sr * uy, 0.0), hy),
+                    min(max(q[2] + sr * uz, 0.0), hz),
+                ]
+        if p.col_pu and not cues:
+            cued = [(b, mu) for b, _, _, _, flag, mu in nbrs if flag]
+            total = sum(b for b, _ in cued)
+            if cued and total > 0:
+                g = [sum(b * mu[a] for b, mu in cued) / total for a in range(3)]
+                gx, gy, gz = g
+                for s, r in zip(sel, rng.random(n_s).tolist(), strict=True):
+                    q = x[s]
+                    x[s] = [
+                        min(max(q[0] + r * (gx - q[0]), 0.0), hx),
+                        min(max(q[1] + r * (gy - q[1]), 0.0), hy),
+                        min(max(q[2] + r * (gz - q[2]), 0.0), hz),
+                    ]
+
+    # ---- the next count (eq. 18) from the estimate after PUGL
+    n_next = target
+    if p.adaptive_count:
+        dist = math.dist(pos, _weighted_mean(w, x))
+        f_dist = 0.0 if dist == 0 else math.exp(-1.0 / dist)
+        m, dc = len(cues), p.delta_c
+        if m == 0 or k < 1:
+            f_cue = 0.0
+        elif m > dc:
+            f_cue = min(1.0, dc / max(k - cues[m - dc - 1], 1))
+        else:
+            f_cue = min(1.0, m / k)
+        g = f_dist * (1.0 - f_cue)
+        # g_0: the gap at the start (the estimator's reset), from the case's start distance
+        g0 = max(math.exp(-1.0 / case["start_distance"]), 1e-6)
+        goal = n * g if p.count_reading == "literal" else p.n_particles * g / g0
+        n_min = p.n_min
+        if n_min is None:
+            n_min = min(spacing_minimum(float(np.prod(UPPER)), D, TAU), p.n_max)
+        n_next = min(max(math.floor(goal + 0.5), n_min), p.n_max)
+
+    # ---- the Gaussian fit (eqs. 19-20)
+    mean = _weighted_mean(w, x)
+    mx, my, mz = mean
     cov = [[0.0] * 3 for _ in range(3)]
-    for wi, p in zip(w, x, strict=True):
-        dev = [p[a] - mean[a] for a in range(3)]
-        for a in range(3):
-            wa = wi * dev[a]
-            row = cov[a]
-            for b in range(3):
-                row[b] += wa * dev[b]
-    return [mean, *cov]
+    c0, c1, c2 = cov
+    for wi, q in zip(w, x, strict=True):
+        dx, dy, dz = q[0] - mx, q[1] - my, q[2] - mz
+        a0, a1, a2 = wi * dx, wi * dy, wi * dz
+        c0[0] += a0 * dx
+        c0[1] += a0 * dy
+        c0[2] += a0 * dz
+        c1[0] += a1 * dx
+        c1[1] += a1 * dy
+        c1[2] += a1 * dz
+        c2[0] += a2 * dx
+        c2[1] += a2 * dy
+        c2[2] += a2 * dz
+    return {
+        "recorded": recorded,
+        "x": x,
+        "w": w,
+        "n_s": n_s,
+        "n_next": n_next,
+        "mean": mean,
+        "cov": cov,
+    }
 
 
 def adap_pp_loop(case: dict, h1_scale: float, h2_scale: float, l_max: int, z_classes: int):
@@ -275,6 +425,55 @@ def _time(fn: Callable[[], object], repeat: int) -> float:
             fn()
         best = min(best, (time.perf_counter() - t0) / repeat)
     return best * 1e3
+
+
+def _load_case(est: ColPFEstimator, case: dict, fit: tuple[np.ndarray, np.ndarray]) -> None:
+    """Put the case's state into an estimator (after its reset): particles, fit, cues so far,
+    the count eq. 18 chose last time."""
+    est.pf.replace(case["x"], case["lw"])
+    est.fit = fit
+    est.target_n = case["target_n"]
+    est.cue_iterations = list(case["cues"])
+
+
+def colpf_update_agreement(
+    est: ColPFEstimator, case: dict, fit: tuple[np.ndarray, np.ndarray], seed: int = 7
+) -> dict[str, float]:
+    """One update of ``est`` (reset, its params those of the loop) and :func:`colpf_update_loop`
+    from Generators of the same seed: ``N_s`` and the next count of each side, the largest
+    differences of the recorded estimate, the particles, the weights and the fit, and whether
+    they agree (counts equal, particles to 1e-9 m, the rest to 1e-9 relative)."""
+    # eq. 18's g_0 is set at reset from the prior the reset drew; both sides take the case's
+    est.counter.start(case["start_distance"])
+    _load_case(est, case, fit)
+    m = Measurement(case["count"], case["pos"], 1.0, case["k"], WIND)
+    est.update(m, case["inbox"], np.random.default_rng(seed))
+    ref = colpf_update_loop(case, fit, est.params, np.random.default_rng(seed))
+    x, w = np.array(ref["x"]), np.array(ref["w"])
+    mean, cov = est.fit
+    same_n = x.shape == est.pf.positions.shape
+    out = {
+        "n_s": float(est.n_moved),
+        "n_s_loop": float(ref["n_s"]),
+        "n_next": float(est.target_n),
+        "n_next_loop": float(ref["n_next"]),
+        "recorded": float(np.max(np.abs(est.pf.history[-1] - ref["recorded"]))),
+        "x": float(np.max(np.abs(est.pf.positions - x))) if same_n else math.inf,
+        "w": float(np.max(np.abs(est.pf.weights - w))) if same_n else math.inf,
+        "mean": float(np.max(np.abs(mean - ref["mean"]))),
+        "cov": float(np.max(np.abs(cov - np.array(ref["cov"])))),
+    }
+    out["agree"] = (
+        out["n_s"] == out["n_s_loop"]
+        and out["n_next"] == out["n_next_loop"]
+        and same_n
+        and out["x"] <= 1e-9
+        and bool(np.allclose(est.pf.history[-1], ref["recorded"], rtol=1e-9, atol=0))
+        and bool(np.allclose(est.pf.weights, w, rtol=1e-9, atol=1e-15))
+        and bool(np.allclose(mean, ref["mean"], rtol=1e-9, atol=0))
+        and bool(np.allclose(cov, ref["cov"], rtol=1e-9, atol=1e-12))
+    )
+    return out
 
 
 def _episode_rows(
@@ -375,12 +574,15 @@ def main(argv: list[str] | None = None) -> None:
     w0 = np.exp(case["lw"])
     mean0 = w0 @ case["x"]
     cov0 = ((case["x"] - mean0) * w0[:, None]).T @ (case["x"] - mean0)
-    meas = Measurement(case["count"], case["pos"], 1.0, 5, WIND)
+    meas = Measurement(case["count"], case["pos"], 1.0, case["k"], WIND)
 
-    # ---- Col-PF update: the deterministic part (eqs. 10-14) against the loop (no resampling,
-    # no PUGL), then the whole update timed with each backend
-    ref_w = colpf_weights_loop(case, (mean0, cov0))
-    t_colpf, colpf_ok = {}, {}
+    # ---- Col-PF update: the weights (eqs. 10-14) against the loop's (no resampling, no PUGL),
+    # then the whole update against the loop from the same seed, then the update timed with
+    # each backend
+    fit0 = (mean0, cov0)
+    ref_w = colpf_weights_loop(case, fit0)
+    params = ColPFParams(n_particles=N, n_max=N)
+    t_colpf, colpf_ok, colpf_diff = {}, {}, {}
     for b, model in models.items():
         check = ColPFEstimator(
             ColPFParams(
@@ -393,21 +595,20 @@ def main(argv: list[str] | None = None) -> None:
         )
         check.reset(ctx, model, rng, n=N)
         check.pf.replace(case["x"], case["lw"])
-        check.fit = (mean0, cov0)
+        check.fit = fit0
         check.update(Measurement(case["count"], case["pos"], 1.0, 1000, WIND), case["inbox"], rng)
-        colpf_ok[b] = bool(np.allclose(check.pf.weights, ref_w, rtol=1e-9, atol=1e-15))
-        est = ColPFEstimator(ColPFParams(n_particles=N, n_max=N))
+        weights_ok = bool(np.allclose(check.pf.weights, ref_w, rtol=1e-9, atol=1e-15))
+        est = ColPFEstimator(params)
         est.reset(ctx, model, rng, n=N)
+        colpf_diff[b] = colpf_update_agreement(est, case, fit0)
+        colpf_ok[b] = weights_ok and colpf_diff[b]["agree"]
 
         def colpf(est: ColPFEstimator = est) -> None:
-            est.pf.replace(case["x"], case["lw"])
-            est.fit = (mean0, cov0)
-            est.target_n = N
-            est.cue_iterations = []
+            _load_case(est, case, fit0)
             est.update(meas, case["inbox"], rng)
 
         t_colpf[b] = _time(colpf, args.repeat)
-    t_colpf_ref = _time(lambda: colpf_update_loop(case, (mean0, cov0), rng), 1)
+    t_colpf_ref = _time(lambda: colpf_update_loop(case, fit0, params, rng), 1)
 
     # ---- Adap-PP decision: exact classes (tail 1e-300) against the loop, then the default
     # (classes merged beyond the predicted tail) timed with each backend
@@ -452,6 +653,13 @@ def main(argv: list[str] | None = None) -> None:
     print(f"N = {N} particles, 26 directions, l_max = 4, two neighbours (shared machine)")
     classes = f"{z} count classes in the loop, {z_timed} in the timed decision"
     print(classes if z == z_timed else f"{classes}: the decision's ratio is not like for like")
+    d = colpf_diff[best]
+    print(
+        f"Col-PF update against the loop, same seed ({best}): N_s {d['n_s']:.0f} / "
+        f"{d['n_s_loop']:.0f}, next count (eq. 18) {d['n_next']:.0f} / {d['n_next_loop']:.0f}, "
+        f"largest differences: particles {d['x']:.1e} m, weights {d['w']:.1e}, "
+        f"fit {max(d['mean'], d['cov']):.1e}"
+    )
     print(
         f"{'operation':<22} {'backend':>8} {'ms':>8} {'loop ms':>9} {'vs loop':>8} "
         f"{'vs numpy':>9} {'target':>7} {'agree':>6}"

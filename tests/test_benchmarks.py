@@ -300,6 +300,31 @@ def test_muc_osl_speed_loops_agree_with_the_vector_code() -> None:
     np.testing.assert_allclose(plan.scores[finite], rewards[finite], rtol=1e-8, atol=1e-8)
 
 
+@pytest.mark.parametrize("count", [1.0, 0.0])
+def test_muc_osl_speed_colpf_loop_is_the_whole_update(count: float) -> None:
+    """From the same seed the loop ends where the timed update ends: resampled (N_eff < N / 2
+    in the case), all 160 particles moved upwind, col-pu only without the own cue."""
+    from odorloc.inference.particles.team_estimators import ColPFEstimator, ColPFParams
+
+    ms = load("muc_osl_speed")
+    case, ctx, rng = {**ms._case(), "count": count}, ms._ctx(), np.random.default_rng(1)
+    model = ms.VergassolaModel(ms.VergassolaModelParams(sensor_radius=ms.A, backend="numpy"))
+    w0 = np.exp(case["lw"])
+    mean0 = w0 @ case["x"]
+    fit = (mean0, ((case["x"] - mean0) * w0[:, None]).T @ (case["x"] - mean0))
+    params = ColPFParams(n_particles=ms.N, n_max=ms.N)
+    est = ColPFEstimator(params)
+    est.reset(ctx, model, rng, n=ms.N)
+    diff = ms.colpf_update_agreement(est, case, fit)
+    assert diff["agree"], diff
+    assert diff["n_s"] == ms.N
+    ref = ms.colpf_update_loop(case, fit, params, np.random.default_rng(7))
+    assert ref["w"] == [1.0 / ms.N] * ms.N
+    no_col = ColPFParams(n_particles=ms.N, n_max=ms.N, col_pu=False)
+    alone = ms.colpf_update_loop(case, fit, no_col, np.random.default_rng(7))
+    assert (alone["x"] == ref["x"]) == (count > 0)
+
+
 # ---------------------------------------------------------------------- odor_path_speed
 def _fake_odor_path_rows(digest_of: dict[str, str]):
     def fake(noise: float, instances: int, backend: str, seed: int) -> dict:
