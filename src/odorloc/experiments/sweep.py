@@ -69,10 +69,10 @@ import math
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Annotated, Any, Literal
+from typing import Any, Literal
 
 import pydantic
-from pydantic import BeforeValidator, Field, field_validator, model_validator
+from pydantic import Field, field_validator, model_validator
 from pydantic_core import PydanticCustomError
 
 from odorloc.core.errors import ConfigError, OdorlocError, format_validation_error
@@ -92,16 +92,6 @@ MAX_EPISODES = 1_000_000
 """Most episodes per cell (``episodes``, ``adaptive.max_episodes``)."""
 MAX_CELLS = 10_000
 """Most cells of a sweep's cross product (every one is validated before the first episode)."""
-
-
-def _index_not_bool(v: Any) -> Any:
-    # YAML's true/false would be read as episodes 1 and 0
-    if isinstance(v, bool):
-        raise ValueError(f"must be an episode index (an integer), not {str(v).lower()}")
-    return v
-
-
-_EpisodeIndex = Annotated[int, BeforeValidator(_index_not_bool)]
 
 
 def _check_value(v: Any, where: str) -> Any:
@@ -231,7 +221,7 @@ class SweepSpec(Params):
     scenarios: list[ComponentSpec] = Field(min_length=1)
     searchers: list[ComponentSpec] = Field(min_length=1)
     keep_arrays: bool = False
-    keep_episodes: list[_EpisodeIndex] = Field(default_factory=list, max_length=10_000)
+    keep_episodes: list[int] = Field(default_factory=list, max_length=10_000)
     replay: bool = False
     adaptive: AdaptiveSpec | None = None
     base_dir: str | None = Field(default=None, exclude=True)
