@@ -689,10 +689,9 @@ def replay_log(
     try:
         check_seed(seed, "--seed")
         check_output_dir(out, "--out")
-        if estimator != "odor-path":
-            from odorloc.core import registry
+        from odorloc.replay.offline import check_estimator
 
-            registry.entry("searcher", estimator, field="--estimator")
+        check_estimator(estimator, "--estimator")
         try:
             from odorloc.replay.bag import BagLog, load_mapping
         except ImportError:

@@ -33,7 +33,7 @@ from odorloc.inference.belief import GridBelief
 from odorloc.inference.odor_path.estimator import OdorPathEstimator, OdorPathParams
 from odorloc.searchers.base import Belief, Searcher
 
-__all__ = ["OdorPathMap", "replay_estimator", "snapshot"]
+__all__ = ["OdorPathMap", "check_estimator", "replay_estimator", "snapshot"]
 
 
 class OdorPathMap:
@@ -78,6 +78,13 @@ class OdorPathMap:
 def snapshot(belief: Any) -> dict[str, np.ndarray]:
     """A belief's arrays (a grid belief's carry the grid's extent, ``lower`` and ``upper``)."""
     return dict(belief.snapshot())
+
+
+def check_estimator(name: str, field: str = "estimator") -> None:
+    """Refuse an estimator name that is neither ``odor-path`` nor a registered searcher
+    (:class:`ConfigError` naming ``field``), before any log is read."""
+    if name != "odor-path":
+        registry.entry("searcher", name, field=field)
 
 
 def _build(estimator: str | Searcher | OdorPathMap, params: Mapping[str, Any] | None) -> Any:
