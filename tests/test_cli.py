@@ -120,24 +120,29 @@ def _failed_summary(stderr: str, failed: int, total: int, first: str, out) -> No
     assert summary.endswith(f"; see {out / 'errors.log'}")
 
 
-def test_batch_records_failing_episode_and_goes_on(tmp_path) -> None:
-    """An episode that fails while running is stored as an error; the other cells complete,
-    every result is written, stderr holds one summary line (tracebacks go to errors.log) and
-    the exit status is 1."""
+def _failing_sweep(tmp_path, episodes: int, searchers: list[str]):
+    """A short sweep file over the given searchers (``failmod`` importable), its output folder
+    and the environment that finds ``failmod``."""
     (tmp_path / "failmod.py").write_text(_FAILING_SEARCHER)
     sweep = {
         "name": "t",
         "seed": 1,
-        "episodes": 2,
+        "episodes": episodes,
         "scenarios": [
             {"name": "indoor-ventilated", "params": {"limits.time": 5.0, "world.warmup": 1.0}}
         ],
-        "searchers": [{"name": "zigzag"}, {"name": "failmod:FailLater"}],
+        "searchers": [{"name": n} for n in searchers],
     }
     f = tmp_path / "sweep.yaml"
     f.write_text(yaml.safe_dump(sweep))
-    out = tmp_path / "out"
-    env = {**os.environ, "PYTHONPATH": str(tmp_path)}
+    return f, tmp_path / "out", {**os.environ, "PYTHONPATH": str(tmp_path)}
+
+
+def test_batch_records_failing_episode_and_goes_on(tmp_path) -> None:
+    """An episode that fails while running is stored as an error; the other cells complete,
+    every result is written, stderr holds one summary line (tracebacks go to errors.log) and
+    the exit status is 1."""
+    f, out, env = _failing_sweep(tmp_path, 2, ["zigzag", "failmod:FailLater"])
     r = _cli("batch", str(f), "--out", str(out), "--workers", "1", "--no-progress", env=env)
     assert r.returncode == 1, r.stderr
     import pandas as pd
@@ -159,20 +164,7 @@ def test_batch_records_failing_episode_and_goes_on(tmp_path) -> None:
 def test_batch_episode_refused_at_run_time_is_one_summary_line(tmp_path) -> None:
     """A setting refused only while an episode runs (a ConfigError) is stored as an error row;
     the summary names its field, the pool's workers print no traceback, exit status 1."""
-    (tmp_path / "failmod.py").write_text(_FAILING_SEARCHER)
-    sweep = {
-        "name": "t",
-        "seed": 1,
-        "episodes": 3,
-        "scenarios": [
-            {"name": "indoor-ventilated", "params": {"limits.time": 5.0, "world.warmup": 1.0}}
-        ],
-        "searchers": [{"name": "failmod:FailConfig"}],
-    }
-    f = tmp_path / "sweep.yaml"
-    f.write_text(yaml.safe_dump(sweep))
-    out = tmp_path / "out"
-    env = {**os.environ, "PYTHONPATH": str(tmp_path)}
+    f, out, env = _failing_sweep(tmp_path, 3, ["failmod:FailConfig"])
     r = _cli("batch", str(f), "--out", str(out), "--workers", "2", "--no-progress", env=env)
     assert r.returncode == 1, r.stderr
     _failed_summary(r.stderr, 3, 3, "searcher.after: refused while running)", out)
