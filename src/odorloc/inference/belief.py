@@ -8,12 +8,22 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import Protocol
 
 import numpy as np
 
 from odorloc.core.errors import ConfigError
 from odorloc.geometry.grid import CellGrid
 from odorloc.inference.weights import gaussian_fit, weight_entropy
+
+
+class Belief(Protocol):
+    """What every belief offers the recorder: its arrays (particles and weights, grid
+    masses, map layers, ...)."""
+
+    def snapshot(self) -> dict[str, np.ndarray]:
+        """Arrays describing the belief."""
+        ...
 
 
 @dataclass(frozen=True, eq=False)

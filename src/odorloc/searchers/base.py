@@ -16,22 +16,15 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from collections.abc import Mapping, Sequence
-from typing import Any, ClassVar, Protocol
+from typing import Any, ClassVar
 
 import numpy as np
 
 from odorloc.core.params import Params
 from odorloc.core.types import Action, Observation, SearchContext
+from odorloc.inference.belief import Belief
 
 __all__ = ["Belief", "Searcher"]
-
-
-class Belief(Protocol):
-    """What a recorded belief offers: arrays for the recording."""
-
-    def snapshot(self) -> dict[str, np.ndarray]:
-        """Arrays describing the belief (particles and weights, grid masses, ...)."""
-        ...
 
 
 class Searcher(ABC):

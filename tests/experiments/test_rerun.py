@@ -9,7 +9,7 @@ import pytest
 import yaml
 from typer.testing import CliRunner
 
-from conftest import filament_scenario_dict
+from helpers import filament_scenario_dict
 from odorloc.cli import app
 from odorloc.experiments.rerun import differences, stored_episode
 from odorloc.experiments.store import ResultStore

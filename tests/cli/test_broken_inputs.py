@@ -26,10 +26,10 @@ import pytest
 import yaml
 from typer.testing import CliRunner
 
-from conftest import small_scenario_dict
+from helpers import small_scenario_dict
 from odorloc.cli import app
 
-CORPUS = Path(__file__).parent / "data" / "broken_inputs.yaml"
+CORPUS = Path(__file__).resolve().parents[1] / "data" / "broken_inputs.yaml"
 CASES: list[dict[str, Any]] = yaml.safe_load(CORPUS.read_text())
 BUDGET = 10.0
 

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from conftest import filament_scenario_dict, small_scenario_dict
+from helpers import filament_scenario_dict, small_scenario_dict
 from odorloc.core.errors import ConfigError
 from odorloc.core.seeds import episode_seeds
 from odorloc.core.types import Action, Command, Declaration

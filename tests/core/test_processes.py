@@ -124,7 +124,7 @@ if sys.argv[1] == "warm":
     warm()
 else:
     sys.path.insert(0, sys.argv[2])
-    from conftest import filament_scenario_dict
+    from helpers import filament_scenario_dict
     from odorloc.engine.episode import run_episode
     from odorloc.inference.odor_path.estimator import OdorPathEstimator, OdorPathParams
     from odorloc.scenarios import Scenario
@@ -164,7 +164,7 @@ def test_compiled_kernels_hit_the_cache_in_a_new_process(tmp_path) -> None:
     env["ODORLOC_CACHE_DIR"] = str(tmp_path / "cache")
     script = tmp_path / "stats.py"
     script.write_text(_KERNEL_STATS)
-    tests = str(Path(__file__).parent)
+    tests = str(Path(__file__).resolve().parents[1])
 
     def run(mode: str) -> dict[str, list[int]]:
         r = subprocess.run(

@@ -8,7 +8,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from conftest import small_scenario_dict
+from helpers import small_scenario_dict
 from odorloc.engine.episode import Episode
 from odorloc.geometry.arena import Arena
 from odorloc.planning.coverage import free_stretches, route_around_obstacles, wave_waypoints

@@ -9,60 +9,17 @@
 
 from __future__ import annotations
 
-import math
 import re
 from html import escape as html_escape
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 import pytest
 
+from helpers import fake_run_sweep
 from odorloc.experiments import reproduction as rp
-from odorloc.experiments.runner import ROW_DEFAULTS
-from odorloc.experiments.store import ResultStore
-from odorloc.experiments.sweep import expand_tasks, load_sweep
 
 NAMES = rp.names_of_reproductions()
-
-
-def _row(kind: str, i: int) -> dict[str, Any]:
-    row = dict(ROW_DEFAULTS)
-    row.update(status="ok", error="", termination="time_limit", wall_time=0.1)
-    if kind == "all-errors":
-        row.update(status="error", error="RuntimeError: boom")
-    elif kind == "no-success":
-        row.update(success=False, search_time=600.0, path_length=10.0, declared=False)
-    elif kind == "nan-times":
-        row.update(success=True, declared=True, termination="declared", search_time=math.nan)
-    elif kind == "one-each":
-        # a single success: every bootstrap interval is the point itself or NaN
-        row.update(success=i % 2 == 0, declared=True, search_time=100.0 + i, loc_error=0.1)
-        row.update(path_length=20.0, start_distance=4.0, termination="declared")
-        row.update(
-            map_success=i % 2 == 0,
-            residual_uncertainty=50.0,
-            initial_uncertainty=3360.0,
-            mapped_sources=1,
-            mapped_x_0=20.0,
-            mapped_y_0=50.0,
-        )
-    return row
-
-
-def _fake_run_sweep(kind: str):
-    def run_sweep(spec: Any, store_path: Any, **kw: Any) -> Any:
-        s = load_sweep(spec)
-        tasks = expand_tasks(s, episodes=1)
-        with ResultStore(store_path) as st:
-            from odorloc.experiments.sweep import config_hash
-
-            st.bind(config_hash(s), s)
-            for i, t in enumerate(tasks):
-                st.add(t, _row(kind, i))
-            return st.frame()
-
-    return run_sweep
 
 
 @pytest.mark.parametrize("kind", ["one-each", "no-success", "all-errors", "nan-times"])
@@ -70,7 +27,7 @@ def _fake_run_sweep(kind: str):
 def test_reproduction_survives_degenerate_results(name, kind, tmp_path, monkeypatch) -> None:
     import odorloc.experiments.sweep as sweep_mod
 
-    monkeypatch.setattr(sweep_mod, "run_sweep", _fake_run_sweep(kind))
+    monkeypatch.setattr(sweep_mod, "run_sweep", fake_run_sweep(kind))
     r = rp.get(name)
     if name == "indoor-pf-entropy":
         # the particle snapshots run a stored episode again (covered by the real run below and
@@ -114,7 +71,7 @@ def test_console_tables_fit_100_columns(tmp_path) -> None:
         r = rp.get(name)
         import pandas as pd
 
-        fake = _fake_run_sweep("one-each")
+        fake = fake_run_sweep("one-each")
         parts = []
         for sweep, spec in r.sweeps(1, 1).items():
             part = fake(spec, tmp_path / f"{name}-{sweep}.sqlite")

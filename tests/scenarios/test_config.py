@@ -6,7 +6,7 @@ import copy
 
 import pytest
 
-from conftest import small_scenario_dict
+from helpers import small_scenario_dict
 from odorloc.core.errors import ConfigError
 from odorloc.scenarios import Scenario, builtin_names, get_scenario
 

@@ -28,7 +28,7 @@ from odorloc.experiments.sweep import (
     run_sweep,
 )
 
-TESTS = Path(__file__).resolve().parent
+TESTS = Path(__file__).resolve().parents[1]
 
 EXAMPLE_YAML = """\
 name: example
@@ -477,7 +477,7 @@ def test_relative_scenario_path_is_relative_to_the_sweep_file(tmp_path, monkeypa
     folder: every episode opens that file (no error rows)."""
     import yaml
 
-    from conftest import small_scenario_dict
+    from helpers import small_scenario_dict
 
     d = tmp_path / "study"
     d.mkdir()
@@ -505,7 +505,7 @@ def test_invalid_grid_cell_runs_nothing_and_leaves_the_store_identical(tmp_path)
     sweep field, the store byte-identical (no -wal or -shm file either)."""
     import yaml
 
-    from conftest import small_scenario_dict
+    from helpers import small_scenario_dict
 
     (tmp_path / "room.yaml").write_text(yaml.safe_dump(small_scenario_dict("zigzag")))
     sweep = {

@@ -290,7 +290,7 @@ def test_regularised_resampler_moves_copies_by_the_cloud_spread() -> None:
     np.testing.assert_array_less(np.abs(move.mean(axis=0)), 4 * move.std(axis=0) / math.sqrt(4000))
 
 
-EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+EXAMPLES = Path(__file__).resolve().parents[3] / "examples"
 
 
 def test_the_sensor_radius_example_prints_col_inf_beside_table_2() -> None:

@@ -7,7 +7,7 @@ import copy
 import numpy as np
 import pytest
 
-from conftest import filament_scenario_dict
+from helpers import filament_scenario_dict
 from odorloc.core.errors import ConfigError
 from odorloc.core.params import Params
 from odorloc.core.types import Action, Command, Declaration

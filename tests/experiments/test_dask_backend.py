@@ -173,7 +173,7 @@ def test_ctrl_c_stops_the_local_cluster_quietly_and_keeps_what_finished(tmp_path
     spec = {**SPEC, "episodes": 200, "scenarios": [{"name": "toy"}]}
     spec["searchers"] = [{"name": "a", "params": {"sleep": 0.2}}]
     script = tmp_path / "child.py"
-    tests = str(Path(__file__).resolve().parent)
+    tests = str(Path(__file__).resolve().parents[1])
     script.write_text(textwrap.dedent(_CHILD.format(tests=tests, spec=spec)))
     store = tmp_path / "i.sqlite"
     proc = subprocess.Popen(

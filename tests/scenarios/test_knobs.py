@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from conftest import small_scenario_dict
+from helpers import small_scenario_dict
 from odorloc.core.errors import ConfigError
 from odorloc.experiments.runner import cell_scenario
 from odorloc.plume.sources import Modulation

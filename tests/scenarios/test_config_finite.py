@@ -16,7 +16,7 @@ import pytest
 import yaml
 from typer.testing import CliRunner
 
-from conftest import filament_scenario_dict, small_scenario_dict
+from helpers import filament_scenario_dict, small_scenario_dict
 from odorloc.cli import app
 from odorloc.core.errors import ConfigError
 from odorloc.scenarios.loading import check_scenario, load_scenario

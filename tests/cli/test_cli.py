@@ -11,7 +11,7 @@ import pytest
 import yaml
 from typer.testing import CliRunner
 
-from conftest import filament_scenario_dict
+from helpers import filament_scenario_dict
 from odorloc.cli import app
 
 runner = CliRunner()
@@ -306,9 +306,9 @@ def test_reproduce_with_failed_episodes_exits_1_after_writing_everything(
     tmp_path, monkeypatch
 ) -> None:
     import odorloc.experiments.sweep as sweep_mod
-    from test_reproductions import _fake_run_sweep
+    from helpers import fake_run_sweep
 
-    monkeypatch.setattr(sweep_mod, "run_sweep", _fake_run_sweep("all-errors"))
+    monkeypatch.setattr(sweep_mod, "run_sweep", fake_run_sweep("all-errors"))
     out = tmp_path / "o"
     r = runner.invoke(
         app, ["reproduce", "single-agent", "--out", str(out), "--episodes", "1", "--workers", "1"]
