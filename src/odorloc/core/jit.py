@@ -113,7 +113,7 @@ def warm() -> float:
     t0 = time.perf_counter()
     from odorloc.core import registry
 
-    registry.names("plume")  # imports the component modules, which declare their kernels
+    registry.load_all()  # imports the component modules, which declare their kernels
     for w in list(_WARMERS):
         w()
     return time.perf_counter() - t0
