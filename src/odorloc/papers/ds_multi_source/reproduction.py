@@ -483,8 +483,11 @@ def _snapshots(entry: dict[str, Any], label: str) -> list[tuple[float, dict[str,
 
 
 def _state_map_figure(recs: dict[str, Any], path: Path) -> None:
-    import matplotlib.pyplot as plt
     from matplotlib.colors import ListedColormap
+
+    from odorloc.viz.backend import pyplot
+
+    plt = pyplot()
     from matplotlib.patches import Patch, Rectangle
 
     from odorloc.inference.evidence.dempster_shafer import cell_uncertainty
@@ -560,7 +563,9 @@ def _state_map_figure(recs: dict[str, Any], path: Path) -> None:
 
 
 def _uncertainty_figure(recs: dict[str, Any], path: Path) -> None:
-    import matplotlib.pyplot as plt
+    from odorloc.viz.backend import pyplot
+
+    plt = pyplot()
 
     fig, ax = plt.subplots(figsize=(7, 3.6))
     colors = {DYNAMIC: "tab:red", WAVE: "tab:blue"}

@@ -228,7 +228,9 @@ def _errorbar(center: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> list[np.nda
 
 
 def _fig8(summ: Any, path: Path) -> None:
-    import matplotlib.pyplot as plt
+    from odorloc.viz.backend import pyplot
+
+    plt = pyplot()
 
     fig, axes = plt.subplots(1, 2, figsize=(10, 3.8))
     styles = {
@@ -394,7 +396,9 @@ def _episode_figures(df: Any, store: Path, path: Path) -> list[str]:
     RuntimeError
         No stored episode to draw, or one whose robot never detected.
     """
-    import matplotlib.pyplot as plt
+    from odorloc.viz.backend import pyplot
+
+    plt = pyplot()
 
     from odorloc.engine.episode import run_episode
     from odorloc.experiments.rerun import differences, stored_episode
