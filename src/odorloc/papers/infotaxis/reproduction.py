@@ -186,7 +186,12 @@ REPLAYED = ("farrell", "indoor")
 def single_agent_group(tasks: list[Any]) -> list[dict[str, Any]]:
     """One flow per world and episode for every strategy, each with its world's settings."""
     from odorloc.engine.episode import run_episode
-    from odorloc.experiments.runner import ROW_DEFAULTS, cell_scenario, run_replay_group
+    from odorloc.experiments.runner import (
+        ROW_DEFAULTS,
+        cell_scenario,
+        result_row,
+        run_replay_group,
+    )
 
     if not tasks or str(tasks[0].cell["scenario_label"]) in REPLAYED:
         return run_replay_group(tasks, prepare=_prepare)
@@ -196,8 +201,7 @@ def single_agent_group(tasks: list[Any]) -> list[dict[str, Any]]:
         try:
             sc = _prepare(cell_scenario(task.cell), task)
             res = run_episode(sc, task.world_seed, task.agent_seed, record=task.keep_arrays)
-            row.update(res.metrics)
-            row.update(status="ok", error="")
+            row = result_row(res)
             if task.keep_arrays and res.recording is not None:
                 row["arrays"] = res.recording.to_arrays()
         except Exception as exc:  # one bad episode must not stop the group
@@ -348,7 +352,9 @@ class SingleAgentReproduction(Reproduction):
 
 
 def _figure(summ: Any, path: Path) -> None:
-    import matplotlib.pyplot as plt
+    from odorloc.viz.backend import pyplot
+
+    plt = pyplot()
 
     worlds = list(WORLDS)
     fig, axes = plt.subplots(3, len(worlds), figsize=(4.6 * len(worlds), 10.2), sharey="row")
