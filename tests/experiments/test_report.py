@@ -228,4 +228,4 @@ def test_progress_counts_a_nan_success_as_the_store_does() -> None:
     task = SimpleNamespace(cell_id="c")
     for value in (math.nan, None, True, 1.0, 0.0):
         p.advance(task, {"success": value, "status": "ok"})
-    assert p._counts["c"] == [5, 2, 0]
+    assert p.counts("c") == (5, 2, 0)

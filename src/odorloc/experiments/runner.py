@@ -19,6 +19,7 @@ from typing import Any
 from odorloc.core.errors import ConfigError
 from odorloc.engine.episode import EpisodeResult, run_episode
 from odorloc.engine.replay import on_replay, record_flow
+from odorloc.experiments.store import AGENT_METRICS
 from odorloc.scenarios import Scenario, get_scenario
 
 log = logging.getLogger("odorloc.runner")
@@ -98,6 +99,17 @@ def _light_recording(sc: Scenario) -> Scenario:
     )
 
 
+def result_row(res: EpisodeResult) -> dict[str, Any]:
+    """The stored row of a finished episode: the defaults, its metrics (core and extra
+    columns), its per-agent values under :data:`~odorloc.experiments.store.AGENT_METRICS` and
+    ``status="ok"``."""
+    row = dict(ROW_DEFAULTS)
+    row.update(res.metrics.row())
+    row[AGENT_METRICS] = res.metrics.agents
+    row.update(status="ok", error="")
+    return row
+
+
 def _error_row(cell: dict[str, Any], exc: Exception, t0: float) -> dict[str, Any]:
     tb = traceback.format_exc()
     log.error("episode failed (cell %s): %s\n%s", cell, exc, tb)
@@ -122,8 +134,7 @@ def run_cell_episode(
         if keep_arrays:
             sc = _light_recording(sc)
         res = run_episode(sc, world_seed, agent_seed, record=keep_arrays)
-        row.update(res.metrics)
-        row.update(status="ok", error="")
+        row = result_row(res)
         if keep_arrays and res.recording is not None:
             row["arrays"] = res.recording.to_arrays()
     except Exception as exc:  # one bad episode must not stop a batch
@@ -202,19 +213,19 @@ def run_replay_group(
                 built=built,
                 record=record or task.keep_arrays,
             )
-            row = dict(ROW_DEFAULTS)
-            row.update(res.metrics)
-            row.update(
-                status="ok",
-                error="",
-                replay=True,
-                movie_wall_time=movie_wall,
-                movie_cpu_time=movie_cpu,
-                group_size=len(tasks),
-                cpu_time=time.process_time() - c1,
+            res.metrics.add(
+                {
+                    "replay": True,
+                    "movie_wall_time": movie_wall,
+                    "movie_cpu_time": movie_cpu,
+                    "group_size": len(tasks),
+                    "cpu_time": time.process_time() - c1,
+                },
+                source="replay",
             )
             if extras is not None:
-                row.update(extras(task, res, by_cell))
+                res.metrics.add(extras(task, res, by_cell), source="extras")
+            row = result_row(res)
             if task.keep_arrays and res.recording is not None:
                 row["arrays"] = res.recording.to_arrays()
         except Exception as exc:  # one bad episode must not stop the group
