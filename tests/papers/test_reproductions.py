@@ -34,7 +34,7 @@ def test_reproduction_survives_degenerate_results(name, kind, tmp_path, monkeypa
         # tests/test_indoor.py); here every figure drawn from the stored rows must survive them
         import odorloc.papers.indoor_pf_entropy.reproduction as ind
 
-        monkeypatch.setattr(ind, "_episode_figures", lambda df, store, path: _blank(path))
+        monkeypatch.setattr(ind, "episode_figures", lambda df, store, path: _blank(path))
     if name == "muc-osl":
         # Fig. 3 and its animation run a new episode whatever is stored (covered by the real run)
         import odorloc.papers.muc_osl.reproduction as muc

@@ -25,7 +25,7 @@ def test_every_strategy_has_valid_settings_in_every_world(world: str) -> None:
     spec = load_sweep(rp.SingleAgentReproduction().sweep(2, 1))
     validate_names(spec)
     task = next(t for t in expand_tasks(spec) if t.cell["scenario_label"] == world)
-    sc = rp._prepare(cell_scenario(task.cell), task)
+    sc = rp.prepare(cell_scenario(task.cell), task)
     assert sc.task.end == "reach" and sc.task.reach_radius is not None
     assert sc.searcher.values == {**rp.SEARCHER_PARAMS[world][sc.searcher.type]}
 

@@ -863,12 +863,12 @@ def test_failed_wave_episode_leaves_the_dynamic_row_valid() -> None:
     from types import SimpleNamespace
 
     from odorloc.experiments.runner import ROW_DEFAULTS
-    from odorloc.papers.ds_multi_source.reproduction import _extras
+    from odorloc.papers.ds_multi_source.reproduction import ds_extras
 
     res = run_episode(reduced_farrell(5.0), 1, 2, record=True)
     task = SimpleNamespace(cell={"scenario": "two-sources-farrell", "searcher": "ds-mapping"})
     failed = {**ROW_DEFAULTS, "status": "error", "error": "RuntimeError: failed"}
-    out = _extras(task, res, {"0/two-sources-farrell/ds-rectangular-wave": failed})
+    out = ds_extras(task, res, {"0/two-sources-farrell/ds-rectangular-wave": failed})
     assert math.isnan(out["time_to_baseline_residual"])
     assert math.isnan(out["distance_to_baseline_residual"])
     assert "scene_residual_0" in out and "map_success" in out

@@ -235,6 +235,55 @@ def run_replay_group(
     return rows
 
 
+def run_live_group(
+    tasks: Sequence[Any], *, prepare: Callable[[Scenario, Any], Scenario] | None = None
+) -> list[dict[str, Any]]:
+    """Run a group of tasks one after another on live worlds (no recorded flow), each
+    scenario adjusted by ``prepare(scenario, task)``: the counterpart of
+    :func:`run_replay_group` for a group function whose worlds are not replayed (a steady
+    analytic plume, or one a replay cannot stand for). Rows as :func:`run_cell_episode`'s."""
+    rows = []
+    for task in tasks:
+        t0 = time.perf_counter()
+        try:
+            sc = cell_scenario(task.cell)
+            if prepare is not None:
+                sc = prepare(sc, task)
+            res = run_episode(sc, task.world_seed, task.agent_seed, record=task.keep_arrays)
+            row = result_row(res)
+            if task.keep_arrays and res.recording is not None:
+                row["arrays"] = res.recording.to_arrays()
+        except Exception as exc:  # one bad episode must not stop the group
+            row = _error_row(task.cell, exc, t0)
+        rows.append(row)
+    return rows
+
+
+def run_with_reference(
+    tasks: Sequence[Any],
+    is_reference: Callable[[Any], bool],
+    make_reference: Callable[[Any], Any],
+    **replay: Any,
+) -> list[dict[str, Any]]:
+    """A replay group (:func:`run_replay_group`, with ``replay``'s options) whose reference
+    task runs first, so that ``extras`` of the others can read its row.
+
+    The rows come back in the order of ``tasks``. When the group holds no reference task (a
+    resumed run that stored it already), ``make_reference(any task)`` builds one; it runs first
+    and its row is not returned (nothing is stored twice).
+    """
+    order = sorted(range(len(tasks)), key=lambda i: not is_reference(tasks[i]))
+    ordered = [tasks[i] for i in order]
+    if ordered and not is_reference(ordered[0]):
+        rows = run_replay_group([make_reference(ordered[0]), *ordered], **replay)[1:]
+    else:
+        rows = run_replay_group(ordered, **replay)
+    back: list[dict[str, Any]] = [{}] * len(tasks)
+    for i, r in zip(order, rows, strict=True):
+        back[i] = r
+    return back
+
+
 def replay_group(tasks: Sequence[Any]) -> list[dict[str, Any]]:
     """The default group function of sweeps with ``replay: true``."""
     return run_replay_group(tasks)

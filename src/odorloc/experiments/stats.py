@@ -22,7 +22,7 @@ give an interval of zero width.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Any, Literal
 
 import numpy as np
@@ -249,6 +249,84 @@ def summarize(
             row[c] = g[c].iloc[0]
         out.append(row)
     return pd.DataFrame(out)
+
+
+def outcome_table(
+    df: Any, by: Sequence[str] = ("scenario", "searcher"), seed: int = 0, level: float = 0.95
+) -> Any:
+    """One row per group of ``by`` (in order of appearance): success and what the successes
+    cost.
+
+    Columns: the ``by`` columns, ``n`` (episodes without error), ``errors``, ``successes``,
+    ``success_rate`` with its Wilson interval ``success_lo``/``success_hi``, ``mean_time`` (s)
+    and ``mean_path`` (m) of the successful episodes with their bootstrap intervals
+    (``time_lo``/``time_hi``, ``path_lo``/``path_hi``; NaN for fewer than two successes) and
+    ``detected`` (fraction of episodes with a first detection). Group ``i`` bootstraps from
+    ``default_rng([seed, i])``, times first, so a table is reproducible to the last digit.
+    """
+    import pandas as pd
+
+    rows = []
+    for key, g in df.groupby(list(by), sort=False):
+        ok = g[g["status"] != "error"]
+        n = len(ok)
+        won = ok["success"].fillna(False).astype(bool)
+        k = int(won.sum())
+        lo, hi = wilson_interval(k, n, level)
+        succ = ok[won]
+        rng = np.random.default_rng([seed, len(rows)])
+        t = succ["search_time"].to_numpy(float)
+        p = succ["path_length"].to_numpy(float)
+        tl, th = bootstrap_ci(t, rng, level=level)
+        pl, ph = bootstrap_ci(p, rng, level=level)
+        first = ok["first_detection_time"].astype(float)
+        rows.append(
+            {
+                **dict(zip(by, key if isinstance(key, tuple) else (key,), strict=True)),
+                "n": n,
+                "errors": int(len(g) - n),
+                "successes": k,
+                "success_rate": k / n if n else math.nan,
+                "success_lo": lo,
+                "success_hi": hi,
+                "mean_time": float(t.mean()) if t.size else math.nan,
+                "time_lo": tl,
+                "time_hi": th,
+                "mean_path": float(p.mean()) if p.size else math.nan,
+                "path_lo": pl,
+                "path_hi": ph,
+                "detected": float(np.isfinite(first).mean()) if n else math.nan,
+            }
+        )
+    return pd.DataFrame(rows, columns=[*by, *OUTCOME_COLUMNS])
+
+
+#: Columns of :func:`outcome_table` after its ``by`` columns.
+OUTCOME_COLUMNS = (
+    "n",
+    "errors",
+    "successes",
+    "success_rate",
+    "success_lo",
+    "success_hi",
+    "mean_time",
+    "time_lo",
+    "time_hi",
+    "mean_path",
+    "path_lo",
+    "path_hi",
+    "detected",
+)
+
+
+def mean_sd(x: Any) -> tuple[float, float]:
+    """Mean and sample standard deviation of the finite values of ``x`` (``(nan, nan)`` for
+    none; a standard deviation of 0 for one value)."""
+    a = np.asarray(x, float)
+    a = a[np.isfinite(a)]
+    if a.size == 0:
+        return math.nan, math.nan
+    return float(a.mean()), float(a.std(ddof=1)) if a.size > 1 else 0.0
 
 
 def _nanmean(df: Any, col: str) -> float:
