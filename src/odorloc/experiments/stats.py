@@ -429,6 +429,21 @@ def paired_comparison(
             raise ConfigError(
                 "cells", f"{cell_a!r} and {cell_b!r} do not share worlds ({wa} vs {wb})"
             )
+    return _paired(ga, gb, cell_a, cell_b, metric, test, level, seed, n_boot)
+
+
+def _paired(
+    ga: Any,
+    gb: Any,
+    cell_a: str,
+    cell_b: str,
+    metric: str,
+    test: Literal["wilcoxon", "t"],
+    level: float,
+    seed: int,
+    n_boot: int,
+) -> dict[str, Any]:
+    """:func:`paired_comparison` of two cells' episodes without errors, indexed by episode."""
     common = ga.index.intersection(gb.index).sort_values()
     a = ga.loc[common, metric].astype(float).to_numpy()
     b = gb.loc[common, metric].astype(float).to_numpy()
@@ -482,12 +497,16 @@ def compare_searchers(
     rows = []
     order = "cell_index" if "cell_index" in df.columns else "cell_id"
     cells = df.sort_values(order).drop_duplicates("cell_id")[["cell_id", "world_key"]]
+    # each cell's episodes split off once (not once per pair and metric)
+    frames = {cid: _ok(g).set_index("episode") for cid, g in df.groupby("cell_id", sort=False)}
     for wk, g in cells.groupby("world_key", sort=False):
         ids = list(g["cell_id"])
         for i in range(len(ids)):
             for j in range(i + 1, len(ids)):
                 for m in metrics:
-                    r = paired_comparison(df, ids[i], ids[j], m, test, level, seed)
+                    r = _paired(
+                        frames[ids[i]], frames[ids[j]], ids[i], ids[j], m, test, level, seed, 2000
+                    )
                     r["world_key"] = wk
                     rows.append(r)
     return pd.DataFrame(rows)
