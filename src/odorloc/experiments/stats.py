@@ -166,6 +166,23 @@ def _ok(df: Any) -> Any:
     return df[df["status"] != "error"]
 
 
+def _success_columns(g: Any, ok: Any, level: float) -> dict[str, Any]:
+    """``n`` (episodes without error), ``errors``, ``successes``, ``success_rate`` and its
+    Wilson interval ``success_lo``/``success_hi`` of a group ``g`` whose rows without error are
+    ``ok``."""
+    n = len(ok)
+    k = int(ok["success"].fillna(False).astype(bool).sum())
+    lo, hi = wilson_interval(k, n, level)
+    return {
+        "n": n,
+        "errors": int(len(g) - n),
+        "successes": k,
+        "success_rate": k / n if n else math.nan,
+        "success_lo": lo,
+        "success_hi": hi,
+    }
+
+
 def _times(ok: Any, time_over: str) -> np.ndarray:
     if time_over == "success":
         ok = ok[ok["success"].fillna(False).astype(bool)]
@@ -215,9 +232,7 @@ def summarize(
     swept_cols = [c for c in df.columns if c.startswith(("scenario.", "searcher."))]
     for i, (cid, g) in enumerate(df.sort_values([order, "episode"]).groupby("cell_id", sort=False)):
         ok = _ok(g)
-        n = len(ok)
-        k = int(ok["success"].fillna(False).astype(bool).sum())
-        lo, hi = wilson_interval(k, n, level)
+        success = _success_columns(g, ok, level)
         t = _times(ok, time_over)
         cidx = int(g["cell_index"].iloc[0]) if "cell_index" in g.columns else i
         rng = _cell_rng(seed, cidx)
@@ -229,12 +244,7 @@ def summarize(
             "world_key": g["world_key"].iloc[0] if "world_key" in g.columns else "",
             "scenario": g["scenario"].iloc[0] if "scenario" in g.columns else "",
             "searcher": g["searcher"].iloc[0] if "searcher" in g.columns else "",
-            "n": n,
-            "errors": int(len(g) - n),
-            "successes": k,
-            "success_rate": k / n if n else math.nan,
-            "success_lo": lo,
-            "success_hi": hi,
+            **success,
             "mean_time": float(np.mean(t)) if t.size else math.nan,
             "mean_time_lo": mlo,
             "mean_time_hi": mhi,
@@ -268,12 +278,10 @@ def outcome_table(
 
     rows = []
     for key, g in df.groupby(list(by), sort=False):
-        ok = g[g["status"] != "error"]
-        n = len(ok)
-        won = ok["success"].fillna(False).astype(bool)
-        k = int(won.sum())
-        lo, hi = wilson_interval(k, n, level)
-        succ = ok[won]
+        ok = _ok(g)
+        success = _success_columns(g, ok, level)
+        n = success["n"]
+        succ = ok[ok["success"].fillna(False).astype(bool)]
         rng = np.random.default_rng([seed, len(rows)])
         t = succ["search_time"].to_numpy(float)
         p = succ["path_length"].to_numpy(float)
@@ -283,12 +291,7 @@ def outcome_table(
         rows.append(
             {
                 **dict(zip(by, key if isinstance(key, tuple) else (key,), strict=True)),
-                "n": n,
-                "errors": int(len(g) - n),
-                "successes": k,
-                "success_rate": k / n if n else math.nan,
-                "success_lo": lo,
-                "success_hi": hi,
+                **success,
                 "mean_time": float(t.mean()) if t.size else math.nan,
                 "time_lo": tl,
                 "time_hi": th,
