@@ -736,6 +736,9 @@ def replay_log(
 def components() -> None:
     """List every registered component (wind, plume, sensors, platforms, searchers)."""
     from odorloc.core import registry
+    from odorloc.experiments.reproduction import discover
+
+    discover()  # the papers' reproductions are listed too
 
     table = Table(title="components")
     table.add_column("family")

@@ -3,6 +3,8 @@ to end through the sweep harness, and the detection-model fit recovers a known m
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -23,7 +25,7 @@ def test_every_strategy_has_valid_settings_in_every_world(world: str) -> None:
     spec = load_sweep(rp.SingleAgentReproduction().sweep(2, 1))
     validate_names(spec)
     task = next(t for t in expand_tasks(spec) if t.cell["scenario_label"] == world)
-    sc = rp._prepare(cell_scenario(task.cell), task)
+    sc = rp.prepare(cell_scenario(task.cell), task)
     assert sc.task.end == "reach" and sc.task.reach_radius is not None
     assert sc.searcher.values == {**rp.SEARCHER_PARAMS[world][sc.searcher.type]}
 
@@ -182,12 +184,18 @@ def test_grid_tables_made_in_calm_air_are_remade_once_the_wind_blows() -> None:
         {"searcher.model": model, "searcher.wind_average": 1}
     )
     ep = Episode(sc)
-    ep.reset(*episode_seeds(0, "lattice-isotropic-2d", 0))
+    obs = ep.reset(*episode_seeds(0, "lattice-isotropic-2d", 0))
     s = ep.built.searcher
     s.reset(ep.context, ep.agent_rng)
-    s._refresh_tables(np.array([0.0, 0.0]))  # the first reading: calm
-    np.testing.assert_array_equal(s._table_wind, [0.0, 0.0])
-    s._refresh_tables(np.array([1.0, 0.0]))
-    np.testing.assert_array_equal(s._table_wind, [1.0, 0.0])
-    s._refresh_tables(np.array([0.0, 0.0]))  # calm again: the tables of the last wind stay
-    np.testing.assert_array_equal(s._table_wind, [1.0, 0.0])
+
+    def read(wind: list[float]) -> list:
+        o = dataclasses.replace(obs[0], wind=np.array(wind), ready=False)
+        s.act([o], ep.agent_rng)
+        return s.tables
+
+    calm = read([0.0, 0.0])  # the first reading: calm
+    assert read([0.0, 0.0]) is calm
+    windy = read([1.0, 0.0])  # made anew as soon as the wind blows
+    assert windy is not calm and windy[0] is not calm[0]
+    assert read([0.0, 0.0]) is windy  # calm again: the tables of the last wind stay
+    assert read([1.0, 0.0]) is windy

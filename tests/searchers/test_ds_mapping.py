@@ -402,10 +402,7 @@ def test_close_readings_place_a_source_the_far_ones_put_downwind() -> None:
         covered = x0 <= src[0] < x
         det = covered and k % 2 == 0  # intermittent plume
         patch = PathPatch(x0, src[1], values, grid, np.array([x, src[1]]))
-        mp.grid.update(patch, det)
-        mp._log.add(patch, det)
-        mp.n_readings += 1
-        mp.wind_sum += np.array([1.0, 0.0])
+        mp.add_patch(patch, det, np.array([1.0, 0.0]))
 
     k = 0
     for _ in range(6):
@@ -428,7 +425,6 @@ def test_close_readings_place_a_source_the_far_ones_put_downwind() -> None:
     np.testing.assert_allclose(mp.refined(far[:1], mp.n_readings), far[:1])
     # the mapper applies it once a route sets the close look's first reading
     mp.close_since, mp.close_cells = since, visited
-    mp._likely = None
     np.testing.assert_allclose(mp.source_positions()[0], [5.5, 3.5])
 
 
@@ -733,8 +729,9 @@ def test_visit_readings_count_in_the_cell_the_reading_was_taken() -> None:
     assert fused, "no reading was fused"
     n_here = sum(k < 6 for k in fused)
     assert n_here >= 4 and len(fused) - n_here == 2
-    assert s.tests[s._cell(here)] == n_here
-    assert s.tests[s._cell(there)] == len(fused) - n_here
+    cells = s.mapper.grid.grid.index(np.array([here, there]))
+    assert s.tests[tuple(cells[0])] == n_here
+    assert s.tests[tuple(cells[1])] == len(fused) - n_here
     assert s.tests.sum() == len(fused)
 
 
@@ -866,12 +863,12 @@ def test_failed_wave_episode_leaves_the_dynamic_row_valid() -> None:
     from types import SimpleNamespace
 
     from odorloc.experiments.runner import ROW_DEFAULTS
-    from odorloc.papers.ds_multi_source.reproduction import _extras
+    from odorloc.papers.ds_multi_source.reproduction import ds_extras
 
     res = run_episode(reduced_farrell(5.0), 1, 2, record=True)
     task = SimpleNamespace(cell={"scenario": "two-sources-farrell", "searcher": "ds-mapping"})
     failed = {**ROW_DEFAULTS, "status": "error", "error": "RuntimeError: failed"}
-    out = _extras(task, res, {"0/two-sources-farrell/ds-rectangular-wave": failed})
+    out = ds_extras(task, res, {"0/two-sources-farrell/ds-rectangular-wave": failed})
     assert math.isnan(out["time_to_baseline_residual"])
     assert math.isnan(out["distance_to_baseline_residual"])
     assert "scene_residual_0" in out and "map_success" in out

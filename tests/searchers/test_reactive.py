@@ -70,7 +70,7 @@ def test_surge_cast_surges_upwind_then_casts() -> None:
     np.testing.assert_allclose(d, [-0.5, 0.0], atol=1e-12)  # the surge goes on
     d = _move(s, _obs(pos, 0.0))
     assert abs(d[0]) < 1e-9 and abs(abs(d[1]) - 0.5) < 1e-9  # lost: crosswind cast
-    assert s.diagnostics()["phase"] == 0.0
+    assert s.diagnostics()["phase"] == "cast"
     assert s.act([_obs(pos, 0.0, ready=False)], np.random.default_rng(0)).commands[0] is None
 
 
@@ -81,7 +81,7 @@ def test_surge_spiral_spirals_where_the_odor_was_lost() -> None:
     leg = _move(s, _obs(pos, 0.0))
     # the first spiral leg: one step forward (upwind) and one to the left, facing upwind
     np.testing.assert_allclose(leg, [-1.0, -1.0], atol=1e-12)
-    assert s.diagnostics()["phase"] == 2.0
+    assert s.diagnostics()["phase"] == "spiral"
     # a detection during a leg ends it and surges at once
     np.testing.assert_allclose(
         _move(s, _obs(pos + leg / 2, 2.0, ready=False)), [-0.5, 0.0], atol=1e-12
@@ -111,7 +111,7 @@ def test_anemotaxis_goes_upwind_only_while_every_reading_exceeds() -> None:
     s.act([_obs([10.0, 10.0], 2.0)], np.random.default_rng(0))
     np.testing.assert_allclose(_move(s, _obs([10.0, 10.0], 1.5)), [-0.5, 0.0], atol=1e-12)
     d = _move(s, _obs([10.0, 10.0], 0.5))  # one reading below: cast
-    assert abs(d[0]) < 1e-9 and s.diagnostics()["phase"] == 0.0
+    assert abs(d[0]) < 1e-9 and s.diagnostics()["phase"] == "cast"
 
 
 def test_taxis_rules_count_a_reading_at_the_sensor_threshold_as_odor() -> None:

@@ -69,10 +69,18 @@ class Searcher(ABC):
         b = self.belief()
         return {} if b is None else {-1: b}
 
-    def diagnostics(self) -> dict[str, float]:
-        """Scalars worth recording each step (entropy, phase code, ...). Default none."""
+    def diagnostics(self) -> dict[str, float | str]:
+        """Scalars worth recording each step: numbers (entropy, ESS, ...) or text (the phase's
+        name, never a numeric code). Default none."""
         return {}
 
     def final_metrics(self) -> dict[str, Any]:
-        """Extra columns for the episode's result row (default none)."""
+        """Extra columns for the episode's result row (default none). A name of a core column
+        of the episode (``success``, ``search_time``, ...) is refused."""
+        return {}
+
+    def agent_metrics(self) -> dict[int, dict[str, Any]]:
+        """Values that belong to one agent each, ``{agent id: {key: value}}`` (default none):
+        stored per agent beside the episode row, never as ``key_<agent>`` columns. Teams give
+        each member's :meth:`final_metrics` under the member's (first) agent."""
         return {}

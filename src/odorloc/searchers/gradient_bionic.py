@@ -215,11 +215,11 @@ class GradientBionicSearcher(Searcher):
         return self._free_move(pos, d)
 
     def diagnostics(self) -> dict[str, float]:
-        """``phase`` (0 cast, 1 gradient, 2 surge), ``best`` reading, ``gradient`` magnitude."""
-        code = {"cast": 0.0, "gradient": 1.0, "surge": 2.0}[self.mode]
+        """``phase`` (``"cast"``, ``"gradient"`` or ``"surge"``), ``best`` reading,
+        ``gradient`` magnitude."""
         g = self._gradient
         return {
-            "phase": code,
+            "phase": self.mode,
             "best": self._best if math.isfinite(self._best) else math.nan,
             "gradient": math.nan if g is None else float(np.linalg.norm(g)),
         }

@@ -20,7 +20,7 @@ Recipe (indoor PF paper, section 2):
 5. Optional (``approach_radius``, off by default): once converged, drive to the estimate (A*
    around obstacles) and declare only within that distance of it.
 
-``diagnostics()`` reports ``phase`` (0 zigzag, 1 tracking), ``ess``, ``entropy`` (Shannon
+``diagnostics()`` reports ``phase`` (``"zigzag"``, ``"tracking"``), ``ess``, ``entropy`` (Shannon
 entropy, nats, of the weighted particle histogram on ``entropy_cell`` cells -- unlike the weight
 entropy it keeps falling through resampling as the cloud contracts, which is what the paper's
 Figs. 5/7 show), ``weight_entropy``, ``spread`` and ``n_particles``.
@@ -387,13 +387,13 @@ class PFEntropySearcher(Searcher):
         return {"entropy_init": self._entropy_init, "entropy_end": end}
 
     def diagnostics(self) -> dict[str, float]:
-        """``phase`` (0 zigzag / 1 tracking), ``ess``, ``entropy``, ``weight_entropy``,
+        """``phase`` (``"zigzag"`` / ``"tracking"``), ``ess``, ``entropy``, ``weight_entropy``,
         ``spread`` (m^2 or m), ``n_particles``, ``expected_entropy`` of the last plan."""
         if self.pf is None:
-            return {"phase": 0.0, "ess": math.nan, "entropy": math.nan, "n_particles": 0.0}
+            return {"phase": self.phase, "ess": math.nan, "entropy": math.nan, "n_particles": 0.0}
         b = self.pf.belief()
         return {
-            "phase": 1.0,
+            "phase": self.phase,
             "ess": b.ess,
             "entropy": histogram_entropy(
                 b, self.ctx.arena.lower, self.ctx.arena.upper, self.params.entropy_cell

@@ -155,8 +155,9 @@ class ReactiveSearcher(Searcher):
         return self.free_move(pos, self.caster.direction(self.ctx.arena, pos, up, self.step), rng)
 
     def diagnostics(self) -> dict[str, float]:
-        """``phase``: 0 casting, 1 following the rule (surge, taxis), 2 spiral."""
-        return {"phase": {"cast": 0.0, "track": 1.0, "spiral": 2.0}[self.mode]}
+        """``phase``: ``"cast"``, ``"track"`` (following the rule: surge, taxis) or
+        ``"spiral"``."""
+        return {"phase": self.mode}
 
     def final_metrics(self) -> dict[str, Any]:
         """Number of detections."""

@@ -79,10 +79,13 @@ def test_encounter_sensor_reports_the_first_hit_once() -> None:
     vals = [s.measure(plume, start + np.array([1.0, 0.0]), 1.0, rng).value for _ in range(4000)]
     mu = plume.encounter_rate(start + np.array([1.0, 0.0]))[0]
     assert abs(np.mean(vals) - mu) < 4 * np.sqrt(mu / 4000)
-    # a reset forgets a pending initial hit; an agent away from the origin has none
+    # a reset forgets a pending initial hit: where the rate is zero the next count is zero
     s.start(plume, start)
     s.reset(rng)
-    assert s._first_hits is None
+    assert s.respond(0.0, 1.0, rng).value == 0.0
+    s.start(plume, start)  # (without the reset, the pending hit would be that count)
+    assert s.respond(0.0, 1.0, rng).value == plume.initial_hit
+    # an agent away from the origin has none
     assert plume.initial_hits(start + np.array([3.0, 0.0])) is None
     fixed = _plume(start="fixed")
     fixed.reset(rng)

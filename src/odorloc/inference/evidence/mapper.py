@@ -287,11 +287,26 @@ class DSMapper:
         patch = self.estimator.path_patch()
         if self.params.path_normalise == "total":
             patch = as_distribution(patch)
+        return self.add_patch(patch, detected, u)
+
+    def add_patch(self, patch: PathPatch, detected: bool, wind: np.ndarray) -> PathPatch:
+        """Fuse one reading whose air-mass path map is already known: update the grid (eq. 4),
+        log the reading for the likelihood rule and count it.
+
+        Parameters
+        ----------
+        patch : PathPatch
+            The reading's path map ``pi`` over the grid.
+        detected : bool
+            Detection or non-detection.
+        wind : (2,) ndarray, m/s
+            The wind the reading saw (summed into the mean wind of the likelihood rule).
+        """
         self.grid.update(patch, bool(detected))
         self._log.add(patch, bool(detected))
         self.n_readings += 1
         self.n_detections += int(bool(detected))
-        self.wind_sum += u
+        self.wind_sum += np.asarray(wind, float)[:2]
         self.last_patch = patch
         return patch
 
