@@ -48,7 +48,13 @@ WIDE = (
     "adap-pp",
 )
 ROOTS = (1, 2)
-_SKIP_COLUMNS = {"wall_time", "wall_per_step_ms", "searcher_fraction", "compute_ms"}
+_SKIP_COLUMNS = {
+    "wall_time",
+    "wall_per_step_ms",
+    "searcher_fraction",
+    "world_fraction",
+    "compute_ms",
+}
 
 
 def _digest(arrays: dict[str, np.ndarray]) -> str:
@@ -121,7 +127,7 @@ def compare(a: dict[str, Any], b: dict[str, Any]) -> int:
         diffs = [
             f"{k}: {ra['metrics'].get(k)!r} -> {rb['metrics'].get(k)!r}"
             for k in sorted(set(ra["metrics"]) | set(rb["metrics"]))
-            if ra["metrics"].get(k) != rb["metrics"].get(k)
+            if k not in _SKIP_COLUMNS and ra["metrics"].get(k) != rb["metrics"].get(k)
         ]
         if ra["digest"] != rb["digest"]:
             diffs.append("recording differs")

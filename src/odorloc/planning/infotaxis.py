@@ -198,18 +198,6 @@ class LatticeOutcomes:
         return -self.information - self.found_entropy
 
 
-def _windows(
-    arrays: Sequence[np.ndarray], table: OffsetTable, cells: np.ndarray, shape: tuple[int, ...]
-) -> np.ndarray:
-    """Stack of ``(M, C, n)`` windows of ``(C, *table_shape)`` arrays."""
-    out = []
-    for c in cells:
-        w = table.window(tuple(int(v) for v in c), shape)
-        out.append(np.stack([a[(slice(None), *w)] for a in arrays]).reshape(-1))
-    n = int(np.prod(shape))
-    return np.asarray(out).reshape(len(cells), -1, n)
-
-
 def _correlate_numpy(
     channels: np.ndarray, b: np.ndarray, cells: np.ndarray, half: tuple[int, ...]
 ) -> np.ndarray:

@@ -351,11 +351,6 @@ class OdorPathEstimator:
         return self._tt[self._lo : self._hi].copy()
 
     @property
-    def last_time(self) -> float | None:
-        """Time of the newest record, or ``None``."""
-        return float(self._tt[self._hi - 1]) if self._hi > self._lo else None
-
-    @property
     def last_position(self) -> FloatArray | None:
         """Robot position of the newest record, metres, or ``None``."""
         return self._pp[self._hi - 1].copy() if self._hi > self._lo else None

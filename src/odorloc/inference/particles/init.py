@@ -14,20 +14,32 @@ from odorloc.models.pang_farrell import PangFarrellModel
 __all__ = ["backtrack_initialise", "sample_free_uniform"]
 
 
-def sample_free_uniform(arena: Arena, n: int, rng: np.random.Generator) -> np.ndarray:
-    """``n`` points uniform over the free space of ``arena``, ``(n, d)`` metres.
+def sample_free_uniform(
+    arena: Arena,
+    n: int,
+    rng: np.random.Generator,
+    box: tuple[np.ndarray, np.ndarray] | None = None,
+    field: str = "arena",
+) -> np.ndarray:
+    """``n`` points uniform over the free space of ``arena`` (inside ``box``), ``(n, d)`` metres.
 
-    Rejection sampling from the bounding box; raises :class:`ConfigError` when the arena has
-    (almost) no free space.
+    Rejection sampling from ``box`` (default the arena's bounds, e.g.
+    :func:`~odorloc.geometry.regions.narrow_box` of a search region).
+
+    Raises
+    ------
+    ConfigError
+        Naming ``field`` when the box holds (almost) no free space.
     """
+    lo, size = (arena.lo, arena.size) if box is None else (box[0], box[1] - box[0])
     out = np.zeros((0, arena.dim))
     for _ in range(100):
         if len(out) >= n:
             break
-        cand = arena.lo + rng.random((max(2 * (n - len(out)), 16), arena.dim)) * arena.size
+        cand = lo + rng.random((max(2 * (n - len(out)), 16), arena.dim)) * size
         out = np.concatenate([out, cand[arena.is_free(cand)]], axis=0)
     if len(out) < n:
-        raise ConfigError("arena", "too little free space to sample particles")
+        raise ConfigError(field, "too little free space to sample particles")
     return out[:n]
 
 
