@@ -137,9 +137,17 @@ _SPIRAL = {
 def _searcher_params(world: str) -> dict[str, dict[str, Any]]:
     model = FITTED_MODELS[world]
     out: dict[str, dict[str, Any]] = {}
+    grid, part = dict(_GRID[world]), dict(_PARTICLE[world])
+    classes = {"n_classes": grid.pop("n_classes")} if "n_classes" in grid else {}
     for s in GRID_POLICIES:
-        out[s] = {"model": model, **_GRID[world]}
-    out["particle-infotaxis"] = {"model": model, "n_particles": 500, **_PARTICLE[world]}
+        out[s] = {"model": model, "estimator": {**grid, "reading": classes}}
+    step = part.pop("step")
+    part.pop("n_classes", None)
+    out["particle-infotaxis"] = {
+        "model": model,
+        "estimator": {"n_particles": 500, **part, "reading": classes},
+        "planner": {"candidates": {"step": step}},
+    }
     cast = _CAST[world]
     sp = _SPIRAL[world]
     out["surge-cast"] = {"surge_steps": _SURGE[world], "cast": dict(cast)}
