@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 import types
 import typing
-from typing import Annotated, Any
+from typing import Annotated, Any, ClassVar
 
 from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict, Field
 
@@ -122,6 +122,18 @@ class Params(BaseModel):
         super().__pydantic_init_subclass__(**kwargs)
         changed = merge_partial_components(cls)
         refuse_bools_as_numbers(cls, changed)
+
+
+class Configured:
+    """Base of a part configured by a :class:`Params` model (a reward, a stopping rule, ...):
+    the class names its model as ``Params`` and keeps its parameters in ``params`` (the model's
+    defaults when the constructor gets ``None``)."""
+
+    params: Params
+    Params: ClassVar[type[Params]]
+
+    def __init__(self, params: Params | None = None) -> None:
+        self.params = params if params is not None else type(self).Params()
 
 
 def refuse_bools_as_numbers(cls: type[BaseModel], changed: bool = False) -> None:

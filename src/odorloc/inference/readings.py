@@ -22,13 +22,13 @@ from __future__ import annotations
 import math
 from abc import ABC, abstractmethod
 from collections import deque
-from typing import Any, ClassVar, Literal
+from typing import Any, Literal
 
 import numpy as np
 from pydantic import Field
 
 from odorloc.core.errors import ConfigError
-from odorloc.core.params import Params, Positive
+from odorloc.core.params import Configured, Params, Positive
 from odorloc.core.registry import register
 from odorloc.core.types import Observation, SearchContext
 from odorloc.models.base import MeasurementModel
@@ -56,14 +56,8 @@ def reading_class(o: Observation, kind: str, n_classes: int) -> int:
     return int(bool(o.detection))
 
 
-class Reading(ABC):
+class Reading(Configured, ABC):
     """Base class of the ``reading`` family (see the module docstring)."""
-
-    params: Params
-    Params: ClassVar[type[Params]]
-
-    def __init__(self, params: Params | None = None) -> None:
-        self.params = params if params is not None else type(self).Params()
 
     @abstractmethod
     def reset(self, ctx: SearchContext) -> None:

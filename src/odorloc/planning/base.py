@@ -29,7 +29,7 @@ from typing import TYPE_CHECKING, Any, ClassVar, Protocol
 
 import numpy as np
 
-from odorloc.core.params import Params
+from odorloc.core.params import Configured, Params
 
 if TYPE_CHECKING:
     from odorloc.core.types import SearchContext
@@ -144,7 +144,7 @@ class Planner(ABC):
         """Choose the next target for ``belief`` from ``pose``."""
 
 
-class Reward(ABC):
+class Reward(Configured, ABC):
     """Base class of the ``reward`` family: a score per candidate, to be minimised.
 
     A reward is evaluated on weighted particles (:meth:`particle`) or on a lattice belief
@@ -152,17 +152,12 @@ class Reward(ABC):
     says so (``particles = False`` / ``lattices = False``) and the planner refuses it.
     """
 
-    params: Params
-    Params: ClassVar[type[Params]]
     particles: ClassVar[bool] = True
     lattices: ClassVar[bool] = True
     #: Whether the particle form needs the model's outcome probabilities.
     needs_outcomes: ClassVar[bool] = True
     #: Whether the particle form needs the candidate-particle distances.
     needs_distances: ClassVar[bool] = False
-
-    def __init__(self, params: Params | None = None) -> None:
-        self.params = params if params is not None else type(self).Params()
 
     def particle(
         self,

@@ -20,13 +20,13 @@ from abc import ABC, abstractmethod
 from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import lru_cache
-from typing import Any, ClassVar, Literal
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from odorloc.core.errors import ConfigError
-from odorloc.core.params import Params, Positive
+from odorloc.core.params import Configured, Params, Positive
 from odorloc.core.registry import register
 from odorloc.core.types import SearchContext
 from odorloc.geometry.arena import Arena
@@ -130,14 +130,8 @@ class CandidateSet:
     cells: np.ndarray | None = None
 
 
-class Candidates(ABC):
+class Candidates(Configured, ABC):
     """Base class of the ``candidates`` family: the candidate targets of one decision."""
-
-    params: Params
-    Params: ClassVar[type[Params]]
-
-    def __init__(self, params: Params | None = None) -> None:
-        self.params = params if params is not None else type(self).Params()
 
     def reset(self, ctx: SearchContext) -> None:
         """A new episode (default: keep the context)."""

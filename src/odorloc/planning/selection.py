@@ -8,12 +8,12 @@ or at random.
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from typing import ClassVar, Literal
+from typing import Literal
 
 import numpy as np
 
 from odorloc.core.errors import ConfigError
-from odorloc.core.params import NonNegative, Params
+from odorloc.core.params import Configured, NonNegative, Params
 from odorloc.core.registry import register
 
 __all__ = ["BestSelection", "Selection", "select"]
@@ -61,14 +61,8 @@ def select(
 
 
 # ---------------------------------------------------------------------- the ``selection`` family
-class Selection(ABC):
+class Selection(Configured, ABC):
     """Base class of the ``selection`` family: one candidate from its (minimised) scores."""
-
-    params: Params
-    Params: ClassVar[type[Params]]
-
-    def __init__(self, params: Params | None = None) -> None:
-        self.params = params if params is not None else type(self).Params()
 
     @property
     def tolerance(self) -> float:

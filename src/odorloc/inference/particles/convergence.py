@@ -21,13 +21,13 @@ from __future__ import annotations
 import math
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
-from typing import Any, ClassVar, Literal, Protocol
+from typing import Any, Literal, Protocol
 
 import numpy as np
 from pydantic import Field
 
 from odorloc.core.errors import ConfigError
-from odorloc.core.params import Params, Positive
+from odorloc.core.params import Configured, Params, Positive
 from odorloc.core.registry import register
 
 
@@ -119,14 +119,8 @@ class ConvergenceStatus:
         )
 
 
-class StoppingRule(ABC):
+class StoppingRule(Configured, ABC):
     """Base class of the ``stopping_rule`` family: when a filter's estimate may be declared."""
-
-    params: Params
-    Params: ClassVar[type[Params]]
-
-    def __init__(self, params: Params | None = None) -> None:
-        self.params = params if params is not None else type(self).Params()
 
     @property
     def history(self) -> int:

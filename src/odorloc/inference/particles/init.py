@@ -8,13 +8,13 @@ from __future__ import annotations
 
 import math
 from abc import ABC
-from typing import Any, ClassVar
+from typing import Any
 
 import numpy as np
 from pydantic import Field
 
 from odorloc.core.errors import ConfigError
-from odorloc.core.params import NonNegative, Params
+from odorloc.core.params import Configured, NonNegative, Params
 from odorloc.core.registry import register
 from odorloc.core.types import Observation, Region, SearchContext
 from odorloc.geometry.arena import Arena
@@ -168,19 +168,13 @@ def backtrack_initialise(
 
 
 # ---------------------------------------------------------------------- particle_init family
-class ParticleInit(ABC):
+class ParticleInit(Configured, ABC):
     """How a particle filter gets its first particles (registry family ``particle_init``).
 
     :meth:`start` may give them at the start of the episode; otherwise :meth:`on_reading` is
     asked at every reading until it gives them. :meth:`redraw` gives fresh hypotheses when every
     particle has been ruled out.
     """
-
-    params: Params
-    Params: ClassVar[type[Params]]
-
-    def __init__(self, params: Params | None = None) -> None:
-        self.params = params if params is not None else type(self).Params()
 
     def reset(self, ctx: SearchContext, model: MeasurementModel | None) -> None:
         """A new episode (check that the model suits the initialisation)."""

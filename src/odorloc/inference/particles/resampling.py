@@ -35,7 +35,7 @@ import numpy as np
 from pydantic import Field, model_validator
 
 from odorloc.core.errors import ConfigError
-from odorloc.core.params import NonNegative, Params
+from odorloc.core.params import Configured, NonNegative, Params
 from odorloc.core.registry import register
 from odorloc.inference.particles.constraints import Constraint, place_admissible
 from odorloc.inference.weights import effective_sample_size, normalise_log_weights
@@ -120,15 +120,8 @@ def _check_inputs(positions: np.ndarray, log_weights: np.ndarray) -> tuple[np.nd
     return pos, normalise_log_weights(lw)[1]
 
 
-class Resampler(ABC):
+class Resampler(Configured, ABC):
     """Base class: ``resample(positions, log_weights, rng, n=None, constraint=None)``."""
-
-    params: Params
-    #: Parameter model used when the constructor gets ``None``.
-    Params: ClassVar[type[Params]]
-
-    def __init__(self, params: Params | None = None) -> None:
-        self.params = params if params is not None else type(self).Params()
 
     def resample(
         self,
@@ -359,14 +352,8 @@ class RouletteResampler(Resampler):
 
 
 # ---------------------------------------------------------------------- when to resample
-class ResamplingPolicy(ABC):
+class ResamplingPolicy(Configured, ABC):
     """Base class of the ``resampling_policy`` family: *when* a filter resamples."""
-
-    params: Params
-    Params: ClassVar[type[Params]]
-
-    def __init__(self, params: Params | None = None) -> None:
-        self.params = params if params is not None else type(self).Params()
 
     @abstractmethod
     def due(self, ess: float, n: int) -> bool:
