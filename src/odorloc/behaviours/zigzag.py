@@ -67,17 +67,9 @@ def zigzag_leg(
 
 
 class Zigzag:
-    """The state of one agent's zigzag (:meth:`from_params` builds it from
-    :class:`ZigzagLegParams`).
-
-    Parameters
-    ----------
-    angle : float, rad
-        Angle between a leg and the upwind (or downwind) direction.
-    max_leg : float or None, metres
-        Leg length after which the leg turns even without an obstacle (``None``: only at
-        walls and obstacles, as in the paper).
-    """
+    """The state of one agent's zigzag: legs at ``angle`` (rad) to the wind, turned after
+    ``max_leg`` metres (``None``: only at walls and obstacles), as :class:`ZigzagLegParams`
+    describes them (:meth:`from_params`)."""
 
     def __init__(self, angle: float, max_leg: float | None = None) -> None:
         self.angle = float(angle)
