@@ -429,7 +429,8 @@ def observation_stream(
 ) -> tuple[SearchContext, list[Observation]]:
     """A recorded single-agent stream for estimator and planner checks: the observations of a
     zigzag run of ``time`` seconds in the small contract world with a steady Gaussian plume (so
-    that some readings detect), and the context of that run (kept for the next call)."""
+    that some readings detect), and the context of that run (kept for the next call: do not
+    modify them)."""
     sc = small_scenario({"type": "zigzag"}, dim, 1, time, plume="gaussian")
     ep = Episode(sc, record=False)
     obs = ep.reset(seed, seed + 1)
@@ -507,8 +508,8 @@ def check_estimator(
 
     Checked: ``reset`` refuses a missing model when the estimator needs one; ``update`` takes
     every observation; ``belief()`` is ``None`` or gives a snapshot of finite arrays;
-    ``estimate()`` is a finite ``(k, d)`` array (``d`` the estimator's own dimension, 2 for a
-    horizontal map); ``converged()`` is a bool; ``diagnostics()`` gives floats;
+    ``estimate()`` is a finite ``(k, d)`` array in the world's dimension ``d`` (a horizontal
+    map declares ``dims = (2,)``); ``converged()`` is a bool; ``diagnostics()`` gives floats;
     ``conditions()`` a dict; ``final_metrics`` keys are stable; the same seed and observations
     give the same beliefs and estimates, also after a reset.
     """
@@ -520,7 +521,6 @@ def check_estimator(
         tag = f"estimator {name} {dim}D"
         spec = model if model is not None else cls.default_model
         mdl = _model_of(spec, cls.needs_model, tag)
-        est_dim = min(cls.dims) if max(cls.dims) < dim else dim
 
         p = registry.make_params("estimator", name, dict(params or {}))
         if cls.needs_model:
@@ -532,9 +532,9 @@ def check_estimator(
             else:
                 raise ContractError(f"{tag}: reset accepts no model though it needs one")
         first = cls(p)
-        a = _roll_estimator(first, ctx, mdl, stream, tag, est_dim)
-        b = _roll_estimator(cls(p), ctx, mdl, stream, tag, est_dim)
-        again = _roll_estimator(first, ctx, mdl, stream, tag, est_dim)
+        a = _roll_estimator(first, ctx, mdl, stream, tag, dim)
+        b = _roll_estimator(cls(p), ctx, mdl, stream, tag, dim)
+        again = _roll_estimator(first, ctx, mdl, stream, tag, dim)
         for run, what in ((b, "per seed"), (again, "after a reset")):
             _require(run[-1] == a[-1], f"{tag}: final_metrics keys change {what}")
             for (xa, sa), (xb, sb) in zip(a[:-1], run[:-1], strict=True):
