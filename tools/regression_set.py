@@ -48,7 +48,13 @@ WIDE = (
     "adap-pp",
 )
 ROOTS = (1, 2)
-_SKIP_COLUMNS = {"wall_time", "wall_per_step_ms", "searcher_fraction", "compute_ms"}
+_SKIP_COLUMNS = {
+    "wall_time",
+    "wall_per_step_ms",
+    "searcher_fraction",
+    "world_fraction",
+    "compute_ms",
+}
 
 
 def _digest(arrays: dict[str, np.ndarray]) -> str:
@@ -142,7 +148,7 @@ def compare(a: dict[str, Any], b: dict[str, Any]) -> int:
         diffs = [
             f"{k}: {ma.get(k)!r} -> {mb.get(k)!r}"
             for k in sorted(set(ma) | set(mb))
-            if ma.get(k) != mb.get(k)
+            if k not in _SKIP_COLUMNS and ma.get(k) != mb.get(k)
         ]
         if ra["digest"] != rb["digest"]:
             diffs.append("recording differs")

@@ -675,7 +675,8 @@ def replay_log(
     estimator: Annotated[
         str,
         typer.Option(
-            help="Searcher whose belief to replay (pf-entropy, ds-mapping, ...) or odor-path."
+            help="Estimator to replay (particle-filter, ds-map, odor-path, ...) or a "
+            "searcher composing one (pf-entropy, ds-mapping, ...)."
         ),
     ] = "pf-entropy",
     seed: Annotated[int, typer.Option(help="Seed of the estimator's random stream.")] = 0,

@@ -3,8 +3,6 @@ to end through the sweep harness, and the detection-model fit recovers a known m
 
 from __future__ import annotations
 
-import dataclasses
-
 import numpy as np
 import pytest
 
@@ -15,7 +13,7 @@ from odorloc.experiments.sweep import expand_tasks, load_sweep, run_sweep, valid
 from odorloc.models.vergassola import vergassola_rate
 from odorloc.papers.infotaxis import reproduction as rp
 from odorloc.papers.infotaxis.calibration import detection_map, fit_detection_model
-from odorloc.scenarios import Scenario, get_scenario
+from odorloc.scenarios import Scenario
 
 
 @pytest.mark.parametrize("world", list(rp.WORLDS))
@@ -173,29 +171,3 @@ def test_detection_model_fit_refuses_inconsistent_data() -> None:
             with pytest.raises(ConfigError, match=field):
                 fit_detection_model(**args, dt=0.5, sensor_radius=radius)
     assert fit_detection_model(**good, dt=0.5)["Q"] > 0
-
-
-def test_grid_tables_made_in_calm_air_are_remade_once_the_wind_blows() -> None:
-    from odorloc.core.seeds import episode_seeds
-    from odorloc.engine.episode import Episode
-
-    model = {"type": "vergassola", "V": 1.0, "D": 1.0, "tau": 100.0, "sensor_radius": 0.5}
-    sc = get_scenario("lattice-isotropic-2d").with_overrides(
-        {"searcher.model": model, "searcher.wind_average": 1}
-    )
-    ep = Episode(sc)
-    obs = ep.reset(*episode_seeds(0, "lattice-isotropic-2d", 0))
-    s = ep.built.searcher
-    s.reset(ep.context, ep.agent_rng)
-
-    def read(wind: list[float]) -> list:
-        o = dataclasses.replace(obs[0], wind=np.array(wind), ready=False)
-        s.act([o], ep.agent_rng)
-        return s.tables
-
-    calm = read([0.0, 0.0])  # the first reading: calm
-    assert read([0.0, 0.0]) is calm
-    windy = read([1.0, 0.0])  # made anew as soon as the wind blows
-    assert windy is not calm and windy[0] is not calm[0]
-    assert read([0.0, 0.0]) is windy  # calm again: the tables of the last wind stay
-    assert read([1.0, 0.0]) is windy

@@ -328,9 +328,9 @@ def test_declares_exactly_when_the_planner_stops() -> None:
     )
     s.reset(_ctx(), rng)
     a0 = s.act(_obs(0.0), rng)  # a single record: no path map yet, no decision
-    assert not a0.declarations and s.last_plan.reason == "empty_path_map"
+    assert not a0.declarations and s.last_plan.extra["reason"] == "empty_path_map"
     a1 = s.act(_obs(0.5, det=True), rng)
-    assert s.last_plan.done and a1.declarations
+    assert s.last_plan.extra["done"] and a1.declarations
     assert s.finished_at == 0.5
     assert a1.declarations[0].positions.shape[1] == 2
     # with the paper's eta_E the same map is far from finished
@@ -402,7 +402,7 @@ def test_close_readings_place_a_source_the_far_ones_put_downwind() -> None:
         covered = x0 <= src[0] < x
         det = covered and k % 2 == 0  # intermittent plume
         patch = PathPatch(x0, src[1], values, grid, np.array([x, src[1]]))
-        mp.add_patch(patch, det, np.array([1.0, 0.0]))
+        mp.add_reading(patch, det, np.array([1.0, 0.0]))
 
     k = 0
     for _ in range(6):
@@ -423,8 +423,11 @@ def test_close_readings_place_a_source_the_far_ones_put_downwind() -> None:
     # the estimate's own cell not visited, or no reading since: unchanged
     np.testing.assert_allclose(mp.refined(far[:1], since, np.zeros(grid.shape, bool)), far[:1])
     np.testing.assert_allclose(mp.refined(far[:1], mp.n_readings), far[:1])
-    # the mapper applies it once a route sets the close look's first reading
-    mp.close_since, mp.close_cells = since, visited
+    # the mapper applies it once a route starts its close look and marks the cells it read from
+    mp.start_close_look(since)
+    for cell in np.argwhere(visited):
+        mp.mark_visited(tuple(cell))
+    np.testing.assert_array_equal(mp.visited, visited)
     np.testing.assert_allclose(mp.source_positions()[0], [5.5, 3.5])
 
 
@@ -439,7 +442,7 @@ def test_default_candidates_are_the_neighbours_not_the_own_cell() -> None:
     s.act(_obs(0.0), rng)  # no path map yet
     a = s.act(_obs(0.5, det=True), rng)
     target = s.motion.goal
-    assert s.last_plan.reason == "ok"
+    assert s.last_plan.extra["reason"] == "ok"
     # a cell centre next to the robot at (3, 3), not the robot's own cell (3.25, 3.25)
     assert not np.allclose(target, [3.25, 3.25])
     assert math.hypot(*(target - 3.0)) <= math.sqrt(2) * 0.5
@@ -457,7 +460,8 @@ def test_stay_candidate_is_the_literal_one_step_reach() -> None:
     assert s.planner.params.step_range == pytest.approx(0.25)
     s.act(_obs(0.0), rng)
     a = s.act(_obs(0.5, det=True), rng)
-    assert s.last_plan.reason == "ok" and s.last_plan.radius == pytest.approx(0.25)
+    assert s.last_plan.extra["reason"] == "ok"
+    assert s.last_plan.extra["radius"] == pytest.approx(0.25)
     np.testing.assert_allclose(s.motion.goal, [3.25, 3.25])
     # one 0.25 m step along the diagonal towards the cell centre
     np.testing.assert_allclose(a.commands[0].value, 3.0 + 0.25 / math.sqrt(2))
@@ -480,9 +484,9 @@ def test_planner_without_current_cell_never_stays() -> None:
     pi[2, 2] = 1.0  # the path map covers the robot's cell only
     rng = np.random.default_rng(0)
     stay = UncertaintyRoutePlanner(UncertaintyRouteParams(step_range=1.0))
-    np.testing.assert_allclose(stay.plan(g, pi, (2.5, 2.5), rng), [2.5, 2.5])
+    np.testing.assert_allclose(stay.route(g, pi, (2.5, 2.5), rng).target, [2.5, 2.5])
     move = UncertaintyRoutePlanner(UncertaintyRouteParams(step_range=1.0, include_current=False))
-    plan = move.plan_detailed(g, pi, (2.5, 2.5), rng)
+    plan = move.route(g, pi, (2.5, 2.5), rng)
     # E = X at the candidate itself: only (2, 4) scores, reached after widening 1 -> 2 m
     np.testing.assert_allclose(plan.target, [2.5, 4.5])
     assert plan.reason == "widened" and plan.fitness == pytest.approx(3.0)
@@ -759,7 +763,7 @@ def test_fitness_path_distribution_divides_the_map_by_its_sum() -> None:
         s.reset(_ctx(), rng)
         for i in range(6):  # uniform wind: every plan sees the same map shape
             s.act(_obs(0.5 * i, det=i % 2 == 0), rng)
-        fits.append((s.last_plan.fitness, tuple(s.motion.goal)))
+        fits.append((s.last_plan.extra["fitness"], tuple(s.motion.goal)))
         sums.append(float(s.mapper.last_patch.values.sum()))
     (f_map, goal_map), (f_dist, goal_dist) = fits
     assert sums[0] == pytest.approx(sums[1]) and sums[0] > 1.5
@@ -826,7 +830,8 @@ def test_preprocessed_readings_are_fused_at_the_period_they_belong_to() -> None:
     assert out[0] is None and out[1] is None and all(o is not None for o in out[2:])
     np.testing.assert_allclose(mp.estimator.times, [0.0, 0.5, 1.0, 1.5])
     assert mp.n_detections == 1 and mp.n_readings == 4
-    np.testing.assert_allclose(mp.estimator.last_position, [6.5, 5.0])
+    # the last reading fused is the one taken at (6.5, 5.0), 1 s before the last call
+    np.testing.assert_array_equal(out[-1].ref_cell, mp.grid.grid.index([[6.5, 5.0]])[0])
     with pytest.raises(ConfigError, match="reading"):
         mp.update(3.0, np.array([5.0, 5.0]), np.array([1.0, 0.0]), False)
 

@@ -23,6 +23,8 @@ import numpy as np
 from odorloc.core.params import Params
 from odorloc.core.types import Action, Observation, SearchContext
 from odorloc.inference.belief import Belief
+from odorloc.inference.estimator import Estimator
+from odorloc.models.base import MeasurementModel
 
 __all__ = ["Belief", "Searcher"]
 
@@ -62,6 +64,12 @@ class Searcher(ABC):
 
     def belief(self) -> Belief | None:
         """The current belief (particles, grid, evidence map, ...) for recording, or ``None``."""
+        return None
+
+    def estimation(self) -> tuple[Estimator, MeasurementModel | None] | None:
+        """The single-agent estimator this recipe composes and the measurement model it feeds
+        it (``None``: none), not yet reset. An offline replay of a log drives them without the
+        searcher, whose motion the log's robot did not follow."""
         return None
 
     def beliefs(self) -> Mapping[int, Belief]:

@@ -31,9 +31,9 @@ from odorloc.viz.intervals import errorbar_lengths
 __all__ = ["PF_LITERAL", "PF_LITERAL_PARAMS", "IndoorReproduction", "table1_wall_time"]
 
 SCENARIO = "indoor-ventilated"
-#: The paper's convergence test read literally (see ``PFEntropyParams``).
+#: The paper's convergence test read literally (see ``ParticleFilterParams.stopping``).
 PF_LITERAL = "pf-entropy-literal"
-PF_LITERAL_PARAMS = {"variance": "trace", "r_err": 0.5}
+PF_LITERAL_PARAMS = {"estimator": {"stopping": {"variance": "trace", "r_err": 0.5}}}
 METHODS = ("pf-entropy", PF_LITERAL, "gradient-bionic")
 
 

@@ -122,9 +122,9 @@ _PARTICLE = {
     "uav3d": {"step": 2.0, "found_radius": 4.0, "n_classes": 4},
 }
 _CAST = {
-    "farrell": {"cast_amplitude": 1.0, "cast_max": 8.0},
-    "indoor": {"cast_amplitude": 0.3, "cast_max": 1.5},
-    "uav3d": {"cast_amplitude": 4.0, "cast_max": 20.0, "cast_elevation_deg": 30.0},
+    "farrell": {"amplitude": 1.0, "max_amplitude": 8.0},
+    "indoor": {"amplitude": 0.3, "max_amplitude": 1.5},
+    "uav3d": {"amplitude": 4.0, "max_amplitude": 20.0, "elevation_deg": 30.0},
 }
 _SURGE = {"farrell": 8, "indoor": 4, "uav3d": 5}
 _SPIRAL = {
@@ -137,21 +137,24 @@ _SPIRAL = {
 def _searcher_params(world: str) -> dict[str, dict[str, Any]]:
     model = FITTED_MODELS[world]
     out: dict[str, dict[str, Any]] = {}
+    grid, part = dict(_GRID[world]), dict(_PARTICLE[world])
+    classes = {"n_classes": grid.pop("n_classes")} if "n_classes" in grid else {}
     for s in GRID_POLICIES:
-        out[s] = {"model": model, **_GRID[world]}
-    out["particle-infotaxis"] = {"model": model, "n_particles": 500, **_PARTICLE[world]}
+        out[s] = {"model": model, "estimator": {**grid, "reading": classes}}
+    step = part.pop("step")
+    part.pop("n_classes", None)
+    out["particle-infotaxis"] = {
+        "model": model,
+        "estimator": {"n_particles": 500, **part, "reading": classes},
+        "planner": {"candidates": {"step": step}},
+    }
     cast = _CAST[world]
     sp = _SPIRAL[world]
-    out["surge-cast"] = {"surge_steps": _SURGE[world], **cast}
-    out["surge-spiral"] = {
-        "surge_steps": _SURGE[world],
-        "spiral_step": sp["initial_step"],
-        "spiral_increment": sp["step_increment"],
-        **cast,
-    }
+    out["surge-cast"] = {"surge_steps": _SURGE[world], "cast": dict(cast)}
+    out["surge-spiral"] = {"surge_steps": _SURGE[world], "spiral": dict(sp), "cast": dict(cast)}
     out["spiral"] = dict(sp)
     for s in ("chemotaxis", "anemotaxis", "fluxotaxis"):
-        out[s] = dict(cast)
+        out[s] = {"cast": dict(cast)}
     return out
 
 
