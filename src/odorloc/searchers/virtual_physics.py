@@ -70,12 +70,13 @@ import numpy as np
 from pydantic import Field, ValidationInfo, field_validator
 
 from odorloc.behaviours.formation import (
+    DeclarationReading,
     FluxDeclaration,
     StepRule,
     formation_shape,
     structure_step,
 )
-from odorloc.behaviours.groups import Bypass, repulsion
+from odorloc.behaviours.groups import Bypass, Escape, repulsion
 from odorloc.behaviours.taxis import anemotaxis, chemotaxis, fluxotaxis, mass_flux
 from odorloc.core.errors import ConfigError
 from odorloc.core.params import Finite, NonNegative, Params, Positive
@@ -86,7 +87,33 @@ from odorloc.searchers.base import Searcher
 __all__ = ["VirtualPhysicsParams", "VirtualPhysicsSearcher"]
 
 Rule = Literal["chemotaxis", "anemotaxis", "fluxotaxis"]
+Target = Literal["robot", "point"]
+DeclaredPoint = Literal["centre", "robots", "best"]
 _EPS = 1e-12
+
+
+class DeclarationParams(Params):
+    """How a formation declares (Sec. 2.2.3; see :class:`~odorloc.behaviours.formation.
+    FluxDeclaration`).
+
+    Attributes
+    ----------
+    reading : {"consecutive", "window", "mean"}
+        Reading of "the total mass flux ... consistently exceeds ... Phi_T in a given number of
+        steps n_s": ``n_s`` steps in a row, ``n_s`` of the last ``window`` steps, or the mean of
+        the last ``n_s`` steps.
+    window : int, optional
+        Window of the ``window`` reading, steps (default ``3 n_s``; at least ``n_s``).
+    point : {"centre", "robots", "best"}
+        The point declared. "If the robots surround a suspected emitter ... then the robots
+        have localized the emitter": the emitter is inside the ring, so the paper supports the
+        formation's centre, its virtual robot (``centre``, default) or the robots' centroid
+        (``robots``); ``best``, the robot with the highest reading, is an ablation.
+    """
+
+    reading: DeclarationReading = "consecutive"
+    window: int | None = Field(None, ge=1, le=1_000_000)
+    point: DeclaredPoint = "centre"
 
 
 class VirtualPhysicsParams(Params):
@@ -132,6 +159,9 @@ class VirtualPhysicsParams(Params):
         the circle is refused. Needs ``forbidden_area``.
     r_T : float, metres
         Radius of the forbidden circle (``> radius``).
+    escape : {"goal-away", "clear"}
+        When a group going round a forbidden circle has escaped
+        (:class:`~odorloc.behaviours.groups.Bypass`).
     surround_tolerance : float
         Relative band around ``radius`` in which every robot must be for the formation to
         surround its centre (declaration).
@@ -155,7 +185,10 @@ class VirtualPhysicsParams(Params):
     forbidden_area: bool = True
     rotary: bool = Field(True, validate_default=True)
     r_T: Positive = Field(1.5, validate_default=True)
+    escape: Escape = "goal-away"
     surround_tolerance: float = Field(0.5, gt=0.0, lt=1.0)
+    declaration: DeclarationParams = DeclarationParams()
+    target: Target = "robot"
 
     @field_validator("s2")
     @classmethod
@@ -178,6 +211,14 @@ class VirtualPhysicsParams(Params):
     def _rotary_needs_area(cls, v: bool, info: ValidationInfo) -> bool:
         if v and info.data.get("forbidden_area") is False:
             raise ValueError("needs forbidden_area (the rotary force goes around it)")
+        return v
+
+    @field_validator("declaration")
+    @classmethod
+    def _window_holds_n_s(cls, v: DeclarationParams, info: ValidationInfo) -> DeclarationParams:
+        n_s = info.data.get("n_s")
+        if v.window is not None and n_s is not None and v.window < n_s:
+            raise ValueError(f"window ({v.window}) must be at least n_s ({n_s})")
         return v
 
     @property
@@ -214,8 +255,10 @@ class VirtualPhysicsSearcher(Searcher):
                 "formation cannot follow it",
             )
         self.s2 = min(p.s2, reach)
-        self.flux = FluxDeclaration(p.phi_T, p.n_s)
-        self.bypass = Bypass(p.r_T, rotary=p.rotary)
+        d = p.declaration
+        self.flux = FluxDeclaration(p.phi_T, p.n_s, d.reading, d.window)
+        self.goal_point: np.ndarray | None = None
+        self.bypass = Bypass(p.r_T, rotary=p.rotary, escape=p.escape)
         self.heard: dict[int, tuple[np.ndarray, bool]] = {}
         self.declared_at: np.ndarray | None = None
         self.declared_time = math.nan
@@ -239,17 +282,43 @@ class VirtualPhysicsSearcher(Searcher):
                 declared = bool(np.asarray(m.payload.get("declared", 0)).reshape(-1)[0])
                 self.heard[int(m.sender)] = (vr, declared)
 
-    def _goal(self, x: np.ndarray, gas: np.ndarray, wind: np.ndarray) -> np.ndarray | None:
+    def _rule(self, x: np.ndarray, gas: np.ndarray, wind: np.ndarray) -> tuple[Any, bool]:
+        """The goal direction of this step and whether it points at a robot (eqs. 3, 6)."""
         p = self.params
+        contact = np.where(gas >= p.k_c, gas, 0.0)
         if p.rule == "chemotaxis":
-            return chemotaxis(self.vr, x, np.where(gas >= p.k_c, gas, 0.0))
+            return chemotaxis(self.vr, x, contact), True
         if p.rule == "anemotaxis":
-            goal = anemotaxis(wind, gas, p.rho_T)
+            goal, at_robot = anemotaxis(wind, gas, p.rho_T), False
         else:
-            goal = fluxotaxis(self.vr, x, gas, wind, p.rho_T)
+            goal, at_robot = fluxotaxis(self.vr, x, gas, wind, p.rho_T), True
         if goal is None and p.outside == "chemotaxis" and not np.all(gas > p.rho_T):
-            goal = chemotaxis(self.vr, x, np.where(gas >= p.k_c, gas, 0.0))
-        return goal
+            goal, at_robot = chemotaxis(self.vr, x, contact), True
+        return goal, at_robot
+
+    def _goal(self, x: np.ndarray, gas: np.ndarray, wind: np.ndarray) -> tuple[Any, float]:
+        """Unit goal force ``F(VG)`` (or ``None``) and the length of this step (``<= s1``).
+
+        ``target="robot"`` (eqs. 3, 6 as written): towards the chosen robot's position of this
+        step, a full ``s1``. ``target="point"``: the chosen robot's position is the goal point,
+        kept until the virtual robot gets there (its last step shortened, so that it never
+        passes over it); only then is a robot chosen again.
+        """
+        s1 = self.params.s1
+        if self.goal_point is not None:
+            rel = self.goal_point - self.vr
+            dist = float(np.linalg.norm(rel))
+            if dist > _EPS:
+                return rel / dist, min(s1, dist)
+            self.goal_point = None
+        goal, at_robot = self._rule(x, gas, wind)
+        if goal is None or not at_robot or self.params.target == "robot":
+            return goal, s1
+        # the robot the rule chose: the one the unit goal force points at
+        k = int(np.argmax((x - self.vr) @ goal))
+        self.goal_point = x[k].copy()
+        dist = float(np.linalg.norm(self.goal_point - self.vr))
+        return goal, min(s1, dist)
 
     def _message(self) -> dict[int, dict[str, np.ndarray]]:
         declared = np.array([self.declared_at is not None], np.uint8)
@@ -270,16 +339,13 @@ class VirtualPhysicsSearcher(Searcher):
         if math.isnan(self.plume_time) and np.any(gas >= p.k_c):
             self.plume_time = t
         _, self.total_flux = mass_flux(self.vr, x, gas, wind)
-        # the shape matters only when the flux is high enough to count
-        surrounds = self.total_flux > p.phi_T and formation_shape(x, self.vr).surrounds(
-            p.radius, p.surround_tolerance
-        )
+        surrounds = formation_shape(x, self.vr).surrounds(p.radius, p.surround_tolerance)
         if self.flux.update(self.total_flux, surrounds):
-            self.declared_at = self.vr.copy()
+            self.declared_at = self._declared_point(x, gas)
             self.declared_time = t
-            decl = Declaration(self.vr[None, :].copy(), 1.0, agent=self.sender)
+            decl = Declaration(self.declared_at[None, :].copy(), 1.0, agent=self.sender)
             return Action([Command.hold()] * n, messages=self._message(), declaration=decl)
-        goal = self._goal(x, gas, wind)
+        goal, step = self._goal(x, gas, wind)
         force = np.zeros(2) if goal is None else np.asarray(goal, float)
         if p.repulsion:
             others = [v for v, _ in self.heard.values()]
@@ -295,7 +361,10 @@ class VirtualPhysicsSearcher(Searcher):
         if reason in self.counts:
             self.counts[reason] += 1
         self._last["rotary"] = 1.0 if reason == "rotary" else 0.0
-        new = self.vr if direction is None else self.vr + p.s1 * direction
+        if reason != "goal" or self._last["repelled"]:
+            # another force turned the step: a full s1, and the goal point is given up
+            step, self.goal_point = p.s1, None
+        new = self.vr if direction is None else self.vr + step * direction
         new = self._keep_inside(new)
         delta = new - self.vr
         self.vr = new
@@ -313,6 +382,14 @@ class VirtualPhysicsSearcher(Searcher):
             disp = np.hstack([disp, np.zeros((n, ctx.dim - 2))])
         cmds: list[Command | None] = [Command("move", d) for d in disp]
         return Action(cmds, messages=self._message())
+
+    def _declared_point(self, x: np.ndarray, gas: np.ndarray) -> np.ndarray:
+        point = self.params.declaration.point
+        if point == "robots":
+            return x.mean(axis=0)
+        if point == "best":
+            return x[int(np.argmax(gas))].copy()
+        return self.vr.copy()
 
     def _keep_inside(self, point: np.ndarray) -> np.ndarray:
         """The virtual robot stays where its whole formation fits inside the arena, off
