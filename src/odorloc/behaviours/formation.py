@@ -35,8 +35,9 @@ outside it. For a regular ``K``-gon of radius ``R`` the outward charge force is
 
 :class:`FluxDeclaration` is the paper's source declaration (Sec. 2.2.3, after Zarzhitsky et al.):
 the total mass flux through the formation (:func:`odorloc.behaviours.taxis.mass_flux`) exceeds
-``Phi_T`` for ``n_s`` consecutive steps while the robots surround their centre
-(:func:`formation_shape`).
+``Phi_T`` in ``n_s`` steps, read three ways, while the robots surround their centre
+(:func:`formation_shape`); :func:`declaration_series` applies it to many formations' flux series
+at once.
 """
 
 from __future__ import annotations

@@ -13,13 +13,16 @@ Each control step (one step of eqs. 7-8):
    they are (see below for those out of communication range).
 2. **Declare** (Sec. 2.2.3, :class:`~odorloc.behaviours.formation.FluxDeclaration`): the total
    mass flux ``sum_k rho_k v_k . n_k`` through the formation (:func:`~odorloc.behaviours.taxis.
-   mass_flux`, normals from the virtual robot) has exceeded ``phi_T`` for ``n_s`` consecutive
-   steps while the robots surround the virtual robot; the group declares the virtual robot's
-   position, stops and keeps broadcasting it.
+   mass_flux`, normals from the virtual robot) "consistently exceeds ... Phi_T in a given number
+   of steps n_s" while the robots surround the virtual robot (``declaration.reading``: ``n_s`` of
+   the last ``3 n_s`` steps by default); the group declares the formation's centre, stops and
+   keeps broadcasting it.
 3. **Goal force** ``F(VG)`` of the virtual robot (:mod:`odorloc.behaviours.taxis`):
    ``chemotaxis`` (eq. 3, towards the robot with the highest reading), ``anemotaxis`` (eq. 4,
    upwind of the mean wind when every robot reads above ``rho_T``) or ``fluxotaxis`` (eqs. 5-6,
-   towards the robot with the most negative flux when every robot reads above ``rho_T``). When
+   towards the robot with the most negative flux when every robot reads above ``rho_T``); a
+   chosen robot is the goal of this step, or its position the goal point until reached
+   (``target``). When
    only part of the formation reads above ``rho_T``, anemotaxis and fluxotaxis re-centre the
    formation on its strongest robot (``outside="chemotaxis"``: the paper's "move the lattice
    upstream while keeping the robots inside the plume", Sec. 2.2.2.1) or wait
@@ -50,6 +53,28 @@ Choices where the paper is silent (all parameters):
   reachable.
 - "Surround" in the declaration is a formation check: every robot within ``r (1 +- 0.5)`` of the
   virtual robot and no angular gap of ``pi`` or more between them.
+- The declaration (Sec. 2.2.3): "if the robots surround a suspected emitter, and the total mass
+  flux measured by the sensor grid consistently exceeds some small, empirically-determined
+  threshold Phi_T in a given number of steps n_s, then the robots have localized the emitter".
+  "Consistently ... in a given number of steps" reads three ways (``declaration.reading``):
+  ``n_s`` steps in a row (``consecutive``), ``n_s`` steps of one stretch of the search, here the
+  last ``3 n_s`` (``window``, the default: the flux counts in ``n_s`` steps, "consistently" keeps
+  them together), or the mean of the last ``n_s`` steps (``mean``). Chemotaxis steps back and
+  forth at the edge of the region where the flux exceeds ``Phi_T``, so that the flux is above it
+  every other step (``odorloc reproduce virtual-physics``: ``flux_map.png``), which only the
+  ``consecutive`` reading never accepts. "The robots surround a suspected emitter": the emitter
+  is inside the ring, so the declared point is the formation's centre, the virtual robot
+  (``declaration.point="centre"``) or the robots' centroid (``"robots"``); the robot with the
+  highest reading (``"best"``) is an ablation.
+- The goal point (eqs. 3, 6): the virtual robot "chooses the robot j who has the highest
+  concentration and moves toward it a distance of step length s1", ``F(VG) = (X_j(t) -
+  X_v(t)) / |X_j(t) - X_v(t)|``. Whether ``j`` is chosen afresh at every step (``target=
+  "robot"``, the default: eq. 3 at each ``t``) or its position ``X_j`` is where the virtual
+  robot goes, the choice renewed when it gets there and never passing it (``"point"``) the
+  text leaves open; a robot on the source is, with ``"point"``, where the virtual robot goes.
+- Leaving a forbidden circle (eqs. 12-16): "once the virtual robot of group 2 chose a rotary
+  method (clockwise or counter clockwise), it should keep on until it escaped from source 1"
+  (``escape``, :class:`~odorloc.behaviours.groups.Bypass`).
 - Repulsion and the goal force are normalised together (eq. 10 then the unit vector), so the
   virtual robot always steps ``s1`` and its robots can follow.
 - Groups out of communication range (``agents.comm_radius``): the paper does not limit the
@@ -111,7 +136,7 @@ class DeclarationParams(Params):
         (``robots``); ``best``, the robot with the highest reading, is an ablation.
     """
 
-    reading: DeclarationReading = "consecutive"
+    reading: DeclarationReading = "window"
     window: int | None = Field(None, ge=1, le=1_000_000)
     point: DeclaredPoint = "centre"
 
@@ -142,7 +167,7 @@ class VirtualPhysicsParams(Params):
     phi_T : float
         Total mass flux threshold of the declaration (readings x m/s; kg/m^2 s).
     n_s : int
-        Consecutive steps above ``phi_T`` needed to declare.
+        Steps above ``phi_T`` needed to declare (read as ``declaration.reading`` says).
     step_rule : {"capped", "fixed"}
         Robots' step length: the best of ``s2, s2/2, ...`` along the force, or always ``s2``
         (see :mod:`odorloc.behaviours.formation`).
@@ -165,6 +190,11 @@ class VirtualPhysicsParams(Params):
     surround_tolerance : float
         Relative band around ``radius`` in which every robot must be for the formation to
         surround its centre (declaration).
+    declaration : DeclarationParams
+        How the total flux is read and which point is declared (see the module docstring).
+    target : {"robot", "point"}
+        The chosen robot as this step's goal, or its position as the goal point until reached
+        (eqs. 3, 6; see the module docstring).
     """
 
     rule: Rule = "chemotaxis"
