@@ -1,7 +1,5 @@
-"""Figures of the virtual-physics reproduction: paths (Figs. 5, 7, 9), search-time bars
-(Figs. 6, 8, 10), the rule summary, the ablations, an animation of both formations, the
-declaration's geometry and the plume beside the closed-form solution. Matplotlib is imported
-only by the functions that draw."""
+"""Figures of the virtual-physics reproduction: paths (Figs. 5, 7, 9), search-time bars (Figs. 6,
+8, 10), the variants, an animation, the plume beside the closed form (pyplot: where it draws)."""
 
 from __future__ import annotations
 

@@ -47,6 +47,9 @@ VARIANTS: dict[str, tuple[dict[str, Any], str]] = {
     "anemotaxis-wait": ({"outside": "wait"}, "reading: wait"),
     "fluxotaxis-wait": ({"outside": "wait"}, "reading: wait"),
     "anemotaxis-best": ({"declaration": {"point": "best"}}, "ablation: best robot"),
+    "anemotaxis-clear": ({"escape": "clear"}, "reading: escape once clear"),
+    "anemotaxis-wide-circle": ({"r_T": 2.4}, "ablation: r_T = 8 r, near the other source"),
+    "fluxotaxis-point": ({"target": "point"}, "reading: goal point"),
 }
 #: Start pairs of the ``starts`` sweep: y of the virtual robots of A and B at x = 18 m.
 WIDE_STARTS = tuple(
@@ -57,8 +60,7 @@ WIDE_RULES = ("anemotaxis", "fluxotaxis")
 SAME_SOURCE_REACH = 3.0
 #: Distance (m) from a source within which the flux map shows the declaration firing.
 REGION = 0.3
-FIGURE_FREQUENCY = 3
-ANIMATION = ("fluxotaxis", "P3")
+FIGURE_FREQUENCY, ANIMATION = 3, ("fluxotaxis", "P3")
 MAP_SECONDS = 200.0  # of each frequency's flux map
 _KEEP = (*RULES, "chemotaxis-no-bypass", "fluxotaxis-no-bypass")
 
