@@ -112,7 +112,13 @@ def test_a_short_run_gives_rows_tables_and_figures(tmp_path) -> None:
         assert {"paths_chemotaxis.png", "search_time_fluxotaxis.png", "episode.gif"} <= names
         assert {"flux_map.png", "plume_check.png"} <= names
         for f in figs:
-            if f.name in ("paths_fluxotaxis.png", "search_time_chemotaxis.png", "flux_map.png"):
+            if f.name in (
+                "paths_fluxotaxis.png",
+                "search_time_chemotaxis.png",
+                "flux_map.png",
+                "plume_check.png",
+                "variants.png",
+            ):
                 f.draw(tmp_path / f.name)
                 assert (tmp_path / f.name).stat().st_size > 10_000
 
@@ -128,3 +134,21 @@ def test_the_release_rate_is_calibrated_to_the_paper_thresholds() -> None:
         assert 2.0 < rep[f"peak_{i}"] / rep["rho_T"] < 20.0  # concentrations of order rho_T
     assert rep["flux_downwind_max"] < 0.0  # no emitter-like outflow inside the plume
     assert rep["core_start"] > rep["rho_T"]  # the plume core at the start line is detectable
+
+
+def test_the_paper_package_imports_no_matplotlib() -> None:
+    """pyplot is imported only by the functions that draw (issue 28): loading the package, as
+    the registry's discovery does, leaves matplotlib alone."""
+    import subprocess
+    import sys
+
+    code = (
+        "import sys\n"
+        "import odorloc.papers.virtual_physics.reproduction\n"
+        "import odorloc.papers.virtual_physics.figures, odorloc.papers.virtual_physics.analysis\n"
+        "import odorloc.viz.formations\n"
+        "import odorloc.viz.fields, odorloc.viz.sweeps, odorloc.experiments.groups\n"
+        "print(sorted(m for m in sys.modules if m.split('.')[0] == 'matplotlib'))\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]"
