@@ -369,7 +369,9 @@ class VirtualPhysicsSearcher(Searcher):
         if math.isnan(self.plume_time) and np.any(gas >= p.k_c):
             self.plume_time = t
         _, self.total_flux = mass_flux(self.vr, x, gas, wind)
-        surrounds = formation_shape(x, self.vr).surrounds(p.radius, p.surround_tolerance)
+        # the shape matters only for a step that can count (all of them for the mean reading)
+        counts = self.total_flux > p.phi_T or p.declaration.reading == "mean"
+        surrounds = counts and formation_shape(x, self.vr).surrounds(p.radius, p.surround_tolerance)
         if self.flux.update(self.total_flux, surrounds):
             self.declared_at = self._declared_point(x, gas)
             self.declared_time = t
