@@ -163,7 +163,8 @@ def main(argv: list[str] | None = None) -> None:
             out = r.run(keep or Path(d), workers=2, progress=False)
             repro_min = (time.perf_counter() - w0) / 60.0
             df = out.results
-        groups = df.drop_duplicates(["scenario.frequency", "episode"])
+        # one flow recording per sweep, frequency and episode
+        groups = df.drop_duplicates(["sweep", "scenario.frequency", "episode"])
         cpu = float(df["cpu_time"].sum() + groups["movie_cpu_time"].sum())
         print(
             f"\ndefault reproduction ({r.default_episodes} episodes per cell, {len(df)} episodes, "

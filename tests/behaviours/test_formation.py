@@ -10,6 +10,7 @@ import pytest
 
 from odorloc.behaviours.formation import (
     FluxDeclaration,
+    declaration_series,
     equilibrium_radius,
     formation_shape,
     hexagon_errors,
@@ -245,3 +246,78 @@ def test_bypass_without_rotary_refuses_the_step_and_ignores_far_groups() -> None
     np.testing.assert_allclose(d, [-1.0, 0.0])
     d, why = Bypass(1.5).steer([1.55, 0.0], None, located, S1)
     assert d is None and why == "idle"
+
+
+def test_clear_escape_slides_round_the_circle_and_keeps_the_sense() -> None:
+    located = {6: np.array([0.0, 0.0])}
+    by = Bypass(r_T=1.5, escape="clear")
+    own = np.array([1.55, 0.0])
+    west = np.array([-1.0, 0.0])  # an upwind goal force, straight through the circle
+    d, why = by.steer(own, west + np.array([0.0, -0.05]), located, S1)
+    assert why == "rotary" and by.engaged == {6: "cw"}
+    x, reasons = own + S1 * d, []
+    while x[0] > -1.0:  # the goal is followed whenever a step along it stays outside
+        d, why = by.steer(x, west, located, S1)
+        reasons.append(why)
+        x = x + S1 * d
+        assert not in_forbidden_area(x, located[6], 1.5)
+        assert len(reasons) < 500
+    assert "goal" in reasons and "rotary" in reasons
+    assert x[1] < -1.4  # round the bottom, the side the group had turned to
+    # "goal-away" turns without a goal step until west no longer points at the located group
+    away = Bypass(r_T=1.5)
+    d, why = away.steer(own, west + np.array([0.0, -0.05]), located, S1)
+    x, reasons = own + S1 * d, [why]
+    while x[0] > 0.0:
+        d, why = away.steer(x, west, located, S1)
+        reasons.append(why)
+        x = x + S1 * d
+    assert set(reasons) == {"rotary"}
+    # coming back towards the circle later, the group turns the same way (the kept sense)
+    lean = np.array([-1.0, 0.1]) / np.hypot(1.0, 0.1)  # would choose ccw afresh
+    d, why = by.steer(np.array([1.55, 0.02]), lean, located, S1)
+    assert why == "rotary" and by.engaged == {6: "cw"}
+    # beyond the release distance the sense is forgotten
+    by.steer(np.array([10.0, 0.0]), west, located, S1)
+    d, why = by.steer(np.array([1.55, 0.02]), lean, located, S1)
+    assert by.engaged == {6: "ccw"}
+
+
+@pytest.mark.parametrize("reading", ["consecutive", "window", "mean"])
+def test_declaration_series_is_what_flux_declaration_says_step_by_step(reading: str) -> None:
+    rng = np.random.default_rng(3)
+    flux = rng.normal(0.06, 0.05, (300, 5))
+    surrounds = rng.random((300, 5)) > 0.1
+    got = declaration_series(flux, 0.05, 6, reading, 15, surrounds)
+    for m in range(5):
+        d = FluxDeclaration(0.05, 6, reading, 15)
+        want = [d.update(flux[t, m], surrounds[t, m]) for t in range(300)]
+        assert np.array_equal(got[:, m], want)
+    assert 0 < got.mean() < 1  # the test exercises both outcomes
+
+
+def test_declaration_readings_on_an_alternating_flux() -> None:
+    """A 2-cycle above and below Phi_T (chemotaxis at the edge of the region): never n_s in a
+    row, n_s of a window of 3 n_s after 2 n_s - 1 steps, a mean that follows the amplitudes."""
+    flux = np.tile([0.09, 0.02], 20)  # mean 0.055 > 0.05
+    fired = {}
+    for r in ("consecutive", "window", "mean"):  # the whole series fed to one declaration
+        d = FluxDeclaration(0.05, 10, r)
+        fired[r] = [d.update(f) for f in flux]
+    assert not any(fired["consecutive"])
+    assert fired["window"].index(True) == 2 * 10 - 2  # the 10th step above: step 19 (index 18)
+    assert fired["mean"].index(True) == 9  # ten steps whose mean is 0.055 > 0.05
+    d = FluxDeclaration(0.05, 10, "mean")
+    assert not any(d.update(f) for f in np.tile([0.07, 0.02], 20))  # mean 0.045 < 0.05
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "field"),
+    [({"reading": "most"}, "reading"), ({"window": 5}, "window"), ({"steps": 0}, "n_s")],
+)
+def test_bad_declaration_settings_are_refused(kwargs: dict, field: str) -> None:
+    args = {"threshold": 0.05, "steps": 10, "reading": "window"}
+    args.update(kwargs)
+    with pytest.raises(ConfigError) as err:
+        FluxDeclaration(**args)
+    assert err.value.field == field

@@ -256,3 +256,52 @@ def test_a_formation_of_fewer_than_three_robots_is_refused() -> None:
     d["agents"] = {"starts": d["agents"]["starts"][:2]}
     with pytest.raises(ConfigError, match=r"agents\.starts: .*at least 3 agents"):
         run_episode(Scenario.from_dict(d), 1, 2)
+
+
+def test_a_goal_point_is_kept_until_reached_and_never_passed() -> None:
+    """target="point": the best robot's position is the goal until the virtual robot gets
+    there (the last step shortened); "robot" chooses again at every step."""
+    gas = np.array([0.09, 0.02, 0.01, 0.0, 0.01, 0.02])  # robot 0 (straight +x) is the best
+    rng = np.random.default_rng(0)
+    s = _searcher(rule="chemotaxis", target="point")
+    goal = RING[0].copy()
+    positions = RING.copy()
+    for k in range(6):  # 0.3055 m: five full steps and a short one
+        a = s.act(_obs(gas[::-1] if k else gas, positions=positions, t=0.5 * k), rng)
+        positions = positions + _moves(a)  # the robots are carried; readings now favour robot 5
+        assert s.vr[0] <= goal[0] + 1e-12 and s.vr[1] == CENTRE[1]  # on the way, never past
+    np.testing.assert_allclose(s.vr, goal, atol=1e-12)
+    a = s.act(_obs(gas[::-1], positions=positions, t=3.0), rng)  # there: robot 5 is chosen
+    assert s.vr[1] < CENTRE[1]
+    s = _searcher(rule="chemotaxis")  # eq. 3 as written: the new best robot at once
+    s.act(_obs(gas), rng)
+    step = np.array([0.06, 0.0])
+    s.act(_obs(gas[::-1], positions=RING + step, t=0.5), rng)
+    u = (RING[5] - CENTRE) / np.linalg.norm(RING[5] - CENTRE)
+    np.testing.assert_allclose(s.vr, CENTRE + step + 0.06 * u, atol=1e-12)
+
+
+@pytest.mark.parametrize("point", ["centre", "robots", "best"])
+def test_the_declared_point(point: str) -> None:
+    s = _searcher(rule="anemotaxis", outside="wait", n_s=2, declaration={"point": point})
+    rng = np.random.default_rng(0)
+    s.act(_obs(_source_inside()), rng)
+    a = s.act(_obs(_source_inside(), t=0.5), rng)
+    want = {"centre": s.vr, "robots": RING.mean(axis=0), "best": RING[0]}[point]
+    np.testing.assert_allclose(a.declarations[0].positions[0], want, atol=1e-12)
+
+
+def test_the_declaration_window_holds_n_s() -> None:
+    with pytest.raises(ConfigError) as ei:
+        registry.make_params(
+            "searcher", "virtual-physics", {"n_s": 10, "declaration": {"window": 5}}
+        )
+    assert "declaration" in str(ei.value) and "n_s" in str(ei.value)
+    # the window reading: n_s counting steps among the last window, not in a row
+    s = _searcher(rule="anemotaxis", outside="wait", n_s=3, declaration={"reading": "window"})
+    rng = np.random.default_rng(0)
+    fired = []
+    for k in range(6):
+        gas = _source_inside() if k % 2 == 0 else np.zeros(6)
+        fired.append(bool(s.act(_obs(gas, t=0.5 * k), rng).declarations))
+    assert fired == [False, False, False, False, True, False]

@@ -35,13 +35,15 @@ outside it. For a regular ``K``-gon of radius ``R`` the outward charge force is
 
 :class:`FluxDeclaration` is the paper's source declaration (Sec. 2.2.3, after Zarzhitsky et al.):
 the total mass flux through the formation (:func:`odorloc.behaviours.taxis.mass_flux`) exceeds
-``Phi_T`` for ``n_s`` consecutive steps while the robots surround their centre
-(:func:`formation_shape`).
+``Phi_T`` in ``n_s`` steps, read three ways, while the robots surround their centre
+(:func:`formation_shape`); :func:`declaration_series` applies it to many formations' flux series
+at once.
 """
 
 from __future__ import annotations
 
 import math
+from collections import deque
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Literal
@@ -52,9 +54,11 @@ from numpy.typing import ArrayLike, NDArray
 from odorloc.core.errors import ConfigError
 
 __all__ = [
+    "DeclarationReading",
     "FluxDeclaration",
     "FormationShape",
     "StepRule",
+    "declaration_series",
     "equilibrium_radius",
     "formation_shape",
     "hexagon_errors",
@@ -275,38 +279,136 @@ def formation_shape(positions: ArrayLike, centre: ArrayLike) -> FormationShape:
     return FormationShape(radii, sides, float(gaps.max()))
 
 
+DeclarationReading = Literal["consecutive", "window", "mean"]
+
+
 class FluxDeclaration:
-    """Declare a source when the total flux exceeds ``threshold`` for ``steps`` steps in a row.
+    """The paper's source declaration (Sec. 2.2.3): the total flux "consistently exceeds" a
+    threshold "in a given number of steps n_s", read one of three ways.
+
+    The sentence (after Zarzhitsky et al.) is: "if the robots surround a suspected emitter, and
+    the total mass flux measured by the sensor grid consistently exceeds some small,
+    empirically-determined threshold Phi_T in a given number of steps n_s, then the robots have
+    localized the emitter". A step *counts* when the robots surround their centre and the total
+    flux exceeds ``threshold``. The readings of "consistently ... in n_s steps":
+
+    - ``"consecutive"``: ``n_s`` counting steps in a row (a step that does not count starts
+      afresh);
+    - ``"window"``: ``n_s`` counting steps among the last ``window`` (``window >= n_s``): the
+      flux exceeds the threshold in ``n_s`` steps of one stretch of the search, not necessarily
+      adjacent ones;
+    - ``"mean"``: the mean total flux over the last ``n_s`` steps exceeds the threshold, every one
+      of them with the robots surrounding their centre.
 
     Parameters
     ----------
     threshold : float
         ``Phi_T`` (readings x m/s; kg/m^2 s in the paper's units).
     steps : int
-        ``n_s``, consecutive steps needed (>= 1).
+        ``n_s`` (>= 1).
+    reading : {"consecutive", "window", "mean"}
+    window : int, optional
+        Length of the window of ``"window"`` (default ``3 n_s``; at least ``n_s``).
     """
 
-    def __init__(self, threshold: float, steps: int) -> None:
+    def __init__(
+        self,
+        threshold: float,
+        steps: int,
+        reading: DeclarationReading = "consecutive",
+        window: int | None = None,
+    ) -> None:
         if steps < 1:
             raise ConfigError("n_s", f"must be >= 1, got {steps}")
         if not math.isfinite(threshold):
             raise ConfigError("phi_T", "must be finite")
+        if reading not in ("consecutive", "window", "mean"):
+            raise ConfigError("reading", f"unknown reading {reading!r} (consecutive, window, mean)")
+        m = 3 * int(steps) if window is None else int(window)
+        if m < steps:
+            raise ConfigError("window", f"must be at least n_s = {steps}, got {m}")
         self.threshold = float(threshold)
         self.steps = int(steps)
+        self.reading: DeclarationReading = reading
+        self.window = m if reading == "window" else int(steps)
         self.count = 0
+        self._flux: deque[float] = deque(maxlen=self.window)
+        self._counts: deque[bool] = deque(maxlen=self.window)
+        self._run = 0
 
     def reset(self) -> None:
         """Start counting afresh."""
         self.count = 0
+        self._run = 0
+        self._flux.clear()
+        self._counts.clear()
 
     def update(self, total_flux: float, surrounds: bool = True) -> bool:
-        """Feed one step; ``True`` once ``steps`` consecutive steps had ``total_flux >
-        threshold`` with the robots surrounding their centre (a step without resets the count)."""
-        if surrounds and total_flux > self.threshold:
-            self.count += 1
-        else:
-            self.count = 0
-        return self.count >= self.steps
+        """Feed one step; ``True`` once the reading's condition holds (see the class docstring).
+
+        :attr:`count` is then the number of steps that count towards it: the run of counting
+        steps (``consecutive``), the counting steps in the window (``window``) or the steps of
+        the current run of surrounding steps, at most ``n_s`` (``mean``).
+        """
+        counts = bool(surrounds and total_flux > self.threshold)
+        self._flux.append(float(total_flux))
+        self._counts.append(counts)
+        if self.reading == "consecutive":
+            self.count = self.count + 1 if counts else 0
+            return self.count >= self.steps
+        if self.reading == "window":
+            self.count = sum(self._counts)
+            return self.count >= self.steps
+        self._run = self._run + 1 if surrounds else 0
+        self.count = min(self._run, self.steps)
+        if self.count < self.steps:
+            return False
+        return float(np.mean(list(self._flux)[-self.steps :])) > self.threshold
+
+
+def declaration_series(
+    total_flux: ArrayLike,
+    threshold: float,
+    steps: int,
+    reading: DeclarationReading = "consecutive",
+    window: int | None = None,
+    surrounds: ArrayLike | None = None,
+) -> NDArray[np.bool_]:
+    """Where a :class:`FluxDeclaration` fed each column of ``total_flux`` would fire.
+
+    Parameters
+    ----------
+    total_flux : (T, M) array_like
+        Total flux of ``M`` formations over ``T`` steps.
+    threshold, steps, reading, window
+        As :class:`FluxDeclaration`.
+    surrounds : (T, M) array_like of bool, optional
+        Whether the robots surround their centre (default: always).
+
+    Returns
+    -------
+    (T, M) bool ndarray
+        ``True`` at every step at which :meth:`FluxDeclaration.update` would return ``True``
+        (a declaration stops a formation; here the counting goes on, so the fraction of steps
+        with ``True`` measures how readily a formation held there would declare).
+    """
+    flux = np.atleast_2d(np.asarray(total_flux, float))
+    sur = np.ones(flux.shape, bool) if surrounds is None else np.asarray(surrounds, bool)
+    ref = FluxDeclaration(threshold, steps, reading, window)  # validates the settings
+    counts = sur & (flux > ref.threshold)
+    T = len(flux)
+
+    def trailing_sum(x: np.ndarray, n: int) -> np.ndarray:
+        c = np.cumsum(np.vstack([np.zeros((1, x.shape[1])), x]), axis=0)
+        lag = np.maximum(np.arange(1, T + 1) - n, 0)
+        return c[1:] - c[lag]
+
+    if reading == "consecutive":
+        return trailing_sum(counts.astype(float), ref.steps) >= ref.steps
+    if reading == "window":
+        return trailing_sum(counts.astype(float), ref.window) >= ref.steps
+    full = trailing_sum(sur.astype(float), ref.steps) >= ref.steps
+    return full & (trailing_sum(flux, ref.steps) / ref.steps > ref.threshold)
 
 
 def hexagon_errors(positions: Sequence[Sequence[float]], centre: ArrayLike) -> tuple[float, float]:

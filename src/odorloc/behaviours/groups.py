@@ -12,9 +12,13 @@ coordinates groups through their virtual robots only:
   (clockwise, eq. 14) or its opposite (counter-clockwise, eq. 15), normalised (eq. 16). The
   sense follows eq. 13: clockwise when ``theta_1 <= theta_2``, with ``theta_1`` the direction from
   the group's virtual robot to the located group's and ``theta_2`` that of its goal force -- the
-  group turns to the side its goal force already leans to. The sense is kept until the group has
-  escaped, i.e. until its goal force no longer points towards the located group
-  (``|theta_1 - theta_2| >= pi/2``, where the paper lets the ordinary goal force take it away).
+  group turns to the side its goal force already leans to. "Once the virtual robot of group 2
+  chose a rotary method (clockwise or counter clockwise), it should keep on until it escaped
+  from source 1", which reads two ways (:class:`Bypass`, ``escape``): escaped when the goal force
+  no longer points towards the located group (``"goal-away"``: ``|theta_1 - theta_2| >= pi/2``,
+  where the paper lets the ordinary goal force take it away), or as soon as a step along the
+  goal force no longer enters the forbidden circle (``"clear"``: the group has got round it),
+  the chosen sense then kept for every later approach to the same circle.
 
 Angles are compared on the circle (``theta_2 - theta_1`` wrapped to ``(-pi, pi]``), which is the
 paper's comparison wherever the two angles do not straddle the x axis.
@@ -33,6 +37,7 @@ from odorloc.geometry.vectors import wrap_angle
 
 __all__ = [
     "Bypass",
+    "Escape",
     "Sense",
     "in_forbidden_area",
     "repulsion",
@@ -42,6 +47,7 @@ __all__ = [
 
 FloatArray = NDArray[np.float64]
 Sense = Literal["cw", "ccw"]
+Escape = Literal["goal-away", "clear"]
 _EPS = 1e-12
 
 
@@ -127,7 +133,10 @@ class Bypass:
         (the virtual robot waits where it is).
     release : float, metres
         An engaged group farther than this from the located group counts as escaped (a guard
-        for groups pushed away by other forces; default ``2 r_T``).
+        for groups pushed away by other forces; default ``2 r_T``); with ``escape="clear"`` the
+        remembered sense is forgotten there too.
+    escape : {"goal-away", "clear"}
+        When the group has escaped (see the module docstring).
 
     Attributes
     ----------
@@ -135,15 +144,24 @@ class Bypass:
         The rotary sense chosen for each located group the group is going around.
     """
 
-    def __init__(self, r_T: float, rotary: bool = True, release: float | None = None) -> None:
+    def __init__(
+        self,
+        r_T: float,
+        rotary: bool = True,
+        release: float | None = None,
+        escape: Escape = "goal-away",
+    ) -> None:
         self.r_T = float(r_T)
         self.rotary = bool(rotary)
         self.release = 2.0 * self.r_T if release is None else float(release)
+        self.escape: Escape = escape
         self.engaged: dict[int, Sense] = {}
+        self._kept: dict[int, Sense] = {}
 
     def reset(self) -> None:
         """Forget every engagement."""
         self.engaged = {}
+        self._kept = {}
 
     def steer(
         self,
@@ -185,15 +203,21 @@ class Bypass:
         for gid in order:
             c = np.asarray(located[gid], float)
             dist = float(np.linalg.norm(c[:2] - x[:2]))
+            if dist > self.release:
+                self._kept.pop(gid, None)
             towards = abs(_angles(x, c, g)) < 0.5 * math.pi
+            blocked = towards and in_forbidden_area(x + step * g, c, self.r_T)
             if gid in self.engaged:
-                if towards and dist <= self.release:
+                held = blocked if self.escape == "clear" else towards
+                if held and dist <= self.release:
                     return rotary_force(x, c, self.engaged[gid]), "rotary"
-                del self.engaged[gid]  # escaped: the goal force leads away
-            if towards and in_forbidden_area(x + step * g, c, self.r_T):
+                del self.engaged[gid]  # escaped
+            if blocked:
                 if not self.rotary:
                     return None, "blocked"
-                sense = rotary_sense(x, c, g)
+                sense = self._kept.get(gid) or rotary_sense(x, c, g)
+                if self.escape == "clear":
+                    self._kept[gid] = sense
                 self.engaged[gid] = sense
                 return rotary_force(x, c, sense), "rotary"
         return g, "goal"

@@ -12,11 +12,22 @@ moves only between neighbouring cells (exact conservation up to round-off).
 - Faces touching an obstacle cell carry no flux. At the arena boundary, ``boundary="open"`` lets
   air leave with its concentration and enter with zero concentration (no diffusive flux through
   the boundary); ``boundary="closed"`` blocks every boundary face.
-- A source adds ``rate_at(t) * dt_s`` of mass to its cell each substep.
+- A source adds ``rate_at(t) * dt_s`` of mass each substep: to the cell containing it
+  (``deposit="cell"``), or shared between the ``2^d`` cells around it with the weights of the
+  multilinear interpolation that reads the field (``deposit="linear"``, cloud-in-cell), so that
+  the centre of the released mass is the source position itself and not the centre of its cell
+  (up to ``h sqrt(d) / 2`` away: a source on a cell corner sits half a cell off in every axis).
+
+First-order upwinding adds numerical diffusion along the flow. At steady state the time step
+drops out and the scheme solves the advection-diffusion equation with the diffusivity
+``D + |u_a| h / 2`` along each axis ``a`` (the leading term of its truncation error):
+:func:`upwind_diffusivity`. Where ``|u| h / 2`` is comparable with ``D`` the plume spreads
+along the wind, and reaches upwind of its source, as if ``D`` were that much larger.
 """
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Sequence
 from typing import Literal
 
@@ -49,6 +60,8 @@ class EulerianParams(Params):
         Target Courant number of the advective part, in (0, 1].
     max_substeps : int
         Refuse steps needing more substeps than this (a too-large ``dt`` or ``D``).
+    deposit : "cell" | "linear"
+        Where a source's mass goes (see module docstring).
     """
 
     cell: Positive | None = None
@@ -56,6 +69,14 @@ class EulerianParams(Params):
     boundary: Literal["open", "closed"] = "open"
     cfl: float = Field(default=0.5, gt=0.0, le=1.0)
     max_substeps: int = Field(default=100_000, ge=1, le=10_000_000)
+    deposit: Literal["cell", "linear"] = "cell"
+
+
+def upwind_diffusivity(D: float, speed: float, h: float) -> float:
+    """Effective diffusivity (m^2/s) of the steady first-order upwind scheme along an axis on
+    which the wind component is ``speed`` (m/s), for cells of size ``h`` (m): ``D + |u| h / 2``
+    (see the module docstring)."""
+    return float(D) + 0.5 * abs(float(speed)) * float(h)
 
 
 def _sl(dim: int, axis: int, s: slice) -> tuple[slice, ...]:
@@ -122,13 +143,36 @@ class EulerianPlume(PlumeModel):
         self.c = np.zeros(self.shape)
 
     def _sources_changed(self) -> None:
-        self._src_cell = tuple(self.grid.index(self.source_positions).T)
-        for k, solid in enumerate(self.solid[self._src_cell]):
+        cells = self.grid.index(self.source_positions)
+        for k, solid in enumerate(self.solid[tuple(cells.T)]):
             if solid:
                 raise ConfigError(
                     f"world.sources[{k}].position",
                     f"lies in an obstacle cell of the {self.h:g} m grid",
                 )
+        self._deposits = [
+            self._linear_cells(p) if self.params.deposit == "linear" else (tuple(c[:, None]), None)
+            for p, c in zip(self.source_positions, cells, strict=True)
+        ]
+
+    def _linear_cells(self, point: np.ndarray) -> tuple[tuple[np.ndarray, ...], np.ndarray]:
+        """Cells around ``point`` and their multilinear weights (free cells only, summing to 1)."""
+        g = (point - self.lower) / self.h - 0.5  # position in cells from the first centre
+        weights: dict[tuple[int, ...], float] = {}
+        for corner in itertools.product((0, 1), repeat=self.dim):
+            cell, w = [], 1.0
+            for a, hi in enumerate(corner):
+                n = self.shape[a]
+                i0 = int(np.clip(np.floor(g[a]), 0, max(n - 2, 0)))
+                f = float(np.clip(g[a] - i0, 0.0, 1.0)) if n > 1 else 0.0
+                cell.append(min(i0 + hi, n - 1))
+                w *= f if hi else 1.0 - f
+            key = tuple(cell)
+            if not self.solid[key]:
+                weights[key] = weights.get(key, 0.0) + w
+        keys = [k for k, w in weights.items() if w > 0.0]
+        w = np.array([weights[k] for k in keys])
+        return tuple(np.array(keys, np.intp).T), w / w.sum()
 
     # ------------------------------------------------------------------ state
     def reset(self, rng: np.random.Generator) -> None:
@@ -221,8 +265,9 @@ class EulerianPlume(PlumeModel):
             div *= ds / h
             c -= div
             tk = self.t + (k + 0.5) * ds
-            for s, idx in zip(self.sources, zip(*self._src_cell, strict=True), strict=True):
-                c[idx] += s.rate_at(tk) * ds / vol
+            for s, (idx, w) in zip(self.sources, self._deposits, strict=True):
+                q = s.rate_at(tk) * ds / vol
+                c[idx] += q if w is None else q * w
         self.c = c
 
     # ------------------------------------------------------------------ queries

@@ -13,13 +13,16 @@ Each control step (one step of eqs. 7-8):
    they are (see below for those out of communication range).
 2. **Declare** (Sec. 2.2.3, :class:`~odorloc.behaviours.formation.FluxDeclaration`): the total
    mass flux ``sum_k rho_k v_k . n_k`` through the formation (:func:`~odorloc.behaviours.taxis.
-   mass_flux`, normals from the virtual robot) has exceeded ``phi_T`` for ``n_s`` consecutive
-   steps while the robots surround the virtual robot; the group declares the virtual robot's
-   position, stops and keeps broadcasting it.
+   mass_flux`, normals from the virtual robot) "consistently exceeds ... Phi_T in a given number
+   of steps n_s" while the robots surround the virtual robot (``declaration.reading``: ``n_s`` of
+   the last ``3 n_s`` steps by default); the group declares the formation's centre, stops and
+   keeps broadcasting it.
 3. **Goal force** ``F(VG)`` of the virtual robot (:mod:`odorloc.behaviours.taxis`):
    ``chemotaxis`` (eq. 3, towards the robot with the highest reading), ``anemotaxis`` (eq. 4,
    upwind of the mean wind when every robot reads above ``rho_T``) or ``fluxotaxis`` (eqs. 5-6,
-   towards the robot with the most negative flux when every robot reads above ``rho_T``). When
+   towards the robot with the most negative flux when every robot reads above ``rho_T``); a
+   chosen robot is the goal of this step, or its position the goal point until reached
+   (``target``). When
    only part of the formation reads above ``rho_T``, anemotaxis and fluxotaxis re-centre the
    formation on its strongest robot (``outside="chemotaxis"``: the paper's "move the lattice
    upstream while keeping the robots inside the plume", Sec. 2.2.2.1) or wait
@@ -50,6 +53,28 @@ Choices where the paper is silent (all parameters):
   reachable.
 - "Surround" in the declaration is a formation check: every robot within ``r (1 +- 0.5)`` of the
   virtual robot and no angular gap of ``pi`` or more between them.
+- The declaration (Sec. 2.2.3): "if the robots surround a suspected emitter, and the total mass
+  flux measured by the sensor grid consistently exceeds some small, empirically-determined
+  threshold Phi_T in a given number of steps n_s, then the robots have localized the emitter".
+  "Consistently ... in a given number of steps" reads three ways (``declaration.reading``):
+  ``n_s`` steps in a row (``consecutive``), ``n_s`` steps of one stretch of the search, here the
+  last ``3 n_s`` (``window``, the default: the flux counts in ``n_s`` steps, "consistently" keeps
+  them together), or the mean of the last ``n_s`` steps (``mean``). Chemotaxis steps back and
+  forth at the edge of the region where the flux exceeds ``Phi_T``, so that the flux is above it
+  every other step (``odorloc reproduce virtual-physics``: ``flux_map.png``), which only the
+  ``consecutive`` reading never accepts. "The robots surround a suspected emitter": the emitter
+  is inside the ring, so the declared point is the formation's centre, the virtual robot
+  (``declaration.point="centre"``) or the robots' centroid (``"robots"``); the robot with the
+  highest reading (``"best"``) is an ablation.
+- The goal point (eqs. 3, 6): the virtual robot "chooses the robot j who has the highest
+  concentration and moves toward it a distance of step length s1", ``F(VG) = (X_j(t) -
+  X_v(t)) / |X_j(t) - X_v(t)|``. Whether ``j`` is chosen afresh at every step (``target=
+  "robot"``, the default: eq. 3 at each ``t``) or its position ``X_j`` is where the virtual
+  robot goes, the choice renewed when it gets there and never passing it (``"point"``) the
+  text leaves open; a robot on the source is, with ``"point"``, where the virtual robot goes.
+- Leaving a forbidden circle (eqs. 12-16): "once the virtual robot of group 2 chose a rotary
+  method (clockwise or counter clockwise), it should keep on until it escaped from source 1"
+  (``escape``, :class:`~odorloc.behaviours.groups.Bypass`).
 - Repulsion and the goal force are normalised together (eq. 10 then the unit vector), so the
   virtual robot always steps ``s1`` and its robots can follow.
 - Groups out of communication range (``agents.comm_radius``): the paper does not limit the
@@ -71,12 +96,13 @@ import numpy as np
 from pydantic import Field, ValidationInfo, field_validator
 
 from odorloc.behaviours.formation import (
+    DeclarationReading,
     FluxDeclaration,
     StepRule,
     formation_shape,
     structure_step,
 )
-from odorloc.behaviours.groups import Bypass, repulsion
+from odorloc.behaviours.groups import Bypass, Escape, repulsion
 from odorloc.behaviours.taxis import anemotaxis, chemotaxis, fluxotaxis, mass_flux
 from odorloc.core.errors import ConfigError
 from odorloc.core.params import Finite, NonNegative, Params, Positive
@@ -95,6 +121,8 @@ from odorloc.searchers.base import Searcher
 __all__ = ["GroupMessage", "VirtualPhysicsParams", "VirtualPhysicsSearcher"]
 
 Rule = Literal["chemotaxis", "anemotaxis", "fluxotaxis"]
+Target = Literal["robot", "point"]
+DeclaredPoint = Literal["centre", "robots", "best"]
 _EPS = 1e-12
 
 
@@ -113,6 +141,30 @@ class GroupMessage(Payload):
     @property
     def nbytes(self) -> int:
         return int(self.vr.nbytes) + 1
+
+
+class DeclarationParams(Params):
+    """How a formation declares (Sec. 2.2.3; see :class:`~odorloc.behaviours.formation.
+    FluxDeclaration`).
+
+    Attributes
+    ----------
+    reading : {"consecutive", "window", "mean"}
+        Reading of "the total mass flux ... consistently exceeds ... Phi_T in a given number of
+        steps n_s": ``n_s`` steps in a row, ``n_s`` of the last ``window`` steps, or the mean of
+        the last ``n_s`` steps.
+    window : int, optional
+        Window of the ``window`` reading, steps (default ``3 n_s``; at least ``n_s``).
+    point : {"centre", "robots", "best"}
+        The point declared. "If the robots surround a suspected emitter ... then the robots
+        have localized the emitter": the emitter is inside the ring, so the paper supports the
+        formation's centre, its virtual robot (``centre``, default) or the robots' centroid
+        (``robots``); ``best``, the robot with the highest reading, is an ablation.
+    """
+
+    reading: DeclarationReading = "window"
+    window: int | None = Field(None, ge=1, le=1_000_000)
+    point: DeclaredPoint = "centre"
 
 
 class VirtualPhysicsParams(Params):
@@ -141,7 +193,7 @@ class VirtualPhysicsParams(Params):
     phi_T : float
         Total mass flux threshold of the declaration (readings x m/s; kg/m^2 s).
     n_s : int
-        Consecutive steps above ``phi_T`` needed to declare.
+        Steps above ``phi_T`` needed to declare (read as ``declaration.reading`` says).
     step_rule : {"capped", "fixed"}
         Robots' step length: the best of ``s2, s2/2, ...`` along the force, or always ``s2``
         (see :mod:`odorloc.behaviours.formation`).
@@ -158,9 +210,17 @@ class VirtualPhysicsParams(Params):
         the circle is refused. Needs ``forbidden_area``.
     r_T : float, metres
         Radius of the forbidden circle (``> radius``).
+    escape : {"goal-away", "clear"}
+        When a group going round a forbidden circle has escaped
+        (:class:`~odorloc.behaviours.groups.Bypass`).
     surround_tolerance : float
         Relative band around ``radius`` in which every robot must be for the formation to
         surround its centre (declaration).
+    declaration : DeclarationParams
+        How the total flux is read and which point is declared (see the module docstring).
+    target : {"robot", "point"}
+        The chosen robot as this step's goal, or its position as the goal point until reached
+        (eqs. 3, 6; see the module docstring).
     """
 
     rule: Rule = "chemotaxis"
@@ -181,7 +241,10 @@ class VirtualPhysicsParams(Params):
     forbidden_area: bool = True
     rotary: bool = Field(True, validate_default=True)
     r_T: Positive = Field(1.5, validate_default=True)
+    escape: Escape = "goal-away"
     surround_tolerance: float = Field(0.5, gt=0.0, lt=1.0)
+    declaration: DeclarationParams = DeclarationParams()
+    target: Target = "robot"
 
     @field_validator("s2")
     @classmethod
@@ -204,6 +267,14 @@ class VirtualPhysicsParams(Params):
     def _rotary_needs_area(cls, v: bool, info: ValidationInfo) -> bool:
         if v and info.data.get("forbidden_area") is False:
             raise ValueError("needs forbidden_area (the rotary force goes around it)")
+        return v
+
+    @field_validator("declaration")
+    @classmethod
+    def _window_holds_n_s(cls, v: DeclarationParams, info: ValidationInfo) -> DeclarationParams:
+        n_s = info.data.get("n_s")
+        if v.window is not None and n_s is not None and v.window < n_s:
+            raise ValueError(f"window ({v.window}) must be at least n_s ({n_s})")
         return v
 
     @property
@@ -240,8 +311,10 @@ class VirtualPhysicsSearcher(Searcher):
                 "formation cannot follow it",
             )
         self.s2 = min(p.s2, reach)
-        self.flux = FluxDeclaration(p.phi_T, p.n_s)
-        self.bypass = Bypass(p.r_T, rotary=p.rotary)
+        d = p.declaration
+        self.flux = FluxDeclaration(p.phi_T, p.n_s, d.reading, d.window)
+        self.goal_point: np.ndarray | None = None
+        self.bypass = Bypass(p.r_T, rotary=p.rotary, escape=p.escape)
         self.heard: dict[int, tuple[np.ndarray, bool]] = {}
         self.declared_at: np.ndarray | None = None
         self.declared_time = math.nan
@@ -265,17 +338,43 @@ class VirtualPhysicsSearcher(Searcher):
                 seen.add(m.sender)
                 self.heard[int(m.sender)] = (m.payload.vr.copy(), m.payload.declared)
 
-    def _goal(self, x: np.ndarray, gas: np.ndarray, wind: np.ndarray) -> np.ndarray | None:
+    def _rule(self, x: np.ndarray, gas: np.ndarray, wind: np.ndarray) -> tuple[Any, bool]:
+        """The goal direction of this step and whether it points at a robot (eqs. 3, 6)."""
         p = self.params
+        contact = np.where(gas >= p.k_c, gas, 0.0)
         if p.rule == "chemotaxis":
-            return chemotaxis(self.vr, x, np.where(gas >= p.k_c, gas, 0.0))
+            return chemotaxis(self.vr, x, contact), True
         if p.rule == "anemotaxis":
-            goal = anemotaxis(wind, gas, p.rho_T)
+            goal, at_robot = anemotaxis(wind, gas, p.rho_T), False
         else:
-            goal = fluxotaxis(self.vr, x, gas, wind, p.rho_T)
+            goal, at_robot = fluxotaxis(self.vr, x, gas, wind, p.rho_T), True
         if goal is None and p.outside == "chemotaxis" and not np.all(gas > p.rho_T):
-            goal = chemotaxis(self.vr, x, np.where(gas >= p.k_c, gas, 0.0))
-        return goal
+            goal, at_robot = chemotaxis(self.vr, x, contact), True
+        return goal, at_robot
+
+    def _goal(self, x: np.ndarray, gas: np.ndarray, wind: np.ndarray) -> tuple[Any, float]:
+        """Unit goal force ``F(VG)`` (or ``None``) and the length of this step (``<= s1``).
+
+        ``target="robot"`` (eqs. 3, 6 as written): towards the chosen robot's position of this
+        step, a full ``s1``. ``target="point"``: the chosen robot's position is the goal point,
+        kept until the virtual robot gets there (its last step shortened, so that it never
+        passes over it); only then is a robot chosen again.
+        """
+        s1 = self.params.s1
+        if self.goal_point is not None:
+            rel = self.goal_point - self.vr
+            dist = float(np.linalg.norm(rel))
+            if dist > _EPS:
+                return rel / dist, min(s1, dist)
+            self.goal_point = None
+        goal, at_robot = self._rule(x, gas, wind)
+        if goal is None or not at_robot or self.params.target == "robot":
+            return goal, s1
+        # the robot the rule chose: the one the unit goal force points at
+        k = int(np.argmax((x - self.vr) @ goal))
+        self.goal_point = x[k].copy()
+        dist = float(np.linalg.norm(self.goal_point - self.vr))
+        return goal, min(s1, dist)
 
     def _message(self) -> dict[int, GroupMessage]:
         return {self.sender: GroupMessage(self.vr, self.declared_at is not None)}
@@ -295,16 +394,15 @@ class VirtualPhysicsSearcher(Searcher):
         if math.isnan(self.plume_time) and np.any(gas >= p.k_c):
             self.plume_time = t
         _, self.total_flux = mass_flux(self.vr, x, gas, wind)
-        # the shape matters only when the flux is high enough to count
-        surrounds = self.total_flux > p.phi_T and formation_shape(x, self.vr).surrounds(
-            p.radius, p.surround_tolerance
-        )
+        # the shape matters only for a step that can count (all of them for the mean reading)
+        counts = self.total_flux > p.phi_T or p.declaration.reading == "mean"
+        surrounds = counts and formation_shape(x, self.vr).surrounds(p.radius, p.surround_tolerance)
         if self.flux.update(self.total_flux, surrounds):
-            self.declared_at = self.vr.copy()
+            self.declared_at = self._declared_point(x, gas)
             self.declared_time = t
-            decl = Declaration(self.vr[None, :].copy(), 1.0, agent=self.sender)
+            decl = Declaration(self.declared_at[None, :].copy(), 1.0, agent=self.sender)
             return Action([Command.hold()] * n, messages=self._message(), declaration=decl)
-        goal = self._goal(x, gas, wind)
+        goal, step = self._goal(x, gas, wind)
         force = np.zeros(2) if goal is None else np.asarray(goal, float)
         if p.repulsion:
             others = [v for v, _ in self.heard.values()]
@@ -320,7 +418,10 @@ class VirtualPhysicsSearcher(Searcher):
         if reason in self.counts:
             self.counts[reason] += 1
         self._last["rotary"] = 1.0 if reason == "rotary" else 0.0
-        new = self.vr if direction is None else self.vr + p.s1 * direction
+        if reason != "goal" or self._last["repelled"]:
+            # another force turned the step: a full s1, and the goal point is given up
+            step, self.goal_point = p.s1, None
+        new = self.vr if direction is None else self.vr + step * direction
         new = self._keep_inside(new)
         delta = new - self.vr
         self.vr = new
@@ -338,6 +439,14 @@ class VirtualPhysicsSearcher(Searcher):
             disp = np.hstack([disp, np.zeros((n, ctx.dim - 2))])
         cmds: list[Command | None] = [Command("move", d) for d in disp]
         return Action(cmds, messages=self._message())
+
+    def _declared_point(self, x: np.ndarray, gas: np.ndarray) -> np.ndarray:
+        point = self.params.declaration.point
+        if point == "robots":
+            return x.mean(axis=0)
+        if point == "best":
+            return x[int(np.argmax(gas))].copy()
+        return self.vr.copy()
 
     def _keep_inside(self, point: np.ndarray) -> np.ndarray:
         """The virtual robot stays where its whole formation fits inside the arena, off

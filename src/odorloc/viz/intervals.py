@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = ["errorbar_lengths"]
+__all__ = ["bars_with_intervals", "errorbar_lengths"]
 
 
 def errorbar_lengths(
@@ -24,3 +26,26 @@ def errorbar_lengths(
     below = np.where(np.isfinite(below), np.maximum(below, 0.0), 0.0)
     above = np.where(np.isfinite(above), np.maximum(above, 0.0), 0.0)
     return below, above
+
+
+def bars_with_intervals(
+    ax: Any,
+    x: ArrayLike,
+    center: ArrayLike,
+    lo: ArrayLike,
+    hi: ArrayLike,
+    *,
+    horizontal: bool = False,
+    **bar: Any,
+) -> None:
+    """Bars of height (or, ``horizontal``, length) ``center`` at ``x`` with interval error bars
+    (:func:`errorbar_lengths`; NaN bars are drawn empty). ``bar`` goes to ``Axes.bar``."""
+    c = np.asarray(center, float)
+    shown = np.nan_to_num(c)
+    err = np.vstack(errorbar_lengths(c, lo, hi))
+    if horizontal:
+        ax.barh(x, shown, **bar)
+        ax.errorbar(shown, x, xerr=err, fmt="none", ecolor="k", capsize=2, lw=0.8)
+    else:
+        ax.bar(x, shown, **bar)
+        ax.errorbar(x, shown, yerr=err, fmt="none", ecolor="k", capsize=2, lw=0.8)

@@ -12,9 +12,10 @@ from odorloc.core.errors import ConfigError
 from odorloc.experiments.reproduction import get
 from odorloc.experiments.store import ResultStore
 from odorloc.experiments.sweep import expand_cells, load_sweep, run_sweep
-from odorloc.papers.virtual_physics.calibration import calibrated_rate, steady_report
+from odorloc.papers.virtual_physics.analysis import calibrated_rate, steady_report
 from odorloc.papers.virtual_physics.reproduction import (
     VARIANTS,
+    WIDE_STARTS,
     VirtualPhysicsReproduction,
     vp_group,
 )
@@ -29,11 +30,20 @@ def test_the_sweep_crosses_rules_frequencies_and_starts_on_shared_flows() -> Non
     spec = load_sweep(r.sweep(2, 2024))
     cells = expand_cells(spec)
     assert len(cells) == 3 * 6 * len(VARIANTS)
-    assert spec.replay and {c.flow_key for c in cells} == {
-        "vp[frequency=1]",
-        "vp[frequency=2]",
-        "vp[frequency=3]",
-    }
+    flows = {"vp[frequency=1]", "vp[frequency=2]", "vp[frequency=3]"}
+    assert spec.replay and {c.flow_key for c in cells} == flows
+    # every variant's label names its rule, and the rule is what it runs
+    for c in cells:
+        member = c.spec["searcher_params"]["member"]
+        assert member["rule"] == c.spec["searcher_label"].split("-")[0]
+    # the start study: the fast rules from ten more start pairs, on the same flows
+    wide = expand_cells(load_sweep(r.sweeps(None, 2024)["starts"]))
+    assert len(wide) == 3 * len(WIDE_STARTS) * 2
+    assert {c.flow_key for c in wide} == flows
+    sc = get_scenario("virtual-physics-two-groups")
+    for name in WIDE_STARTS:
+        a, b = (int(v) for v in name[1:].split("-"))
+        assert [tuple(p) for p in sc.agents.start_sets[name]] == [(18.0, a), (18.0, b)]
 
 
 def test_the_paper_reference_holds_each_cell_to_its_own_start_and_frequency() -> None:
@@ -88,18 +98,27 @@ def test_a_short_run_gives_rows_tables_and_figures(tmp_path) -> None:
     assert len(df) == 4 and (df["status"] == "ok").all()
     assert (df["group_size"] == 4).all()  # one flow for both rules and both starts
     assert df["movie_wall_time"].nunique() == 1
-    for col in ("same_source", "reached_both", "closest_A_0", "closest_B_1", "source_A"):
+    for col in ("same_source", "reached_both", "closest_A_0", "source_A", "dwell_B"):
         assert col in df
     assert np.isfinite(df["closest_A_0"]).all()
+    r.map_seconds = 2.0  # a short flux map: the machinery, not the numbers
     tables = r.tables(df, 7)
-    assert [t.name for t in tables] == ["rules", "starts_treble", "cells", "ablations"]
+    names = ["rules", "starts_success", "starts_time", "variants", "approach"]
+    assert [t.name for t in tables] == [*names, "declaration_geometry", "plume_check"]
     with ResultStore(store, readonly=True) as st:
         assert st.arrays(str(df.cell_id.iloc[0]), 0) is not None  # treble episode 0 is kept
         figs = r.figures(df, st, tmp_path, 7)
         names = {f.name for f in figs}
         assert {"paths_chemotaxis.png", "search_time_fluxotaxis.png", "episode.gif"} <= names
+        assert {"flux_map.png", "plume_check.png"} <= names
         for f in figs:
-            if f.name in ("paths_fluxotaxis.png", "search_time_chemotaxis.png", "episode.gif"):
+            if f.name in (
+                "paths_fluxotaxis.png",
+                "search_time_chemotaxis.png",
+                "flux_map.png",
+                "plume_check.png",
+                "variants.png",
+            ):
                 f.draw(tmp_path / f.name)
                 assert (tmp_path / f.name).stat().st_size > 10_000
 
@@ -115,3 +134,21 @@ def test_the_release_rate_is_calibrated_to_the_paper_thresholds() -> None:
         assert 2.0 < rep[f"peak_{i}"] / rep["rho_T"] < 20.0  # concentrations of order rho_T
     assert rep["flux_downwind_max"] < 0.0  # no emitter-like outflow inside the plume
     assert rep["core_start"] > rep["rho_T"]  # the plume core at the start line is detectable
+
+
+def test_the_paper_package_imports_no_matplotlib() -> None:
+    """pyplot is imported only by the functions that draw (issue 28): loading the package, as
+    the registry's discovery does, leaves matplotlib alone."""
+    import subprocess
+    import sys
+
+    code = (
+        "import sys\n"
+        "import odorloc.papers.virtual_physics.reproduction\n"
+        "import odorloc.papers.virtual_physics.figures, odorloc.papers.virtual_physics.analysis\n"
+        "import odorloc.viz.formations\n"
+        "import odorloc.viz.fields, odorloc.viz.sweeps, odorloc.experiments.groups\n"
+        "print(sorted(m for m in sys.modules if m.split('.')[0] == 'matplotlib'))\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]"

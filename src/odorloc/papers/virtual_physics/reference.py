@@ -27,14 +27,7 @@ SUCCESS = {
 CHEMOTAXIS_TIME = {1: 780.0, 3: 1180.0}
 
 #: Chemotaxis at treble frequency, mean time per start (Sec. 3.1).
-CHEMOTAXIS_TREBLE_BY_START = {
-    "P1": 1040.0,
-    "P2": 870.0,
-    "P3": 1160.0,
-    "P4": 920.0,
-    "P5": 970.0,
-    "P6": 1090.0,
-}
+CHEMOTAXIS_TREBLE_BY_START = dict(P1=1040.0, P2=870.0, P3=1160.0, P4=920.0, P5=970.0, P6=1090.0)
 
 #: Anemotaxis mean time per start (Sec. 3.2; P4 fails; the frequency is not stated).
 ANEMOTAXIS_BY_START = {"P1": 350.0, "P2": 390.0, "P3": 390.0, "P5": 460.0, "P6": 460.0}
@@ -47,3 +40,12 @@ SOURCE = {
     "anemotaxis": "Sec. 3.2, Figs. 7-8",
     "fluxotaxis": "Sec. 3.3, Figs. 9-10 (similar to anemotaxis)",
 }
+
+
+def paper_success(label: str) -> str:
+    """The paper's success rate of a rule over the six starts, % (as text; fluxotaxis is only
+    "similar to anemotaxis")."""
+    s = SUCCESS.get(label)
+    if s is None:
+        return "~anem." if label == "fluxotaxis" else "-"
+    return f"{100 * sum(s.values()) / len(s):.0f}"

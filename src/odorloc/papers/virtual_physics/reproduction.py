@@ -1,32 +1,21 @@
 """``odorloc reproduce virtual-physics``: two formations, two sources, three plume-tracing rules.
 
-The virtual-physics paper's experiment (Sec. 3): two groups of six robots in
-``virtual-physics-two-groups`` with chemotaxis, anemotaxis or fluxotaxis as the goal force of
-their virtual robots, at standard, twice and treble frequency of the wind's fluctuation and the
-release modulation (the scenario's ``frequency`` knob), from the six start sets P1-P6. Ablations
-in the same run: chemotaxis without the forbidden area and rotary force, and without repulsion;
-anemotaxis and fluxotaxis waiting when the plume leaves part of the formation (``outside:
-wait``, the rules read literally) instead of re-centring on the strongest robot.
-
-The plume does not depend on the robots, so each (frequency, episode) flow is recorded once and
-replayed to every rule and start (the sweep's ``replay`` option and the scenario's
-``agent_grid`` of start sets, which share the flow of their frequency): all cells of an episode
-face the same wind and plume.
-
-Each row adds (:func:`vp_extras`): the source nearest to each group's declaration
-(``source_A``, ``source_B``, -1 for none) and how far from it (``error_A`` ...), whether both
-groups declared nearest to the same source (``same_declared``), whether both ended at the same
-source (``same_source``: their virtual robots' final positions nearest to one source and within
-:data:`SAME_SOURCE_REACH` of it), the closest approach of each group's virtual robot to each
-source (``closest_A_0`` ...) and whether the two groups reached different sources
-(``reached_both``), and the times the first and the second source were found (``first_found``,
-``second_found``).
+The paper's experiment (Sec. 3): two groups of six robots in ``virtual-physics-two-groups`` with
+chemotaxis, anemotaxis or fluxotaxis as their virtual robots' goal force, at standard, twice and
+treble frequency (the scenario's ``frequency`` knob), from the start sets P1-P6; other readings
+of the text and ablations in the same run (:data:`VARIANTS`). The sweep ``starts`` runs
+anemotaxis and fluxotaxis from ten more start pairs on the start line (:data:`WIDE_STARTS`).
+Each (frequency, episode) flow is recorded once and replayed to every variant and start. Rows
+carry the per-group columns of :func:`~odorloc.experiments.groups.group_columns`. The outputs
+also hold the declaration's geometry (:func:`~.analysis.flux_maps`, ``flux_map.png``) and the
+plume beside the closed-form solution (:func:`~.analysis.plume_check`, ``plume_check.png``).
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import replace
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -36,51 +25,43 @@ from odorloc.core.errors import ConfigError
 from odorloc.core.registry import register
 from odorloc.experiments.reproduction import Figure, Reproduction, ReproductionParams, Table, fmt
 from odorloc.papers.virtual_physics import reference as ref
+from odorloc.papers.virtual_physics.figures import select
 
-__all__ = [
-    "ABLATIONS",
-    "FREQUENCIES",
-    "RULES",
-    "STARTS",
-    "VARIANTS",
-    "VirtualPhysicsReproduction",
-    "vp_extras",
-    "vp_group",
-]
+__all__ = ["RULES", "VARIANTS", "VirtualPhysicsReproduction", "vp_extras", "vp_group"]
 
 SCENARIO = "virtual-physics-two-groups"
 RULES = ("chemotaxis", "anemotaxis", "fluxotaxis")
 FREQUENCIES = (1, 2, 3)
 FREQ_NAMES = {1: "standard", 2: "twice", 3: "treble"}
 STARTS = tuple(ref.START_SETS)
-#: Searcher label -> the formation's parameters (the members of the per-group team).
-VARIANTS: dict[str, dict[str, Any]] = {
-    "chemotaxis": {"rule": "chemotaxis"},
-    "anemotaxis": {"rule": "anemotaxis"},
-    "fluxotaxis": {"rule": "fluxotaxis"},
-    "chemotaxis-no-bypass": {"rule": "chemotaxis", "forbidden_area": False, "rotary": False},
-    "chemotaxis-no-repulsion": {"rule": "chemotaxis", "repulsion": False},
-    "fluxotaxis-no-bypass": {"rule": "fluxotaxis", "forbidden_area": False, "rotary": False},
-    "anemotaxis-wait": {"rule": "anemotaxis", "outside": "wait"},
-    "fluxotaxis-wait": {"rule": "fluxotaxis", "outside": "wait"},
+#: Label -> (the formation's parameters besides the rule its label begins with, what it is).
+VARIANTS: dict[str, tuple[dict[str, Any], str]] = {
+    "chemotaxis": ({"rule": "chemotaxis"}, "eq. 3"),
+    "anemotaxis": ({"rule": "anemotaxis"}, "eq. 4"),
+    "fluxotaxis": ({"rule": "fluxotaxis"}, "eqs. 5-6"),
+    "chemotaxis-consecutive": ({"declaration": {"reading": "consecutive"}}, "reading"),
+    "chemotaxis-point": ({"target": "point"}, "reading: goal point"),
+    "chemotaxis-no-bypass": ({"forbidden_area": False, "rotary": False}, "ablation"),
+    "chemotaxis-no-repulsion": ({"repulsion": False}, "ablation"),
+    "fluxotaxis-no-bypass": ({"forbidden_area": False, "rotary": False}, "ablation"),
+    "anemotaxis-wait": ({"outside": "wait"}, "reading: wait"),
+    "fluxotaxis-wait": ({"outside": "wait"}, "reading: wait"),
+    "anemotaxis-best": ({"declaration": {"point": "best"}}, "ablation: best robot"),
+    "anemotaxis-clear": ({"escape": "clear"}, "reading: escape once clear"),
+    "anemotaxis-wide-circle": ({"r_T": 2.4}, "ablation: r_T = 8 r, near the other source"),
+    "fluxotaxis-point": ({"target": "point"}, "reading: goal point"),
 }
-ABLATIONS = (
-    "chemotaxis",
-    "chemotaxis-no-bypass",
-    "chemotaxis-no-repulsion",
-    "fluxotaxis",
-    "fluxotaxis-no-bypass",
-    "anemotaxis",
-    "anemotaxis-wait",
-    "fluxotaxis-wait",
+#: Start pairs of the ``starts`` sweep: y of the virtual robots of A and B at x = 18 m.
+WIDE_STARTS = tuple(
+    ["y2-6", "y2-10", "y2-14", "y2-18", "y6-10", "y6-14", "y6-18", "y10-14", "y10-18", "y14-18"]
 )
-#: Distance (m) within which both groups' final virtual robots must lie of the same source for
-#: the episode to count as "both groups ended at the same source" (twice the forbidden radius).
+WIDE_RULES = ("anemotaxis", "fluxotaxis")
+#: Both groups' final virtual robots within this distance (m) of one source: "same end".
 SAME_SOURCE_REACH = 3.0
-#: Frequency of the path figures (the paper's Figs. 5, 7, 9 are at treble frequency).
-FIGURE_FREQUENCY = 3
-#: The animated episode: rule, start set (episode 0 at FIGURE_FREQUENCY).
-ANIMATION = ("fluxotaxis", "P3")
+#: Distance (m) from a source within which the flux map shows the declaration firing.
+REGION = 0.3
+FIGURE_FREQUENCY, ANIMATION = 3, ("fluxotaxis", "P3")
+MAP_SECONDS = 200.0  # of each frequency's flux map
 _KEEP = (*RULES, "chemotaxis-no-bypass", "fluxotaxis-no-bypass")
 
 
@@ -92,182 +73,122 @@ def _setting(task: Any, key: str) -> Any:
     return (task.cell.get("scenario_params") or {}).get(key)
 
 
-def _animated(task: Any) -> bool:
-    return (
-        bool(task.keep_arrays)
-        and _label(task) == ANIMATION[0]
-        and _setting(task, "start_set") == ANIMATION[1]
-        and _setting(task, "frequency") == FIGURE_FREQUENCY
-    )
-
-
 def _prepare(sc: Any, task: Any) -> Any:
-    # every episode records its trajectory and virtual robots at 1 s (for the extras); plume
-    # frames only where arrays are kept, densely for the animated episode
-    if _animated(task):
-        upd = {"stride": 1, "plume_stride": 4, "belief_stride": 10**9}
-    elif task.keep_arrays:
-        upd = {"stride": 2, "plume_stride": 100, "belief_stride": 10**9}
-    else:
-        upd = {"stride": 2, "plume_stride": 10**9, "belief_stride": 10**9}
+    # every step of the virtual robots is recorded (chemotaxis' 2-cycle has a period of two
+    # steps); plume frames only for the paths figures, densely for the animated episode
+    paths = task.keep_arrays and _setting(task, "frequency") == FIGURE_FREQUENCY
+    animated = paths and (_label(task), _setting(task, "start_set")) == ANIMATION
+    upd = {"stride": 1, "plume_stride": 4 if animated else (100 if paths else 10**9)}
     return sc.model_copy(update={"recording": sc.recording.model_copy(update=upd)})
 
 
-def _group_suffixes(sc: Any) -> dict[str, str]:
-    """Group name -> suffix of its member's columns (``""`` for the first, ``_<agent>``)."""
-    out = {}
-    for k, g in enumerate(sc.agents.groups):
-        out[g.name or f"group{k}"] = "" if k == 0 else f"_{g.agents[0]}"
-    return out
-
-
 def vp_extras(task: Any, res: Any, rows: dict[str, dict[str, Any]]) -> dict[str, Any]:
-    """Per-episode columns of the reproduction (see the module docstring)."""
+    """Per-episode columns (:func:`~odorloc.experiments.groups.group_columns`)."""
+    from odorloc.experiments.groups import group_columns
     from odorloc.experiments.runner import cell_scenario
+    from odorloc.viz.formations import groups_of
 
     sc = cell_scenario(task.cell)
-    radius = sc.task.success_radius
-    sources = np.asarray(res.sources, float)
-    names = list(_group_suffixes(sc))
-    out: dict[str, Any] = {}
-    declared: dict[int, int] = {}
-    for d in res.declarations:
-        if d.group is None:
-            continue
-        dist = np.linalg.norm(sources - d.positions[0][None, :], axis=1)
-        i = int(np.argmin(dist))
-        name = names[int(d.group)] if int(d.group) < len(names) else str(d.group)
-        out[f"source_{name}"] = i
-        out[f"error_{name}"] = float(dist[i])
-        declared[int(d.group)] = i
-    for name in names:
-        out.setdefault(f"source_{name}", -1)
-        out.setdefault(f"error_{name}", math.nan)
-    hits = list(declared.values())
-    out["same_declared"] = bool(len(hits) >= 2 and len(set(hits)) < len(hits))
-    rec = res.recording
-    reached: list[set[int]] = []
-    ended: list[tuple[int, float]] = []
-    for name, suffix in _group_suffixes(sc).items():
-        vx = rec.diagnostics.get(f"vr_x{suffix}") if rec is not None else None
-        vy = rec.diagnostics.get(f"vr_y{suffix}") if rec is not None else None
-        near: set[int] = set()
-        if vx is None or vy is None or len(vx) == 0:
-            for i in range(len(sources)):
-                out[f"closest_{name}_{i}"] = math.nan
-            reached.append(near)
-            continue
-        for i, s in enumerate(sources):
-            d = float(np.nanmin(np.hypot(vx - s[0], vy - s[1])))
-            out[f"closest_{name}_{i}"] = d
-            if d <= radius:
-                near.add(i)
-        reached.append(near)
-        last = np.hypot(vx[-1] - sources[:, 0], vy[-1] - sources[:, 1])
-        ended.append((int(np.argmin(last)), float(last.min())))
-    out["same_source"] = bool(
-        len(ended) >= 2
-        and len({i for i, _ in ended}) == 1
-        and all(d <= SAME_SOURCE_REACH for _, d in ended)
-    )
-    both = len(reached) >= 2 and any(i != j for i in reached[0] for j in reached[1])
-    out["reached_both"] = bool(both)
-    found = sorted(
-        float(res.metrics[f"found_time_{i}"])
-        for i in range(len(sources))
-        if math.isfinite(float(res.metrics.get(f"found_time_{i}", math.nan)))
-    )
-    out["first_found"] = found[0] if found else math.nan
-    out["second_found"] = found[1] if len(found) > 1 else math.nan
-    return out
+    return group_columns(res, groups_of(sc), sc.task.success_radius, REGION, SAME_SOURCE_REACH)
 
 
 def vp_group(tasks: list[Any]) -> list[dict[str, Any]]:
-    """One flow's group: record the flow once, replay it to every rule and start.
-
-    Arrays are kept only for episodes at the figures' frequency (paths figures, animation).
-    """
+    """One flow's group: record the flow once, replay it to every variant and start. Episode 0
+    is stored for the paths figures (figure frequency) and, for chemotaxis, at every frequency
+    (its virtual robots drawn on the flux maps)."""
     from odorloc.experiments.runner import run_replay_group
 
-    adjusted = [
-        replace(
-            t,
-            keep_arrays=bool(t.keep_arrays)
-            and _setting(t, "frequency") == FIGURE_FREQUENCY
-            and _label(t) in _KEEP,
-        )
-        for t in tasks
-    ]
+    def keeps(t: Any) -> bool:
+        label, figure = _label(t), _setting(t, "frequency") == FIGURE_FREQUENCY
+        return bool(t.keep_arrays) and (label == "chemotaxis" or (figure and label in _KEEP))
+
+    adjusted = [replace(t, keep_arrays=keeps(t)) for t in tasks]
     return run_replay_group(adjusted, record=True, extras=vp_extras, prepare=_prepare)
 
 
 # ---------------------------------------------------------------------- tables
-def _rate(k: int, n: int) -> str:
-    from odorloc.experiments.stats import wilson_interval
+def _ci(g: Any, stat: tuple[str, ...], seed: int) -> str:
+    """``value [lo, hi]`` of a rate or mean (:func:`~odorloc.experiments.cells.stat_interval`)."""
+    from odorloc.experiments.cells import stat_interval
 
-    if n == 0:
-        return "-"
-    lo, hi = wilson_interval(k, n)
-    return f"{fmt(100 * k / n, 0)} [{fmt(100 * lo, 0)}, {fmt(100 * hi, 0)}]"
-
-
-def _mean_ci(x: Any, seed: int) -> str:
-    from odorloc.experiments.stats import bootstrap_ci
-
-    a = np.asarray(x, float)
-    a = a[np.isfinite(a)]
-    if a.size == 0:
-        return "-"
-    lo, hi = bootstrap_ci(a, np.random.default_rng(seed), "mean", 0.95, 2000)
-    return f"{fmt(a.mean(), 0)} [{fmt(lo, 0)}, {fmt(hi, 0)}]"
+    v, lo, hi, _ = stat_interval(g, stat, seed)
+    return "-" if not math.isfinite(v) else f"{fmt(v, 0)} [{fmt(lo, 0)}, {fmt(hi, 0)}]"
 
 
 def _ok(g: Any) -> Any:
-    return g[g["status"] != "error"] if "status" in g else g
-
-
-def _successes(g: Any) -> Any:
     return g[g["success"].fillna(False).astype(bool)]
 
 
-def _col(df: Any, name: str) -> np.ndarray:
-    """A column as floats (empty when absent)."""
-    return np.asarray(df[name], float) if name in df else np.zeros(0)
+def _frac(g: Any, col: str, value: Any = True) -> str:
+    return f"{int((g[col] == value).sum())}/{len(g)}" if col in g and len(g) else "-"
 
 
-def _nanmean(x: np.ndarray) -> float:
-    x = x[np.isfinite(x)]
-    return float(x.mean()) if x.size else math.nan
+def _mean_of(g: Any, cols: tuple[str, ...]) -> float:
+    a = np.concatenate([np.asarray(g[c], float) for c in cols if c in g] or [np.zeros(0)])
+    return float(np.nanmean(a)) if np.isfinite(a).any() else math.nan
 
 
-def _select(df: Any, label: str, freq: int | None = None, start: str | None = None) -> Any:
-    g = df[df["searcher"] == label]
-    if freq is not None:
-        g = g[g["scenario.frequency"].astype(float) == float(freq)]
-    if start is not None:
-        g = g[g["scenario.start_set"] == start]
-    return _ok(g)
+def _time(g: Any) -> str:
+    t = _ok(g)["search_time"].to_numpy(float)
+    return fmt(t.mean(), 0) if t.size else "-"
 
 
-def _paper_success(label: str) -> str:
-    s = ref.SUCCESS.get(label)
-    if s is None:
-        return "~anem." if label == "fluxotaxis" else "-"
-    return fmt(100 * float(np.mean(list(s.values()))), 0)
+NOTES = {
+    "rules": "[95% intervals: Wilson, bootstrap] freq: 1 standard, 2 twice, 3 treble; time: of "
+    "the episodes that found both; reached: the virtual robots came within the success radius of "
+    f"different sources; dwell: % of steps within {REGION:g} m of a source after getting there",
+    "starts_success": "paper: chemotaxis 100 % everywhere; anemotaxis 0 % from P4, else 100 %",
+    "starts_time": "paper c.3: chemotaxis, treble (Sec. 3.1); a.: anemotaxis (Sec. 3.2)",
+    "variants": "reached: the groups came within the success radius of different sources; same "
+    f"end: both groups ended within {SAME_SOURCE_REACH:g} m of one source",
+    "starts_wide": "one src: both groups ended within 3 m of one source; up 1st: the upwind "
+    "source (1, 11) was declared first (the paper's explanation of the P4 failure)",
+    "approach": "reversing near 100 %: a 2-cycle, the virtual robot stepping back and forth",
+    "declaration_geometry": "centre x: mean downwind offset of the region; >0.45 m: farther "
+    "than 0.45 m from the source (the flanks, where the advective flux exceeds Phi_T too)",
+    "plume_check": "closed form: the steady solution with D, and with D + U h / 2 along the wind",
+}
+#: Table name -> (title, headers separated by "|"; ``{...}`` filled in by :func:`_table`).
+TABLES = {
+    "rules": (
+        "Both sources declared: ours (6 starts pooled) vs paper",
+        "rule|freq|n|success %|paper|time s|paper s|reached|dwell %",
+    ),
+    "starts_success": ("Per start: successes/n (rule.frequency)", "start|{cols}|paper c/a %"),
+    "starts_time": ("Per start: mean time of the successes, s", "start|{cols}|paper c.3|a."),
+    "variants": (
+        "Every variant, frequencies and starts pooled",
+        "variant|n|success %|time s|reached|same end|what",
+    ),
+    "starts_wide": ("More starts (y of A-B at x = 18 m), frequencies pooled", "start|{wide}"),
+    "approach": (
+        f"After first coming within {REGION:g} m of a source",
+        "rule|freq|dwell %|reversing %",
+    ),
+    "declaration_geometry": (
+        "Where a formation held still would declare (>= half of the steps)",
+        "freq|source|area m2|centre x m|max % >0.45 m|area >0.45 m",
+    ),
+    "plume_check": (
+        "Steady plume at the upwind source, 1 m from the inflow",
+        "quantity|Eulerian|inflow -4 m|closed D={D}|closed D={Da}",
+    ),
+}
 
 
-def _paper_time(label: str, freq: int) -> str:
-    if label == "chemotaxis":
-        return fmt(ref.CHEMOTAXIS_TIME.get(freq), 0)
-    if label in ("anemotaxis", "fluxotaxis"):
-        return f"<{ref.FAST_RULES_BOUND:.0f}"
-    return "-"
+def _table(name: str, rows: list[list[str]], **fill: str) -> Table:
+    title, heads = TABLES[name]
+    return Table(name, title, heads.format(**fill).split("|"), rows, note=NOTES.get(name, ""))
 
 
-def _frac(g: Any, col: str) -> str:
-    if col not in g or not len(g):
-        return "-"
-    return f"{int(g[col].fillna(False).astype(bool).sum())}/{len(g)}"
+CAPTIONS = {
+    "variants.png": "Readings of the text and ablations (all frequencies and starts pooled)",
+    "flux_map.png": "The declaration's geometry: how often a formation held at each offset from "
+    "a source would declare, per source and frequency, with the chemotaxis virtual robots' paths",
+    "plume_check.png": "Steady plume around the upwind source, 1 m from the inflow, vs the "
+    "closed-form solution",
+    "episode.gif": f"{ANIMATION[0]} from {ANIMATION[1]}, treble frequency, episode 0",
+}
 
 
 @register("reproduction", "virtual-physics", ReproductionParams, "Sec. 3 and Figs. 5-10")
@@ -278,11 +199,12 @@ class VirtualPhysicsReproduction(Reproduction):
     paper = "virtual-physics-multi-group.txt"
     summary = (
         "Sec. 3 and Figs. 5-10: chemotaxis, anemotaxis, fluxotaxis formations, 3 frequencies x "
-        "6 starts, ablations"
+        "6 starts, readings and ablations, 10 more starts, the declaration's geometry"
     )
     default_episodes = 2
     paper_episodes = 1
-    cell_summary = False  # 144 cells: the compact tables and cells.csv say it better
+    cell_summary = False  # the compact tables say it better
+    map_seconds = MAP_SECONDS  # of the flux maps (shorter in tests)
 
     def __init__(
         self, params: ReproductionParams | None = None, time_limit: float | None = None
@@ -293,65 +215,59 @@ class VirtualPhysicsReproduction(Reproduction):
         params : ReproductionParams, optional
         time_limit : float, optional, seconds
             A shorter episode limit (tests, a first look); default the scenario's
-            ``limits.time`` (1200 s). The recorded flows follow it, and the tables count
-            failures at it. Anything but a finite number > 0 (a bool, a string, NaN, inf,
-            zero or less) is refused with a :class:`~odorloc.core.errors.ConfigError`.
+            ``limits.time`` (1200 s). Anything but a finite number > 0 (a bool, a string, NaN,
+            inf, zero or less) is refused with a :class:`~odorloc.core.errors.ConfigError`.
         """
         if time_limit is not None:
             # a bool is an int to Python: True would silently run 1 s episodes
-            numeric = isinstance(time_limit, int | float | np.number) and not isinstance(
+            ok = isinstance(time_limit, int | float | np.number) and not isinstance(
                 time_limit, bool
             )
-            if not (numeric and math.isfinite(float(time_limit)) and float(time_limit) > 0):
+            if not (ok and math.isfinite(float(time_limit)) and float(time_limit) > 0):
                 raise ConfigError(
                     "time_limit", f"must be a finite number of seconds > 0, got {time_limit!r}"
                 )
             time_limit = float(time_limit)
         super().__init__(params)
         self.time_limit = time_limit
+        self._analysis: dict[str, Any] = {}
 
-    def sweep(self, episodes: int, seed: int) -> dict[str, Any]:
-        fixed = (
-            {} if self.time_limit is None else {"params": {"limits.time": float(self.time_limit)}}
-        )
+    def _spec(self, n: int, seed: int, starts: tuple[str, ...], labels: tuple[str, ...]) -> Any:
+        fixed = {} if self.time_limit is None else {"params": {"limits.time": self.time_limit}}
+        scenario = {"name": SCENARIO, "label": "vp", "grid": {"frequency": list(FREQUENCIES)}}
+        scenario["agent_grid"] = {"start_set": list(starts)}
+        member = {
+            lab: {"type": "virtual-physics", "rule": lab.split("-")[0], **VARIANTS[lab][0]}
+            for lab in labels
+        }
         return {
             "name": "virtual-physics reproduction",
             "seed": seed,
-            "episodes": episodes,
+            "episodes": n,
             "replay": True,
             "keep_episodes": [0],
-            "scenarios": [
-                {
-                    "name": SCENARIO,
-                    "label": "vp",
-                    "grid": {"frequency": list(FREQUENCIES)},
-                    "agent_grid": {"start_set": list(STARTS)},
-                    **fixed,
-                }
-            ],
+            "scenarios": [{**scenario, **fixed}],
             "searchers": [
-                {
-                    "name": "per-group",
-                    "label": label,
-                    "params": {"member": {"type": "virtual-physics", **p}},
-                }
-                for label, p in VARIANTS.items()
+                {"name": "per-group", "label": lab, "params": {"member": member[lab]}}
+                for lab in labels
             ],
         }
+
+    def sweep(self, episodes: int, seed: int) -> dict[str, Any]:
+        """The paper's experiment: every variant x frequency x start set P1-P6."""
+        return self._spec(episodes, seed, STARTS, tuple(VARIANTS))
+
+    def sweeps(self, episodes: int | None, seed: int) -> dict[str, dict[str, Any]]:
+        n = self.default_episodes if episodes is None else int(episodes)
+        wide = self._spec(n, seed, WIDE_STARTS, WIDE_RULES)
+        return {"results": self.sweep(n, seed), "starts": wide}
 
     def group_fn(self) -> Any:
         return vp_group
 
     def reference(self) -> dict[str, dict[str, Any]]:
-        """The paper's numbers per cell (rule x frequency x start) for the report's comparison.
-
-        Every cell is one start at one frequency, so it is held to the paper's value for that
-        start: success 100 % for chemotaxis, 0 % for anemotaxis from P4 and 100 % from the
-        other starts (Secs. 3.1-3.2). A mean time is given only where the paper quotes one for
-        a single start and frequency, chemotaxis at treble frequency (Sec. 3.1); its pooled
-        means (780 s standard, 1180 s treble) and the anemotaxis times of an unstated
-        frequency are in the tables.
-        """
+        """The paper's numbers per cell (:mod:`.reference`): success rates per start (Secs.
+        3.1-3.2), chemotaxis' mean time per start at treble frequency (Sec. 3.1)."""
         from odorloc.experiments.sweep import expand_cells, load_sweep
 
         out: dict[str, dict[str, Any]] = {}
@@ -360,215 +276,120 @@ class VirtualPhysicsReproduction(Reproduction):
             if label not in ref.SUCCESS:
                 continue
             start = str(cell.swept["scenario.start_set"])
-            entry: dict[str, Any] = {
-                "success_rate": float(ref.SUCCESS[label][start]),
-                "source": ref.SOURCE[label],
-            }
+            entry = {"success_rate": float(ref.SUCCESS[label][start]), "source": ref.SOURCE[label]}
             if label == "chemotaxis" and int(cell.swept["scenario.frequency"]) == 3:
                 entry["mean_time"] = ref.CHEMOTAXIS_TREBLE_BY_START[start]
             out[cell.cell_id] = entry
         return out
 
+    def analysis(self, seed: int) -> dict[str, Any]:
+        """The flux maps (world seed ``seed``) and the plume check, computed once per run."""
+        from odorloc.papers.virtual_physics.analysis import flux_maps, plume_check
+
+        if self._analysis.get("seed") != seed:
+            maps = flux_maps(FREQUENCIES, self.map_seconds, seed)
+            self._analysis = {"seed": seed, "maps": maps, "plume": plume_check()}
+        return self._analysis
+
     def tables(self, df: Any, seed: int) -> list[Table]:
-        main = []
+        res = df[df["sweep"] == "results"] if "sweep" in df else df
+        rules, approach, success, times, variants, wide = [], [], [], [], [], []
         for label in RULES:
             for f in FREQUENCIES:
-                g = _select(df, label, f)
-                ok = _successes(g)
-                main.append(
-                    [
-                        label,
-                        str(f),
-                        str(len(g)),
-                        _rate(len(ok), len(g)),
-                        _paper_success(label),
-                        _mean_ci(ok["search_time"], seed),
-                        _paper_time(label, f),
-                        _frac(g, "reached_both"),
-                        fmt(_nanmean(_col(g, "first_found")), 0),
-                    ]
-                )
-        tables = [
-            Table(
-                "rules",
-                "Both sources declared: ours (6 starts pooled) vs paper",
-                [
-                    "rule",
-                    "freq",
-                    "n",
-                    "success %",
-                    "paper",
-                    "time s",
-                    "paper s",
-                    "reached",
-                    "1st s",
-                ],
-                main,
-                note="[95% intervals: Wilson, bootstrap] freq: 1 standard, 2 twice, 3 treble; "
-                "time: mean over the episodes that found both; reached: the two virtual robots "
-                "came within the success radius of different sources (declared or not); 1st: "
-                "mean time the first source was found",
-            )
-        ]
-        per_start = []
-        for s in STARTS:
-            row = [s]
-            for label in RULES:
-                g = _select(df, label, FIGURE_FREQUENCY, s)
-                ok = _successes(g)
-                t = ok["search_time"].to_numpy(float)
-                row += [f"{len(ok)}/{len(g)}", fmt(t.mean(), 0) if t.size else "-"]
-            row += [
-                fmt(ref.CHEMOTAXIS_TREBLE_BY_START.get(s), 0),
-                fmt(ref.ANEMOTAXIS_BY_START.get(s), 0) if s in ref.ANEMOTAXIS_BY_START else "fail",
-            ]
-            per_start.append(row)
-        tables.append(
-            Table(
-                "starts_treble",
-                "Per start at treble frequency: successes/n and mean time s (cf. Figs. 6, 8, 10)",
-                [
-                    "start",
-                    "chem.",
-                    "s",
-                    "anem.",
-                    "s",
-                    "flux.",
-                    "s",
-                    "paper chem. s",
-                    "paper anem. s",
-                ],
-                per_start,
-            )
-        )
-        wide = []
-        for label in VARIANTS:
-            for f in FREQUENCIES:
-                for s in STARTS:
-                    g = _select(df, label, f, s)
-                    ok = _successes(g)
-                    wide.append(
-                        [
-                            label,
-                            FREQ_NAMES[f],
-                            s,
-                            str(len(g)),
-                            str(len(ok)),
-                            fmt(ok["search_time"].mean(), 1) if len(ok) else "-",
-                            fmt(_nanmean(_col(g, "first_found")), 1),
-                            _frac(g, "same_source"),
-                            _frac(g, "same_declared"),
-                            _frac(g, "reached_both"),
-                        ]
-                    )
-        tables.append(
-            Table(
-                "cells",
-                "Every cell: rule x frequency x start",
-                [
-                    "variant",
-                    "frequency",
-                    "start",
-                    "n",
-                    "successes",
-                    "mean time s",
-                    "1st source s",
-                    "ended at one source",
-                    "declared one source",
-                    "reached both",
-                ],
-                wide,
-                console=False,
-            )
-        )
-        abl = []
-        for label in ABLATIONS:
-            g = _select(df, label)
-            ok = _successes(g)
-            abl.append(
-                [
-                    label,
-                    str(len(g)),
-                    _rate(len(ok), len(g)),
-                    _mean_ci(ok["search_time"], seed),
-                    _frac(g, "reached_both"),
-                    _frac(g, "same_source"),
-                    fmt(_nanmean(_col(g, "first_found")), 0),
+                g = select(res, label, f)
+                bound = ref.CHEMOTAXIS_TIME.get(f) if label == "chemotaxis" else None
+                dwell, rev = (_mean_of(g, (f"{k}_A", f"{k}_B")) for k in ("dwell", "reversal"))
+                rules.append([label, str(f), str(len(g)), _ci(g, ("rate", "success"), seed)])
+                rules[-1] += [
+                    ref.paper_success(label),
+                    _ci(g, ("mean", "search_time", "success"), seed),
                 ]
-            )
-        tables.append(
-            Table(
-                "ablations",
-                "Ablations, all frequencies and starts pooled",
-                ["variant", "n", "success %", "time s", "reached", "same end", "1st s"],
-                abl,
-                note="-no-bypass: no forbidden area, no rotary force; -wait: anemotaxis and "
-                "fluxotaxis wait while not every robot reads above rho_T (read literally) "
-                "instead of re-centring on the strongest robot; reached: the groups came within "
-                "the success radius of different sources; same end: both groups ended within "
-                f"{SAME_SOURCE_REACH:g} m of one source",
-            )
+                rules[-1] += [fmt(bound, 0) if bound else f"<{ref.FAST_RULES_BOUND:.0f}"]
+                rules[-1] += [_frac(g, "reached_both"), fmt(100 * dwell, 0)]
+                approach.append([label, str(f), fmt(100 * dwell, 0), fmt(100 * rev, 0)])
+        for s in STARTS:
+            cells = [select(res, r, f, s) for r in RULES for f in FREQUENCIES]
+            paper = [fmt(100 * ref.SUCCESS[r][s], 0) for r in ("chemotaxis", "anemotaxis")]
+            success.append([s, *(f"{len(_ok(g))}/{len(g)}" for g in cells), "/".join(paper)])
+            anem = ref.ANEMOTAXIS_BY_START.get(s)
+            paper = [fmt(ref.CHEMOTAXIS_TREBLE_BY_START[s], 0), fmt(anem, 0) if anem else "fail"]
+            times.append([s, *(_time(g) for g in cells), *paper])
+        for label, (_, what) in VARIANTS.items():
+            g = select(res, label)
+            variants.append([label, str(len(g)), _ci(g, ("rate", "success"), seed)])
+            variants[-1] += [_ci(g, ("mean", "search_time", "success"), seed)]
+            variants[-1] += [_frac(g, "reached_both"), _frac(g, "same_source"), what]
+        starts = df[df["sweep"] == "starts"] if "sweep" in df else df.iloc[:0]
+        for s in WIDE_STARTS if len(starts) else ():
+            wide.append([s])
+            for label in WIDE_RULES:
+                g = select(starts, label, start=s)
+                wide[-1] += [f"{len(_ok(g))}/{len(g)}", _frac(g, "same_source")]
+                wide[-1] += [_frac(g, "first_declared", 0)]
+        cols = "|".join(f"{r[:4]}.{f}" for r in RULES for f in FREQUENCIES)
+        wide_cols = "|".join(
+            f"{r[:4]}. {c}" for r in WIDE_RULES for c in ("ok", "one src", "up 1st")
         )
-        return tables
+        rows = {"rules": rules, "starts_success": success, "starts_time": times}
+        rows.update(variants=variants, starts_wide=wide, approach=approach)
+        return [
+            _table(n, r, cols=cols, wide=wide_cols) for n, r in rows.items() if r
+        ] + self._geometry(seed)
+
+    def _geometry(self, seed: int) -> list[Table]:
+        a = self.analysis(seed)
+        maps, off = a["maps"], a["maps"]["offsets"]
+        X, Y = np.meshgrid(off, off, indexing="ij")
+        far = np.hypot(X, Y) > 0.45
+        rows = []
+        for f in FREQUENCIES:
+            for i, s in enumerate(maps["sources"]):
+                m = maps["maps"][f][i]["declares"]
+                fires = m >= 0.5
+                cx = float((X * fires).sum() / max(fires.sum(), 1))
+                area = (off[1] - off[0]) ** 2 * np.array([fires.sum(), (fires & far).sum()])
+                rows.append([str(f), f"({s[0]:g}, {s[1]:g})", fmt(area[0], 2), fmt(cx, 2)])
+                rows[-1] += [fmt(100 * m[far].max(), 0), fmt(area[1], 2)]
+        p = a["plume"]
+        check = [[r[0], *(f"{v:.3g}" for v in r[1:])] for r in p["rows"]]
+        return [
+            _table("declaration_geometry", rows),
+            _table("plume_check", check, D=f"{p['D']:g}", Da=f"{p['D_along']:g}"),
+        ]
 
     def figures(self, df: Any, store: Any, out: Path, seed: int) -> list[Figure]:
+        from odorloc.experiments.recordings import kept_recordings
         from odorloc.papers.virtual_physics import figures as vf
+        from odorloc.viz.fields import declaration_map_figure
+        from odorloc.viz.formations import relative_paths
 
-        figs = []
-        recs = vf.kept_recordings(df, store, FIGURE_FREQUENCY)
-        for k, label in enumerate(RULES):
-            if label in recs:
-                figs.append(
-                    Figure(
-                        f"paths_{label}.png",
-                        f"{label}: paths of both groups at treble frequency from the six starts, "
-                        f"episode 0 (cf. paper Fig. {5 + 2 * k})",
-                        lambda p, lab=label: vf.paths_figure(recs[lab], lab, p),
-                    )
-                )
-        for k, label in enumerate(RULES):
-            figs.append(
-                Figure(
-                    f"search_time_{label}.png",
-                    f"{label}: mean time to find both sources per start and frequency, 95 % "
-                    f"intervals (cf. paper Fig. {6 + 2 * k})",
-                    lambda p, lab=label: vf.search_time_figure(df, lab, p, seed),
-                )
-            )
-        figs.append(
-            Figure(
-                "rules_summary.png",
-                "Success rate and mean search time per rule and frequency (6 starts pooled), "
-                "paper's quoted values as stars",
-                lambda p: vf.summary_figure(df, p, seed),
-            )
-        )
-        figs.append(
-            Figure(
-                "ablations.png",
-                "What repulsion, the forbidden area and the rotary force buy (chemotaxis), and "
-                "the literal waiting reading of anemotaxis and fluxotaxis",
-                lambda p: vf.ablation_figure(df, p, seed, ABLATIONS, SAME_SOURCE_REACH),
-            )
-        )
-        for label in ("chemotaxis-no-bypass", "fluxotaxis-no-bypass"):
-            if label in recs:
-                figs.append(
-                    Figure(
-                        f"paths_{label}.png",
-                        f"{label.split('-')[0]} without forbidden area and rotary force, treble "
-                        "frequency, episode 0",
-                        lambda p, lab=label: vf.paths_figure(recs[lab], lab, p),
-                    )
-                )
-        anim = vf.animation_recording(df, store, ANIMATION[0], ANIMATION[1], FIGURE_FREQUENCY)
+        res = df[df["sweep"] == "results"] if "sweep" in df else df
+        a = self.analysis(seed)
+        paths = {}
+        for f in FREQUENCIES:
+            where = {"searcher": "chemotaxis", "scenario.frequency": float(f)}
+            recs = kept_recordings(res, store, where, "scenario.start_set")
+            paths[f] = relative_paths(list(recs.values()), vf.groups(), a["maps"]["sources"], 1.2)
+        specs: list[tuple[str, str, Any]] = []
+        for k, lab in enumerate(RULES):
+            where = {"searcher": lab, "scenario.frequency": float(FIGURE_FREQUENCY)}
+            recs = kept_recordings(res, store, where, "scenario.start_set")
+            cap = f"{lab}: both groups' paths, treble frequency, episode 0 (cf. Fig. {5 + 2 * k})"
+            specs.append((f"paths_{lab}.png", cap, partial(vf.paths_figure, recs, lab)))
+            cap = f"{lab}: mean time to find both sources by start and frequency (Fig. {6 + 2 * k})"
+            fn = partial(vf.search_time_figure, res, lab, seed=seed)
+            specs.append((f"search_time_{lab}.png", cap, fn))
+        draw = {
+            "variants.png": lambda p: vf.ablation_figure(
+                res, p, seed, tuple(VARIANTS), SAME_SOURCE_REACH
+            ),
+            "flux_map.png": lambda p: declaration_map_figure(
+                a["maps"], paths, p, radius=0.5, column=FREQ_NAMES
+            ),
+            "plume_check.png": lambda p: vf.plume_check_figure(a["plume"], p),
+        }
+        where = {"searcher": ANIMATION[0], "scenario.frequency": float(FIGURE_FREQUENCY)}
+        anim = kept_recordings(res, store, where, "scenario.start_set").get(ANIMATION[1])
         if anim is not None:
-            figs.append(
-                Figure(
-                    "episode.gif",
-                    f"{ANIMATION[0]} from {ANIMATION[1]} at treble frequency, episode 0: both "
-                    "formations over the plume",
-                    lambda p: vf.animate_formations(anim, p),
-                )
-            )
-        return figs
+            draw["episode.gif"] = lambda p: vf.animate_formations(anim, p)
+        return [Figure(*s) for s in specs] + [Figure(n, CAPTIONS[n], fn) for n, fn in draw.items()]
