@@ -31,7 +31,7 @@ from pathlib import Path
 from typing import Any, ClassVar
 
 from odorloc.core.errors import ConfigError
-from odorloc.core.loading import check_output_dir
+from odorloc.core.loading import check_output_dir, check_output_file
 from odorloc.core.params import Params
 from odorloc.core.registry import entry, names
 
@@ -210,7 +210,7 @@ class Reproduction:
         seed : int
             Root seed.
         progress : bool
-            Live progress and the harness's summary.
+            Live progress bars (the tables and the harness's summary are printed either way).
         only : sequence of str, optional
             Run only these sweeps (a name selects the sweep of that name and those named
             ``<name>-...``); the others contribute the rows already in their stores.
@@ -228,6 +228,10 @@ class Reproduction:
         chosen = select_sweeps(list(specs), only)
         out = Path(out)
         check_output_dir(out, "out")
+        # every file of a fixed name, before any episode runs (figures and tables are named by
+        # the reproduction as it draws them)
+        for name in [*(f"{n}.sqlite" for n in chosen), "results.csv", "report.html"]:
+            check_output_file(out / name, "out")
         out.mkdir(parents=True, exist_ok=True)
         console = Console(width=shutil.get_terminal_size((CONSOLE_WIDTH, 24)).columns)
         # every store this run will write is checked before any episode runs: a store of other
@@ -243,6 +247,7 @@ class Reproduction:
         t0 = time.perf_counter()
         frames = []
         stores: dict[str, Path] = {}
+        added = 0
         for name, spec in specs.items():
             path = out / f"{name}.sqlite"
             if name in chosen:
@@ -254,11 +259,14 @@ class Reproduction:
                     scheduler=scheduler,
                     progress=progress,
                     group_fn=self.group_fn(),
-                    summary=progress and self.cell_summary and self.success_column == "success",
+                    # the summary is printed with or without the live bar
+                    summary=self.cell_summary and self.success_column == "success",
                     success=self.success_column,
                 )
             else:
                 part = _stored_rows(spec, path, console)
+            if name in chosen:
+                added += int(part.attrs.get("added", 0))
             if path.is_file():
                 stores[name] = path
             if len(part):
@@ -283,7 +291,12 @@ class Reproduction:
                 console.print(console_table(tab))
                 if tab.note:
                     console.print(tab.note)
-        console.print(f"wall time {wall:.0f} s on {workers} worker(s) ({backend})")
+        console.print(
+            f"added {added} episode{'s' if added != 1 else ''} ({len(df)} in the "
+            f"store{'s' if len(stores) > 1 else ''}); wall time {wall:.0f} s on {workers} "
+            f"worker(s) ({backend})",
+            highlight=False,
+        )
         sections = []
         figs: list[tuple[Path, str]] = []
         if not stores:

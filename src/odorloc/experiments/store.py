@@ -421,6 +421,21 @@ class ResultStore:
         except (sqlite3.DatabaseError, pd.errors.DatabaseError) as exc:
             reason = " ".join(str(exc).split())[-120:]
             raise ConfigError("store", f"cannot read {self.path}: {reason}") from None
+        # SQLite keeps whatever a writer put in a column: text where a number belongs is
+        # named here, before any table or figure is drawn from it
+        numeric = [k for k, t in STANDARD_METRICS.items() if t in ("REAL", "INTEGER")]
+        for k in [*numeric, "episode", "wall_time", "finished_at"]:
+            col = df[k]
+            if col.dtype != object:
+                continue  # read as numbers (or all missing)
+            bad = col.map(lambda v: isinstance(v, str | bytes))
+            if bad.any():
+                example = col[bad].iloc[0]
+                raise ConfigError(
+                    "store",
+                    f"{self.path}: column {k!r} holds text ({str(example)[:40]!r}, "
+                    f"{int(bad.sum())} row(s)) where numbers belong",
+                )
         df["success"] = df["success"].astype("boolean")
         for k, t in STANDARD_METRICS.items():
             if t == "REAL":

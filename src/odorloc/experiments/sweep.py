@@ -774,7 +774,8 @@ def run_sweep(
     Returns
     -------
     pandas.DataFrame
-        The stored table of this sweep, ordered by cell, episode.
+        The stored table of this sweep, ordered by cell, episode; ``df.attrs["added"]`` is the
+        number of episodes this call ran and stored (fewer than the rows when it resumed).
 
     Raises
     ------
@@ -808,6 +809,7 @@ def run_sweep(
         with ResultStore(store_path, readonly=True) as probe:
             probe.check(chash)
     runner = make_backend(backend, workers=workers, scheduler=scheduler, timeout=timeout)
+    added = 0
     # connect first: an unreachable scheduler must not leave a new, empty store behind
     with runner, ResultStore(store_path) as store:
         store.check(chash)
@@ -836,7 +838,7 @@ def run_sweep(
                 else:
                     work = iter(())
                 for task, row in work:
-                    store.add(task, row)
+                    added += int(store.add(task, row))
                     prog.advance(task, row)
                 if spec.adaptive is None:
                     break
@@ -847,6 +849,8 @@ def run_sweep(
                     break
                 targets.update(more)
         df = store.frame()
+    # what this call ran, as opposed to what the store holds (a resumed sweep adds fewer)
+    df.attrs["added"] = added
     if progress if summary is None else summary:
         from odorloc.experiments.progress import print_summary
 
