@@ -753,6 +753,14 @@ def reproduce(
         raise typer.Exit(code=1)
 
 
+#: Files ``odorloc replay-log`` writes into ``--out``.
+REPLAY_OUTPUTS = ("belief.png", "recording.npz")
+
+
+def _xy(p: Any) -> str:
+    return "(" + ", ".join(f"{float(v):.2f}" for v in p) + ") m"
+
+
 @app.command("replay-log")
 def replay_log(
     bag: Annotated[Path, typer.Argument(help="ROS 1 (.bag) or ROS 2 (folder) bag.")],
@@ -766,14 +774,20 @@ def replay_log(
     seed: Annotated[int, typer.Option(help="Seed of the estimator's random stream.")] = 0,
     out: Annotated[Path, typer.Option(help="Output folder.")] = Path("odorloc-replay"),
 ) -> None:
-    """Replay an estimator offline over a recorded robot log; plot its belief on the map.
+    """Replay an estimator offline over a recorded robot log; print, draw and store its
+    estimate.
 
-    Needs the ``ros`` extra (``pip install odorloc\\[ros]``). Writes ``belief.png`` and
-    ``recording.npz`` into ``--out``.
+    Needs the ``ros`` extra (``pip install odorloc\\[ros]``). The search area is the topics
+    file's ``arena``; without one it is the driven path's extent plus ``margin`` (1 m by
+    default) on every side, and an estimate on that area's edge is warned about (the source
+    may lie beyond it). The estimate is the estimator's own sources where it has them (the
+    mapped sources of ds-mapping), else its belief's mean; with ``sources`` in the topics file
+    it is scored against them. Writes ``belief.png`` and ``recording.npz`` (the estimate in
+    its metadata) into ``--out``.
     """
     try:
         check_seed(seed, "--seed")
-        check_output_dir(out, "--out")
+        _check_outputs(out, REPLAY_OUTPUTS)
         from odorloc.replay.offline import check_estimator
 
         check_estimator(estimator, "--estimator")
@@ -794,11 +808,22 @@ def replay_log(
         log = BagLog(bag, mapping)
         src = np.asarray(log.mapping.sources, float) if log.mapping.sources else None
         rec = replay_estimator(
-            log.observations(), log.context(), estimator, seed=seed, sources=src, name=bag.name
+            log.observations(),
+            log.context(),
+            estimator,
+            seed=seed,
+            sources=src,
+            name=bag.name,
+            success_radius=log.mapping.success_radius,
         )
     except OdorlocError as exc:
         _fail(str(exc))
         return
+    m = rec.meta
+    default_area = log.mapping.arena is None
+    m["search_area_rule"] = (
+        f"path's extent + {log.mapping.margin:g} m" if default_area else "topics file's arena"
+    )
     try:
         out.mkdir(parents=True, exist_ok=True)
         plot_belief_map(rec, out / "belief.png")
@@ -806,13 +831,43 @@ def replay_log(
     except OSError as exc:
         _fail(f"--out: cannot write into {out}: {exc.strerror or exc}")
         return
-    m = rec.meta
     console.print(
         f"{m['steps']} periods, {m['detections']} with a detection, "
         f"{len(rec.beliefs)} belief snapshot(s)"
     )
+    lo, hi = m["search_area"]
+    console.print(
+        f"search area [{lo[0]:.2f}, {hi[0]:.2f}] x [{lo[1]:.2f}, {hi[1]:.2f}] m "
+        f"({m['search_area_rule']})",
+        highlight=False,
+    )
+    est = m["estimates"]
+    what = "mapped source(s)" if m["estimate_kind"] == "sources" else "belief mean"
+    if est:
+        console.print(
+            f"{escape(estimator)} estimate ({what}): " + ", ".join(_xy(e) for e in est),
+            highlight=False,
+        )
+    elif m["estimate_kind"] == "sources":
+        console.print(f"{escape(estimator)} mapped no source", highlight=False)
+    else:
+        console.print(f"{escape(estimator)} recorded no belief: no estimate", highlight=False)
     if "loc_error" in m:
-        console.print(f"final {estimator} estimate: {m['loc_error']:.2f} m from the source")
+        n_src = len(rec.sources)
+        console.print(
+            f"against {n_src} known source(s): loc_error {m['loc_error']:.2f} m (mean distance "
+            f"from each source to the nearest estimate); {m['sources_found']} of {n_src} found "
+            f"within {m['success_radius']:g} m; {m['false_sources']} false",
+            highlight=False,
+        )
+    for i in m["on_edge"]:
+        hint = " (set arena or a larger margin in the topics file)" if default_area else ""
+        err_console.print(
+            f"warning: estimate {_xy(est[i])} lies within {m['edge_tolerance']:.2f} m of the "
+            f"search area's edge: the source may be outside it{hint}",
+            highlight=False,
+            soft_wrap=True,
+        )
     for p in (out / "belief.png", out / "recording.npz"):
         console.print(f"wrote {p}")
 

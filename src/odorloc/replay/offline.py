@@ -28,12 +28,13 @@ import numpy as np
 from odorloc.core import registry
 from odorloc.core.errors import ConfigError
 from odorloc.core.types import Declaration, Observation, SearchContext
+from odorloc.engine.episode import score_declaration
 from odorloc.engine.recorder import Recording
 from odorloc.inference.belief import GridBelief
 from odorloc.inference.odor_path.estimator import OdorPathEstimator, OdorPathParams
 from odorloc.searchers.base import Belief, Searcher
 
-__all__ = ["OdorPathMap", "check_estimator", "replay_estimator", "snapshot"]
+__all__ = ["OdorPathMap", "check_estimator", "edge_tolerance", "replay_estimator", "snapshot"]
 
 
 class OdorPathMap:
@@ -74,6 +75,10 @@ class OdorPathMap:
             return {}
         return {-1: GridBelief(self.estimator.grid, self.accum / total)}
 
+    def source_estimates(self) -> None:
+        """None: the estimate is the map's mean (as for any belief without sources of its own)."""
+        return None
+
 
 def snapshot(belief: Any) -> dict[str, np.ndarray]:
     """A belief's arrays (a grid belief's carry the grid's extent, ``lower`` and ``upper``)."""
@@ -110,8 +115,21 @@ def replay_estimator(
     belief_every: float = 10.0,
     sources: np.ndarray | None = None,
     name: str = "log",
+    success_radius: float = 0.5,
+    edge: float | None = None,
 ) -> Recording:
-    """Feed a log to an estimator and record its belief.
+    """Feed a log to an estimator and record its belief and its source estimates.
+
+    The estimate is the estimator's own sources when it has them
+    (:meth:`~odorloc.searchers.base.Searcher.source_estimates`: the mapped sources of
+    ``ds-mapping``), else the mean of its last belief. It is stored in the recording's
+    ``meta``: ``estimates`` (``(K, d)``, metres), ``estimate_kind`` (``"sources"`` or
+    ``"belief mean"``), ``search_area`` (``[lower, upper]``) and ``on_edge`` (indices of the
+    estimates within ``edge`` of the search area's boundary: a source beyond the area would
+    put them there). With known ``sources`` it is scored like an episode's declaration
+    (:func:`~odorloc.engine.episode.score_declaration`): ``loc_error`` (the mean over true
+    sources of the distance to the nearest estimate, metres), ``sources_found`` and
+    ``false_sources`` within ``success_radius``.
 
     Parameters
     ----------
@@ -133,6 +151,11 @@ def replay_estimator(
         True sources, if known (scored and drawn).
     name : str
         Name recorded in the recording's metadata.
+    success_radius : float, metres
+        A true source is found by an estimate this close.
+    edge : float, metres, optional
+        How close to the search area's boundary an estimate is "on its edge" (default
+        :func:`edge_tolerance`).
 
     Returns
     -------
@@ -184,11 +207,23 @@ def replay_estimator(
         "steps": len(t),
         "detections": int(np.sum(det)),
     }
-    if len(src) and beliefs:
-        final = [b for b in beliefs if b[0] == beliefs[-1][0]]
-        m = _belief_mean(final[-1][1])
-        if m is not None:
-            meta["loc_error"] = float(np.min(np.linalg.norm(src[:, : len(m)] - m, axis=1)))
+    estimates, kind = _estimates(est, beliefs, d)
+    meta["estimates"] = estimates.tolist()
+    meta["estimate_kind"] = kind
+    meta["search_area"] = [list(map(float, lo)), list(map(float, hi))]
+    tol = edge_tolerance(ctx) if edge is None else float(edge)
+    meta["edge_tolerance"] = tol
+    meta["on_edge"] = [
+        i
+        for i, e in enumerate(estimates)
+        if np.any(e[:2] - np.asarray(lo[:2]) <= tol) or np.any(np.asarray(hi[:2]) - e[:2] <= tol)
+    ]
+    if len(src) and len(estimates):
+        _, err, found, false = score_declaration(
+            estimates, src[:, : estimates.shape[1]], success_radius
+        )
+        meta.update(loc_error=err, sources_found=found, false_sources=false)
+        meta["success_radius"] = float(success_radius)
     return Recording(
         t=np.asarray(t, float),
         positions=np.asarray(pos, float).reshape(len(t), 1, d),
@@ -226,3 +261,28 @@ def _belief_mean(snap: dict[str, np.ndarray]) -> np.ndarray | None:
             return None
         return np.array([float((g * p).sum() / total) for g in grids])
     return None
+
+
+def edge_tolerance(ctx: SearchContext) -> float:
+    """How close (metres) to the search area's boundary an estimate counts as on its edge: 5 %
+    of the area's shorter horizontal side, and at least one cell of the arena's grid (an
+    estimate in a map's outermost cell is on the edge)."""
+    size = np.asarray(ctx.arena.upper[:2], float) - np.asarray(ctx.arena.lower[:2], float)
+    return float(max(0.05 * float(size.min()), ctx.arena.resolution))
+
+
+def _estimates(
+    est: Any, beliefs: list[tuple[float, dict[str, np.ndarray]]], d: int
+) -> tuple[np.ndarray, str]:
+    """``(K, d')`` source estimates of a replayed estimator and what they are."""
+    own = est.source_estimates()
+    if own is not None:
+        own = np.asarray(own, float)
+        if own.size == 0:
+            return np.zeros((0, own.shape[-1] if own.ndim == 2 else 2)), "sources"
+        return np.atleast_2d(own), "sources"
+    if not beliefs:
+        return np.zeros((0, d)), "belief mean"
+    final = [b for b in beliefs if b[0] == beliefs[-1][0]]
+    m = _belief_mean(final[-1][1])
+    return (np.zeros((0, d)) if m is None else m[None, :]), "belief mean"

@@ -76,3 +76,12 @@ class Searcher(ABC):
     def final_metrics(self) -> dict[str, Any]:
         """Extra columns for the episode's result row (default none)."""
         return {}
+
+    def source_estimates(self) -> np.ndarray | None:
+        """Where the searcher would place the sources now, ``(K, d)`` metres (``K`` may be 0),
+        or ``None`` (default) when its estimate is its belief's mean.
+
+        A searcher whose belief is a map of several sources (the D-S mapper) gives the sources
+        it found, so that a replayed log is scored on them and not on the map's mean.
+        """
+        return None

@@ -376,6 +376,10 @@ class DSMappingSearcher(Searcher):
     def belief(self) -> GridBelief:
         return self.mapper.grid.belief()
 
+    def source_estimates(self) -> np.ndarray:
+        """The mapped sources (placed by ``source_rule``), ``(K, 2)`` metres."""
+        return self.mapper.source_positions()
+
     def diagnostics(self) -> dict[str, float]:
         fit = self.last_plan.fitness if self.last_plan is not None else math.nan
         return {
@@ -481,6 +485,10 @@ class DSRectangularWaveSearcher(Searcher):
 
     def belief(self) -> GridBelief:
         return self.mapper.grid.belief()
+
+    def source_estimates(self) -> np.ndarray:
+        """The mapped sources (placed by ``source_rule``), ``(K, 2)`` metres."""
+        return self.mapper.source_positions()
 
     def diagnostics(self) -> dict[str, float]:
         return {
