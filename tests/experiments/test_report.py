@@ -141,11 +141,23 @@ def test_page_renders_in_headless_chromium(store_path, tmp_path):
             timeout=90,
             check=True,
         ).stdout
-    m = re.search(r'data-rendered="images=(\d+)/(\d+) tables=(\d+)"', dom)
+    m = re.search(
+        r'data-rendered="images=(\d+)/(\d+) tables=(\d+) episodes=(\d+) sections=([\w,-]*)"',
+        dom,
+    )
     assert m, "the page's load script did not run"
-    loaded, total, tables = map(int, m.groups())
-    assert total >= 5 and loaded == total, f"only {loaded}/{total} images decoded"
-    assert tables >= 4
+    loaded, total, tables, episodes = map(int, m.groups()[:4])
+    assert total >= 8 and loaded == total, f"only {loaded}/{total} images decoded"
+    assert tables >= 6
+    # every section has a visible heading, in the page's order
+    sections = m.group(5).split(",")
+    assert sections == [
+        "settings", "summary", "paired", "paper", "figures", "viewer", "errors"
+    ], sections  # fmt: skip
+    # the picker offers every episode asked for and shows one at a time
+    assert episodes == 3
+    assert len(re.findall(r'class="episode" data-key="e\d" style="display: block;"', dom)) == 1
+    assert len(re.findall(r'class="episode" data-key="e\d" style="display: none;"', dom)) == 2
     shot = tmp_path / "shot.png"
     with tempfile.TemporaryDirectory() as prof:
         subprocess.run(

@@ -76,14 +76,15 @@ def metric_label(name: str) -> str:
 
 def format_metric(name: str, value: Any, unit: bool = False) -> str:
     """``value`` of metric ``name`` in fixed point (``"1234.5"``; ``"1234.5 s"`` with
-    ``unit``); integers with thousands separators; ``-`` for a missing value."""
+    ``unit``), with thousands separators from 10 000 on (``"3,412,594"``); ``-`` for a
+    missing value."""
     if value is None:
         return "-"
     if isinstance(value, bool):
         return "yes" if value else "no"
     fm = _format_of(name)
     if isinstance(value, int) or (hasattr(value, "dtype") and "int" in str(value.dtype)):
-        text = f"{int(value):,}"
+        text = f"{int(value):,}" if abs(int(value)) >= 10_000 else str(int(value))
     else:
         try:
             v = float(value)

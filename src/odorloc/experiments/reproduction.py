@@ -185,6 +185,30 @@ class Reproduction:
         """The paper's numbers per cell id or searcher label, for the report."""
         return {}
 
+    def _run_info(
+        self,
+        specs: dict[str, Any],
+        episodes: int | None,
+        seed: int,
+        wall: float,
+        backend: str,
+        workers: int,
+    ) -> dict[str, Any]:
+        """The facts of this run for the report's settings section."""
+        from odorloc import __version__
+        from odorloc.experiments.provenance import machine
+
+        return {
+            "name": f"{self.name} ({', '.join(specs)})",
+            "seed": seed,
+            "episodes": _episodes_text(specs, episodes),
+            "wall_time": wall,
+            "odorloc_version": __version__,
+            "machine": machine(),
+            "backend": backend,
+            "workers": workers,
+        }
+
     # ------------------------------------------------------------------ template
     def run(
         self,
@@ -342,6 +366,7 @@ class Reproduction:
                         success=self.success_column,
                         success_label=self.success_label,
                         rows=df,
+                        run_info=self._run_info(specs, episodes, seed, wall, backend, workers),
                     )
             except Exception:
                 console.print(f"[red]report failed:[/]\n{traceback.format_exc()}")
@@ -349,6 +374,13 @@ class Reproduction:
             if p is not None:
                 console.print(f"wrote {p}")
         return outcome
+
+
+def _episodes_text(specs: dict[str, Any], episodes: int | None) -> str:
+    counts = {name: spec.episodes for name, spec in specs.items()}
+    if episodes is not None or len(set(counts.values())) == 1:
+        return str(episodes if episodes is not None else next(iter(counts.values())))
+    return ", ".join(f"{n}: {c}" for n, c in counts.items())
 
 
 def select_sweeps(names: Sequence[str], only: Sequence[str] | None) -> list[str]:

@@ -66,6 +66,7 @@ import hashlib
 import itertools
 import json
 import math
+import time
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -810,6 +811,8 @@ def run_sweep(
             probe.check(chash)
     runner = make_backend(backend, workers=workers, scheduler=scheduler, timeout=timeout)
     added = 0
+    started = time.time()
+    t0 = time.perf_counter()
     # connect first: an unreachable scheduler must not leave a new, empty store behind
     with runner, ResultStore(store_path) as store:
         store.check(chash)
@@ -848,6 +851,9 @@ def run_sweep(
                 if not more:
                     break
                 targets.update(more)
+        from odorloc.experiments.provenance import run_record
+
+        store.note_run(run_record(started, time.perf_counter() - t0, added, backend, workers))
         df = store.frame()
     # what this call ran, as opposed to what the store holds (a resumed sweep adds fewer)
     df.attrs["added"] = added
