@@ -37,8 +37,8 @@ def test_a_failure_is_explained_by_its_own_columns() -> None:
     row.update(loc_error=0.79, termination="declared")
     why = explain_failure(row, n_sources=2)
     assert why == (
-        "1 of 2 source(s) found; 1 false source(s) declared; nearest declaration 0.79 m away "
-        "(declared)"
+        "1 of 2 source(s) found; 1 false source(s) declared; a source's nearest declaration "
+        "0.79 m away on average (declared)"
     )
     assert explain_failure({"success": False, "termination": "time_limit"}) == (
         "no declaration (time_limit)"

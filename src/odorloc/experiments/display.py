@@ -129,5 +129,8 @@ def explain_failure(
         parts.append(f"{int(false)} false source(s) declared")
     err = metrics.get("loc_error")
     if err is not None and not (isinstance(err, float) and math.isnan(err)):
-        parts.append(f"nearest declaration {format_metric('loc_error', err, unit=True)} away")
+        parts.append(
+            f"a source's nearest declaration {format_metric('loc_error', err, unit=True)} away "
+            "on average"
+        )
     return "; ".join(parts) + (f" ({term})" if term else "")

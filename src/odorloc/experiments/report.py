@@ -500,8 +500,9 @@ def _trajectory_png(arrays: Mapping[str, np.ndarray], info: Mapping[str, Any]) -
     return _png(fig)
 
 
-MAX_VIEWER = 200
-"""Most kept episodes the viewer's picker offers (the first ones, by cell and episode)."""
+MAX_VIEWER = 100
+"""Most kept episodes the viewer's picker offers (the first ones, by cell and episode): each
+is one still figure, drawn when the report is written."""
 
 MAX_ANIMATED = 4
 """Most viewer episodes that also get an animation (the rest show their still figure)."""

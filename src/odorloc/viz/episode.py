@@ -29,7 +29,7 @@ matplotlib.use("Agg")
 
 import matplotlib.pyplot as plt
 import numpy as np
-from matplotlib import animation, colors
+from matplotlib import animation, colors, ticker
 from matplotlib.axes import Axes
 from matplotlib.legend_handler import HandlerTuple
 from matplotlib.lines import Line2D
@@ -621,21 +621,30 @@ def animate(
     holders = _particle_holders(rec)
     grid_holders = _grid_holders(rec)
     with_belief = bool(holders or grid_holders)
-    panel_w = 5.2
-    legend_w = 2.7
-    _, panel_h = _map_size(rec, panel_w)
-    width = panel_w * (2 if with_belief else 1) + legend_w
-    width = max(width, MIN_ANIMATION_WIDTH / dpi + 0.01)
-    fig = plt.figure(figsize=(width, 0.9 * panel_h + 1.6))
-    ratios = [panel_w] * (2 if with_belief else 1) + [legend_w]
-    # colour bars in a row of their own, so both map panels keep the same size
-    gs = fig.add_gridspec(
-        2, len(ratios), width_ratios=ratios, height_ratios=[1.0, 0.05], wspace=0.22, hspace=0.32
-    )
-    ax = fig.add_subplot(gs[0, 0])
-    bax = fig.add_subplot(gs[0, 1], sharex=ax, sharey=ax) if with_belief else None
-    caxes = [fig.add_subplot(gs[1, c]) for c in range(len(ratios) - 1)]
-    lax = fig.add_subplot(gs[:, -1])
+    # one fixed layout, in inches, for every frame (a layout recomputed per frame would make
+    # the panels jump): margins for titles and labels, the map panels at the arena's aspect,
+    # their colour bars under them, the legend in a column of its own
+    n_panels = 2 if with_belief else 1
+    left, gap, right, legend_w = 0.65, 0.75, 0.1, 2.8
+    top, below, bar_h, bottom = 0.6, 0.62, 0.14, 0.5
+    fixed_w = left + gap * (n_panels - 1) + 0.35 + legend_w + right
+    width = max(fixed_w + 5.2 * n_panels, MIN_ANIMATION_WIDTH / dpi + 0.01)
+    panel_w = (width - fixed_w) / n_panels
+    b = rec.arena_bounds
+    aspect = (b[1, 1] - b[0, 1]) / max(b[1, 0] - b[0, 0], 1e-9)
+    map_h = float(np.clip(panel_w * aspect, 2.0, 7.0))
+    height = top + map_h + below + bar_h + bottom
+    fig = plt.figure(figsize=(width, height))
+
+    def place(x: float, y: float, w: float, h: float, **kw: Any) -> Axes:
+        return fig.add_axes((x / width, y / height, w / width, h / height), **kw)
+
+    map_y = bottom + bar_h + below
+    xs = [left + k * (panel_w + gap) for k in range(n_panels)]
+    ax = place(xs[0], map_y, panel_w, map_h)
+    bax = place(xs[1], map_y, panel_w, map_h, sharex=ax, sharey=ax) if with_belief else None
+    caxes = [place(x + 0.1 * panel_w, bottom, 0.8 * panel_w, bar_h) for x in xs]
+    lax = place(xs[-1] + panel_w + 0.35, bottom, legend_w, map_h + below + bar_h)
     lax.axis("off")
     # named, so that a caller (or a test) can find the panels
     ax.set_label("map")
@@ -653,13 +662,18 @@ def animate(
             norm=norm,
             zorder=1,
         )
-        fig.colorbar(im, cax=caxes[0], orientation="horizontal", label="concentration")
+        bar = fig.colorbar(im, cax=caxes[0], orientation="horizontal", label="concentration")
+        if isinstance(norm, colors.LogNorm):
+            # plain "1e-04" labels: mathtext labels are parsed again at every frame
+            bar.formatter = ticker.LogFormatter(labelOnlyBase=True)
+            bar.minorformatter = ticker.NullFormatter()
+            bar.update_ticks()
     else:
         caxes[0].axis("off")
     panels = [ax] if bax is None else [ax, bax]
     for p in panels:
         _draw_static(p, rec)
-        p.set_anchor("S")  # on its colour bar; any spare height goes above
+        p.set_anchor("S")  # a map narrower than its box sits on its colour bar
     if bax is not None:
         bax.set_ylabel("")
     lw = 1.4 if n_agents <= 8 else 1.0
@@ -733,8 +747,6 @@ def animate(
     title = fig.suptitle("t = 0.0 s", fontsize=10)
     ax.set_title("plume and agents", fontsize=9)
     belief_title = bax.set_title("belief", fontsize=9) if bax is not None else None
-    # one layout for every frame: a layout recomputed per frame would make the panels jump
-    fig.subplots_adjust(left=0.06, right=0.99, top=0.88, bottom=0.1)
     steps = np.unique(np.linspace(0, len(rec.t) - 1, min(max_frames, len(rec.t))).astype(int))
     last = len(rec.t) - 1
 
