@@ -39,7 +39,9 @@ METRICS: dict[str, MetricFormat] = {
     "search_time": MetricFormat(
         "s", 1, "simulated time at the end of the episode (a declaration, a reach, a limit)"
     ),
-    "loc_error": MetricFormat("m", 2, "distance from the declared position to the nearest source"),
+    "loc_error": MetricFormat(
+        "m", 2, "mean over the true sources of the distance to the nearest declared position"
+    ),
     "sources_found": MetricFormat("", 0, "true sources within success_radius of a declaration"),
     "false_sources": MetricFormat("", 0, "declared positions near no true source"),
     "declarations": MetricFormat("", 0, "declarations made"),

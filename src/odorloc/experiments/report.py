@@ -500,6 +500,22 @@ def _trajectory_png(arrays: Mapping[str, np.ndarray], info: Mapping[str, Any]) -
     return _png(fig)
 
 
+def _task_end(cell: Any, cache: dict[str, str | None]) -> str | None:
+    """``task.end`` of a stored cell's scenario (``None`` when it cannot be read here)."""
+    import json
+
+    if not isinstance(cell, str) or not cell:
+        return None
+    if cell not in cache:
+        try:
+            from odorloc.experiments.runner import cell_scenario
+
+            cache[cell] = cell_scenario(json.loads(cell)).task.end
+        except Exception:  # a scenario file that is not here any more: no task to name
+            cache[cell] = None
+    return cache[cell]
+
+
 MAX_VIEWER = 100
 """Most kept episodes the viewer's picker offers (the first ones, by cell and episode): each
 is one still figure, drawn when the report is written."""
@@ -537,6 +553,7 @@ def _viewer_section(
         episodes = episodes[:MAX_VIEWER]
     options = []
     items = []
+    ends: dict[str, str | None] = {}
     for i, (cid, ep) in enumerate(episodes):
         key = f"e{i}"
         sel = df[(df["cell_id"] == cid) & (df["episode"] == ep)]
@@ -549,7 +566,7 @@ def _viewer_section(
                 f": {info.get('termination', '')}, success={bool(info.get('success'))}, "
                 f"search time {format_metric('search_time', info.get('search_time'), True)}"
             )
-            why = explain_failure(info)
+            why = explain_failure(info, end=_task_end(info.get("cell"), ends))
             if why:
                 caption += f"; {why}"
         options.append(f'<option value="{key}">{_e(cid)}, episode {ep}</option>')
@@ -883,10 +900,12 @@ def _distribution_figure(df: Any) -> str | None:
     cells = list(dict.fromkeys(ran["cell_id"]))
     if not cells or len(cells) > MAX_BOX_CELLS:
         return None
+    # a metric never recorded (all missing, or all 0: a platform without an energy model) is
+    # left out rather than drawn as one line at 0
     metrics = [
         (c, label)
         for c, label in (("loc_error", "localisation error, m"), ("energy", "energy, J"))
-        if c in ran.columns and np.isfinite(ran[c].to_numpy(float)).any()
+        if c in ran.columns and np.any(np.isfinite(v := ran[c].to_numpy(float)) & (v != 0.0))
     ]
     if not metrics:
         return None
@@ -909,11 +928,18 @@ def _distribution_figure(df: Any) -> str | None:
                         fontsize=7, color="#b42318")  # fmt: skip
         ax.set_xlabel(label)
         ax.grid(axis="x", alpha=0.3)
+        ax.ticklabel_format(axis="x", style="plain", useOffset=False)
     axes[0].set_yticks(pos, _cell_names(cells), fontsize=7)
     return _figure(
         fig,
-        "Distributions per cell (box: quartiles; triangle: mean): the localisation error of "
-        "episodes with a declaration and the energy used by every episode.",
+        "Distributions per cell (box: quartiles; triangle: mean): "
+        + " and ".join(
+            "the localisation error of episodes with a declaration"
+            if c == "loc_error"
+            else "the energy used by every episode"
+            for c, _ in metrics
+        )
+        + ".",
     )
 
 

@@ -352,6 +352,8 @@ def plot_trajectory(rec: Recording, path: str | Path | None = None, ax: Axes | N
         fig = plt.figure(figsize=_map_size(rec, 7.0), layout="constrained")
         fig.set_figwidth(fig.get_figwidth() + 3.4)  # colour bar and legend
         ax = fig.add_subplot()
+        # against its colour bar and legend: spare width goes left, where saving crops it
+        ax.set_anchor("E")
     fig = ax.figure
     if len(rec.plume_frames):
         mean = rec.plume_frames.mean(axis=0)
@@ -459,6 +461,7 @@ def plot_belief_map(
         fig = plt.figure(figsize=_map_size(rec, 7.0), layout="constrained")
         fig.set_figwidth(fig.get_figwidth() + 3.4)
         ax = fig.add_subplot()
+        ax.set_anchor("E")
     fig = ax.figure
     n_agents = rec.positions.shape[1]
     if rec.beliefs:
@@ -488,11 +491,8 @@ def plot_belief_map(
     ]  # fmt: skip
     entries += _particle_legend(rec, style, drawn.particles)
     _legend_right(ax, entries, own)
-    est_name = rec.meta.get("searcher", "")
-    ax.set_title(
-        f"{rec.meta.get('scenario', '')} | {est_name} {drawn.whose(style)} at t = {t:.1f} s",
-        fontsize=9,
-    )
+    head = " | ".join(str(p) for p in (rec.meta.get("scenario"), rec.meta.get("searcher")) if p)
+    ax.set_title(f"{head} | {drawn.whose(style)} at t = {t:.1f} s", fontsize=9)
     if path is not None:
         fig.savefig(path, dpi=110, bbox_inches="tight" if own else None)
         plt.close(fig)
@@ -736,7 +736,7 @@ def animate(
     if grid_img is not None:
         entries.append(
             (Line2D([], [], ls="", marker="s", ms=8, color=plt.get_cmap("magma_r")(0.7)),
-             "grid belief (darker = more likely)")
+             "grid belief\n(darker = more likely)")
         )  # fmt: skip
     if entries:
         handles, labels = (list(v) for v in zip(*entries, strict=True))
@@ -990,9 +990,8 @@ def plot_traces(rec: Recording, path: str | Path | None = None) -> Any:
                 if central:
                     v = series[-1]
                     ax.plot(t[: len(v)], v, lw=1.2, color="0.2")
-                    ax.set_title(
-                        f"{TRACE_DIAGNOSTICS[row]}, central belief", fontsize=8, loc="left"
-                    )
+                    whose = ", central belief" if style.n_agents > 1 else ""
+                    ax.set_title(f"{TRACE_DIAGNOSTICS[row]}{whose}", fontsize=8, loc="left")
                 else:
                     assert unit is not None
                     diag_axes.setdefault(row, []).append(ax)
