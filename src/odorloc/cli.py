@@ -215,25 +215,6 @@ BATCH_OUTPUTS = ("results.sqlite", "results.csv", "results.parquet", "errors.log
 #: Files every reproduction writes into ``--out`` (its stores are checked by the reproduction).
 REPRODUCE_OUTPUTS = ("results.csv", "report.html", "errors.log")
 
-#: Rows of ``odorloc run``'s summary: the compared metrics, what explains a failure, the cost.
-RUN_ROWS = (
-    "success",
-    "termination",
-    "search_time",
-    "loc_error",
-    "sources_found",
-    "false_sources",
-    "declarations",
-    "path_length",
-    "first_detection_time",
-    "energy",
-    "bytes",
-    "start_distance",
-    "steps",
-    "wall_time",
-    "wall_per_step_ms",
-)
-
 
 def _check_outputs(out: Path, names: tuple[str, ...], field: str = "--out") -> None:
     """Every file a command will write into ``out`` can be written (:class:`ConfigError`
@@ -406,9 +387,10 @@ def run(
     table.add_column("value", justify="right")
     if stored is not None:
         table.add_column("stored", justify="right")
-    from odorloc.experiments.display import explain_failure, format_metric, metric_label
+    from odorloc.experiments.display import METRICS, explain_failure, format_metric, metric_label
 
-    for k in RUN_ROWS:
+    # the standard metrics in their order: what happened, what explains a failure, the cost
+    for k in METRICS:
         if k not in res.metrics and (stored is None or k not in stored.row):
             continue
         cells = [metric_label(k), format_metric(k, res.metrics.get(k))]

@@ -236,6 +236,16 @@ def _map_size(rec: Recording, width: float) -> tuple[float, float]:
     return width, float(np.clip(width * h / max(w, 1e-9), 2.6, 8.0))
 
 
+def _map_axes(rec: Recording) -> Axes:
+    """The axes of a new map figure, with room on the right for a colour bar and the legend."""
+    fig = plt.figure(figsize=_map_size(rec, 7.0), layout="constrained")
+    fig.set_figwidth(fig.get_figwidth() + 3.4)
+    ax = fig.add_subplot()
+    # against its colour bar and legend: spare width goes left, where saving crops it
+    ax.set_anchor("E")
+    return ax
+
+
 # ----------------------------------------------------------------------------- legends
 
 
@@ -348,12 +358,7 @@ def plot_trajectory(rec: Recording, path: str | Path | None = None, ax: Axes | N
     """
     own = ax is None
     style = _style(rec)
-    if ax is None:
-        fig = plt.figure(figsize=_map_size(rec, 7.0), layout="constrained")
-        fig.set_figwidth(fig.get_figwidth() + 3.4)  # colour bar and legend
-        ax = fig.add_subplot()
-        # against its colour bar and legend: spare width goes left, where saving crops it
-        ax.set_anchor("E")
+    ax = _map_axes(rec) if ax is None else ax
     fig = ax.figure
     if len(rec.plume_frames):
         mean = rec.plume_frames.mean(axis=0)
@@ -457,11 +462,7 @@ def plot_belief_map(
     """
     own = ax is None
     style = _style(rec)
-    if ax is None:
-        fig = plt.figure(figsize=_map_size(rec, 7.0), layout="constrained")
-        fig.set_figwidth(fig.get_figwidth() + 3.4)
-        ax = fig.add_subplot()
-        ax.set_anchor("E")
+    ax = _map_axes(rec) if ax is None else ax
     fig = ax.figure
     n_agents = rec.positions.shape[1]
     if rec.beliefs:
