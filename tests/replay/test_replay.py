@@ -311,6 +311,42 @@ def test_offline_replay_is_deterministic_per_seed(episode) -> None:
         replay_estimator([], ctx)
 
 
+def test_a_recipe_replays_its_estimator(episode) -> None:
+    """A searcher's name replays the estimator it composes, with its model and parameters: the
+    same as naming the estimator; a searcher without one is refused before any log is read."""
+    from odorloc.core.types import Observation
+    from odorloc.replay.offline import check_estimator, resolve_estimator
+    from odorloc.scenarios.build import build, search_context
+
+    rec = episode.recording
+    obs = [
+        Observation(0, float(t), p, 0.0, float(g), bool(d), w)
+        for t, p, g, d, w in zip(
+            rec.t,
+            rec.positions[:, 0],
+            rec.gas[:, 0],
+            rec.detection[:, 0],
+            rec.wind[:, 0],
+            strict=True,
+        )
+    ]
+    sc = checks.small_scenario({"type": "zigzag"}, 2, 1, 30.0)
+    ctx = search_context(sc, build(sc))
+    a = replay_estimator(obs, ctx, "pf-entropy", seed=4)
+    b = replay_estimator(obs, ctx, "particle-filter", seed=4)
+    assert a.beliefs and len(a.beliefs) == len(b.beliefs)
+    np.testing.assert_array_equal(a.beliefs[-1][1]["positions"], b.beliefs[-1][1]["positions"])
+    assert a.meta["searcher"] == "pf-entropy" and b.meta["searcher"] == "particle-filter"
+    grid = replay_estimator(obs, ctx, "ds-map")
+    assert grid.beliefs and "m_s" in grid.beliefs[-1][1]
+    check_estimator("odor-path")
+    with pytest.raises(ConfigError) as ei:
+        check_estimator("no-such-thing", "--estimator")
+    assert ei.value.field == "--estimator"
+    with pytest.raises(ConfigError, match="composes no estimator"):
+        resolve_estimator("zigzag")
+
+
 # ---------------------------------------------------------------------- GADEN
 def _gaden_scenario() -> Scenario:
     sc = checks.small_scenario({"type": "zigzag"}, 3, 1, 20.0)
@@ -568,7 +604,6 @@ def test_replayed_estimates_are_the_mappers_sources_or_the_belief_mean(tmp_path,
     from odorloc.engine.episode import score_declaration
     from odorloc.engine.recorder import Recording
     from odorloc.replay.bag import BagLog, write_bag
-    from odorloc.replay.offline import _belief_mean
 
     write_bag(tmp_path / "b", episode.recording, MAPPING)
     log = BagLog(tmp_path / "b", MAPPING)
@@ -577,13 +612,19 @@ def test_replayed_estimates_are_the_mappers_sources_or_the_belief_mean(tmp_path,
     m = ds.meta
     est = np.asarray(m["estimates"])
     assert m["estimate_kind"] == "sources" and len(est) >= 1
-    mean = _belief_mean(ds.beliefs[-1][1])
+    prob = np.asarray(ds.beliefs[-1][1]["prob"], float)
+    lo, hi = (np.asarray(ds.beliefs[-1][1][k], float) for k in ("lower", "upper"))
+    axes = [lo[a] + (np.arange(n) + 0.5) * (hi[a] - lo[a]) / n for a, n in enumerate(prob.shape)]
+    grids = np.meshgrid(*axes, indexing="ij")
+    mean = np.array([(g * prob).sum() / prob.sum() for g in grids])
     assert not any(np.allclose(e, mean) for e in est)
     _, err, found, false = score_declaration(est, src, 0.5)
     assert (m["loc_error"], m["sources_found"], m["false_sources"]) == (err, found, false)
     pf = replay_estimator(log.observations(), log.context(), "pf-entropy", sources=src, seed=3)
     assert pf.meta["estimate_kind"] == "belief mean"
-    assert np.allclose(pf.meta["estimates"], [_belief_mean(pf.beliefs[-1][1])])
+    snap = pf.beliefs[-1][1]
+    w = np.asarray(snap["weights"], float)
+    assert np.allclose(pf.meta["estimates"], [(w / w.sum()) @ np.asarray(snap["positions"])])
     # stored with the recording
     back = Recording.load(pf.save(tmp_path / "r.npz"))
     assert back.meta["estimates"] == pf.meta["estimates"]

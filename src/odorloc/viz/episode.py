@@ -23,11 +23,6 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-import matplotlib
-
-matplotlib.use("Agg")
-
-import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib import animation, colors, ticker
 from matplotlib.axes import Axes
@@ -35,6 +30,7 @@ from matplotlib.legend_handler import HandlerTuple
 from matplotlib.lines import Line2D
 
 from odorloc.engine.recorder import Recording
+from odorloc.viz.backend import pyplot
 from odorloc.viz.team import PALETTE, TeamStyle, Unit, team_style
 
 AGENT_COLORS = list(PALETTE)
@@ -238,6 +234,7 @@ def _map_size(rec: Recording, width: float) -> tuple[float, float]:
 
 def _map_axes(rec: Recording) -> Axes:
     """The axes of a new map figure, with room on the right for a colour bar and the legend."""
+    plt = pyplot()
     fig = plt.figure(figsize=_map_size(rec, 7.0), layout="constrained")
     fig.set_figwidth(fig.get_figwidth() + 3.4)
     ax = fig.add_subplot()
@@ -356,6 +353,7 @@ def plot_trajectory(rec: Recording, path: str | Path | None = None, ax: Axes | N
     -------
     Figure
     """
+    plt = pyplot()
     own = ax is None
     style = _style(rec)
     ax = _map_axes(rec) if ax is None else ax
@@ -460,6 +458,7 @@ def plot_belief_map(
     -------
     Figure
     """
+    plt = pyplot()
     own = ax is None
     style = _style(rec)
     ax = _map_axes(rec) if ax is None else ax
@@ -616,6 +615,7 @@ def animate(
     Path
         ``path``.
     """
+    plt = pyplot()
     path = Path(path)
     style = _style(rec)
     n_agents = rec.positions.shape[1]
@@ -933,6 +933,7 @@ def plot_traces(rec: Recording, path: str | Path | None = None) -> Any:
     -------
     Figure
     """
+    plt = pyplot()
     style = _style(rec)
     units: list[Unit] = style.units()
     diag = diagnostics_by_agent(rec)

@@ -12,15 +12,11 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
-import matplotlib
-
-matplotlib.use("Agg")
-
-import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib import animation
 
 from odorloc.engine.recorder import Recording
+from odorloc.viz.backend import pyplot
 from odorloc.viz.team import team_style
 
 __all__ = ["animate_team_3d", "beliefs_at", "key_moments", "plot_team_3d"]
@@ -157,6 +153,7 @@ def plot_team_3d(
     titles : sequence of str, optional
         Panel titles (default the times).
     """
+    plt = pyplot()
     if rec.positions.shape[2] != 3:
         raise ValueError("plot_team_3d needs a 3-D recording")
     if times is None:
@@ -201,6 +198,7 @@ def animate_team_3d(
     """Animation of :func:`plot_team_3d`'s view over the episode (GIF, or MP4 for ``.mp4``),
     at least 800 pixels wide, the legend right of the view; ``progress(frame, total)`` is
     called after each frame is written."""
+    plt = pyplot()
     path = Path(path)
     width = max(10.5, 800 / dpi + 0.01)
     fig = plt.figure(figsize=(width, 6.0))
