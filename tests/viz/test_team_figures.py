@@ -115,7 +115,7 @@ def test_every_figure_gives_an_agent_the_same_colour(tmp_path, monkeypatch) -> N
     assert [_hex(ax.title.get_color()) for ax in titled] == want
     plt.close(fig)
     kept: list[Any] = []
-    monkeypatch.setattr(viz.plt, "close", kept.append)
+    monkeypatch.setattr(plt, "close", kept.append)
     viz.animate(rec, tmp_path / "a.gif", max_frames=2, dpi=40)
     heads = [ln for ln in kept[0].axes[0].get_lines() if ln.get_marker() == "o"]
     assert [_hex(ln.get_color()) for ln in heads[:3]] == want
@@ -175,7 +175,7 @@ def test_the_true_source_is_drawn_above_every_other_marker(tmp_path, monkeypatch
     elif figure == "belief":
         axes = viz.plot_belief_map(rec).axes[:1]
     else:
-        monkeypatch.setattr(viz.plt, "close", kept.append)
+        monkeypatch.setattr(plt, "close", kept.append)
         viz.animate(rec, tmp_path / "a.gif", max_frames=2, dpi=40)
         axes = [ax for ax in kept[0].axes if ax.get_label() in ("map", "belief")]
     for ax in axes:
@@ -207,7 +207,7 @@ def test_animation_draws_a_grid_belief_at_its_recorded_extent(tmp_path, monkeypa
     snap = {"m_s": prob, "lower": np.array([2.0, 4.0]), "upper": np.array([10.0, 8.0])}
     rec = _team(1, beliefs=[(3.0, {**snap, "agent": np.array(-1)})])
     kept: list[Any] = []
-    monkeypatch.setattr(viz.plt, "close", kept.append)
+    monkeypatch.setattr(plt, "close", kept.append)
     calls: list[tuple[int, int]] = []
     viz.animate(
         rec, tmp_path / "ds.gif", max_frames=6, dpi=40, progress=lambda i, n: calls.append((i, n))

@@ -69,8 +69,8 @@ def _particles(agent: int, centre: tuple[float, float], n: int = 50, equal: bool
 def kept_figures(monkeypatch: pytest.MonkeyPatch) -> list[Any]:
     """Figures the viz functions would close, kept open to inspect (in their final state)."""
     kept: list[Any] = []
-    close = viz.plt.close
-    monkeypatch.setattr(viz.plt, "close", kept.append)
+    close = plt.close
+    monkeypatch.setattr(plt, "close", kept.append)
     yield kept
     for fig in kept:
         close(fig)

@@ -862,13 +862,17 @@ def diagnostics_by_agent(rec: Recording) -> dict[str, dict[int, np.ndarray]]:
     Returns
     -------
     dict of str to dict of int to (K,) ndarray
-        ``{name: {agent or -1: series}}``, series with a finite value.
+        ``{name: {agent or -1: series}}``, series with a finite value (text diagnostics, such
+        as phase names, are left out).
     """
     n = rec.positions.shape[1]
     out: dict[str, dict[int, np.ndarray]] = {}
     plain: dict[str, np.ndarray] = {}
     for key, v in rec.diagnostics.items():
-        v = np.asarray(v, float)
+        v = np.asarray(v)
+        if v.dtype.kind not in "biuf":
+            continue  # text (a phase name) has no trace
+        v = v.astype(float)
         if not np.isfinite(v).any():
             continue
         m = _SUFFIX.match(key)
