@@ -387,7 +387,13 @@ def run(
     table.add_column("value", justify="right")
     if stored is not None:
         table.add_column("stored", justify="right")
-    from odorloc.experiments.display import METRICS, explain_failure, format_metric, metric_label
+    from odorloc.experiments.display import (
+        METRICS,
+        agent_table,
+        explain_failure,
+        format_metric,
+        metric_label,
+    )
 
     # the standard metrics in their order: what happened, what explains a failure, the cost
     for k in METRICS:
@@ -399,6 +405,14 @@ def run(
             cells.append(format_metric(k, bool(was) if k == "success" and was is not None else was))
         table.add_row(*cells)
     console.print(table)
+    headers, rows = agent_table(res.metrics.agents)
+    if rows:
+        per_agent = Table(title="per agent")
+        for i, h in enumerate(headers):
+            per_agent.add_column(h, justify="left" if i == 0 else "right")
+        for r in rows:
+            per_agent.add_row(*(escape(c) for c in r))
+        console.print(per_agent)
     why = explain_failure(res.metrics, len(rec.sources), sc.task.end)
     if why is not None:
         console.print(f"failure: {escape(why)}", highlight=False)

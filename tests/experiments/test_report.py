@@ -314,3 +314,33 @@ def test_the_viewer_offers_every_kept_episode_and_the_new_figures(small_store, t
         "Distributions per cell",
     ):
         assert caption in page
+
+
+def test_per_agent_values_have_their_own_section(small_store, tmp_path) -> None:
+    """Per-agent values (the store's long table) are shown per cell, one column per agent, each
+    the mean over the cell's episodes; a CSV export shows them from the table beside it."""
+    sweep = {
+        "name": "team",
+        "seed": 2,
+        "episodes": 2,
+        "scenarios": [{"name": "toy"}],
+        "searchers": [{"name": "team", "params": {"agents": 3}}],
+    }
+    store = tmp_path / "results.sqlite"
+    run_sweep(sweep, store, workers=1, episode_fn=stub_episode, progress=False)
+
+    def section(page: str) -> str:
+        part = page[page.index('<h2 id="agents">') :]
+        return " ".join(re.sub(r"<[^>]+>", " ", part[: part.index("<h2", 5)]).split())
+
+    text = section(report_main(store, tmp_path / "r.html", renderer=None).read_text())
+    # episodes 0 and 1: agent a has cues a and a + 1, mean a + 0.5
+    assert "agent 0 agent 1 agent 2" in text
+    assert "cues 0.500 1.500 2.500" in text
+    assert "declaration_time (s) 10.0 20.0 30.0" in text
+    with ResultStore(store, readonly=True) as st:
+        csv = st.to_csv(tmp_path / "results.csv")
+    assert section(report_main(csv, tmp_path / "c.html", renderer=None).read_text()) == text
+    # a store without per-agent values has no such section
+    plain = report_main(small_store, tmp_path / "p.html", renderer=None).read_text()
+    assert 'id="agents"' not in plain

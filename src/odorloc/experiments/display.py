@@ -8,10 +8,18 @@ counts as integers, flags as ``yes``/``no``, a missing value as ``-``.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
-__all__ = ["METRICS", "MetricFormat", "explain_failure", "format_metric", "metric_label"]
+__all__ = [
+    "METRICS",
+    "MetricFormat",
+    "agent_table",
+    "explain_failure",
+    "format_metric",
+    "metric_label",
+]
 
 
 @dataclass(frozen=True)
@@ -136,3 +144,52 @@ def explain_failure(
             "on average"
         )
     return "; ".join(parts) + (f" ({term})" if term else "")
+
+
+MAX_AGENT_COLUMNS = 6
+"""Agents shown one column each in :func:`agent_table`; a larger team is shown by its range."""
+
+
+def agent_table(
+    agents: Mapping[int, Mapping[str, Any]], max_columns: int = MAX_AGENT_COLUMNS
+) -> tuple[list[str], list[list[str]]]:
+    """Per-agent values (``{agent id: {key: value}}``: an episode's
+    :attr:`~odorloc.engine.metrics.EpisodeMetrics.agents`, or means over a cell's episodes) as
+    a table: one row per metric (its label with its unit), one column per agent; for more than
+    ``max_columns`` agents the columns are ``agents`` (how many have the value), ``min``,
+    ``mean`` and ``max`` over them.
+
+    Returns
+    -------
+    headers : list of str
+    rows : list of list of str
+        Empty when no agent has a value.
+    """
+    ids = sorted(agents)
+    keys = sorted({k for a in ids for k in agents[a]})
+    if not keys:
+        return [], []
+    if len(ids) <= max_columns:
+        headers = ["metric", *(f"agent {a}" for a in ids)]
+        rows = [[metric_label(k), *(format_metric(k, agents[a].get(k)) for a in ids)] for k in keys]
+        return headers, rows
+    headers = ["metric", "agents", "min", "mean", "max"]
+    rows = []
+    for k in keys:
+        vals = [float(agents[a][k]) for a in ids if _is_finite(agents[a].get(k))]
+        if not vals:
+            rows.append([metric_label(k), "0", "-", "-", "-"])
+            continue
+        mean = sum(vals) / len(vals)
+        rows.append(
+            [metric_label(k), str(len(vals))]
+            + [format_metric(k, float(v)) for v in (min(vals), mean, max(vals))]
+        )
+    return headers, rows
+
+
+def _is_finite(v: Any) -> bool:
+    try:
+        return v is not None and not isinstance(v, str) and math.isfinite(float(v))
+    except (TypeError, ValueError):
+        return False

@@ -179,6 +179,57 @@ def _summary_section(summ: Any, level: float) -> str:
     )
 
 
+MAX_AGENT_CELLS = 20
+"""Cells shown in the per-agent section (the store keeps them all)."""
+
+
+def _agent_long(df: Any, store: Any, source: Any) -> Any:
+    """The per-agent values of the episodes of ``df`` as the long table (``cell_id, episode,
+    agent, key, value``): the store's, else the ``agents`` column of ``df``, else the export
+    beside ``source`` (``results_agents.csv`` beside ``results.csv``), else none."""
+    import pandas as pd
+
+    from odorloc.experiments.store import agent_table, agents_path
+
+    if store is not None:
+        long = store.agent_frame()
+    elif "agents" in df.columns or not isinstance(source, str | Path):
+        return agent_table(df)
+    else:
+        side = agents_path(source)
+        if not side.is_file():
+            return agent_table(df)
+        long = pd.read_csv(side) if side.suffix == ".csv" else pd.read_parquet(side)
+    keep = df[["cell_id", "episode"]].drop_duplicates()
+    return long.merge(keep, on=["cell_id", "episode"], how="inner")
+
+
+def _agent_section(df: Any, store: Any, source: Any = None) -> str:
+    """Per-agent values (a team member's own counts and times), mean over each cell's
+    episodes; empty when no episode has any."""
+    from odorloc.experiments.display import agent_table
+
+    long = _agent_long(df, store, source)
+    if not len(long):
+        return ""
+    means = long.groupby(["cell_id", "agent", "key"], sort=False)["value"].mean()
+    parts = [
+        '<h2 id="agents">Per agent</h2><p class="note">Values that belong to one agent of a '
+        "team (stored per agent beside the episode row), mean over the cell's episodes that "
+        "have them.</p>"
+    ]
+    cells = list(dict.fromkeys(long["cell_id"]))
+    for cell in cells[:MAX_AGENT_CELLS]:
+        agents: dict[int, dict[str, float]] = {}
+        for (_, a, k), v in means.loc[[cell]].items():
+            agents.setdefault(int(a), {})[str(k)] = float(v)
+        headers, rows = agent_table(agents)
+        parts.append(f"<h3>{_e(cell)}</h3>" + _table(headers, [[_e(c) for c in r] for r in rows]))
+    if len(cells) > MAX_AGENT_CELLS:
+        parts.append(f'<p class="note">{len(cells) - MAX_AGENT_CELLS} more cells not shown.</p>')
+    return "".join(parts)
+
+
 def _paired_section(df: Any, level: float, seed: int) -> str:
     comp = stats.compare_searchers(df, level=level, seed=seed)
     if len(comp) == 0:
@@ -1147,6 +1198,7 @@ def write_report(
                 figs += got if isinstance(got, list) else [got] if got else []
             if figs:
                 body.append('<h2 id="figures">Figures</h2>' + "".join(figs))
+            body.append(_guarded("per-agent values", _agent_section, df, store, store_or_df))
             body.append(_guarded("episode viewer", _viewer_section, df, store, episodes, renderer))
             errs = df[df["status"] == "error"]
             if len(errs):
