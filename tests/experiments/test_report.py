@@ -330,8 +330,8 @@ def test_per_agent_values_have_their_own_section(small_store, tmp_path) -> None:
     run_sweep(sweep, store, workers=1, episode_fn=stub_episode, progress=False)
 
     def section(page: str) -> str:
-        part = page[page.index('<h2 id="agents">') :]
-        return " ".join(re.sub(r"<[^>]+>", " ", part[: part.index("<h2", 5)]).split())
+        part = re.split(r"<h2 |<script>", page[page.index('<h2 id="agents">') + 4 :])[0]
+        return " ".join(re.sub(r"<[^>]+>", " ", part).split())
 
     text = section(report_main(store, tmp_path / "r.html", renderer=None).read_text())
     # episodes 0 and 1: agent a has cues a and a + 1, mean a + 0.5

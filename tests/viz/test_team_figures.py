@@ -145,8 +145,12 @@ def test_team_diagnostics_are_drawn_in_their_agents_columns() -> None:
         "spread_1": np.full(steps, 2.0),
         "spread_2": np.full(steps, 3.0),
         "entropy": np.linspace(4.0, 3.0, steps),
+        # a phase is text: it has no trace
+        "phase": np.array(["zigzag"] * 6 + ["surge"] * (steps - 6)),
+        "phase_1": np.array(["zigzag"] * steps),
     }
     rec = _team(3, platform="uav", diagnostics=diag, steps=steps)
+    assert set(viz.diagnostics_by_agent(rec)) == {"spread", "entropy"}
     assert set(viz.diagnostics_by_agent(rec)["spread"]) == {0, 1, 2}
     # the unsuffixed series of a team without suffixed ones is a central belief's
     assert set(viz.diagnostics_by_agent(rec)["entropy"]) == {-1}
