@@ -482,7 +482,9 @@ def probe_scheduler(address: str, timeout: float) -> None:
         sock = candidate
         break
     if sock is None:
-        raise ConfigError("scheduler", f"cannot reach {address} within {timeout:g} s ({reason})")
+        raise ConfigError(
+            "scheduler", f"cannot reach Dask scheduler {address} within {timeout:g} s ({reason})"
+        )
     with sock:
         if scheme == "tls":
             return
