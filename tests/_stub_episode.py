@@ -83,6 +83,12 @@ def stub_episode(task) -> dict:
         "error": "",
         "difficulty": difficulty,
     }
+    if p.get("agents"):
+        # a team: each member's own cue count and declaration time, kept per agent
+        row["agent_metrics"] = {
+            a: {"cues": float(a + task.episode), "declaration_time": 10.0 * (a + 1)}
+            for a in range(int(p["agents"]))
+        }
     if p.get("trajectory"):
         n = 40
         steps = agent.normal(0.0, 0.3, size=(n, 2))

@@ -8,7 +8,6 @@ Command-line usage errors (an unknown option, a value of the wrong type) are one
 
 from __future__ import annotations
 
-import math
 import shlex
 import sys
 from collections.abc import Callable
@@ -199,12 +198,45 @@ def _report_failures(command: str, df: Any, out: Path) -> bool:
     return True
 
 
-def _fmt(v: Any) -> str:
-    if isinstance(v, bool):
-        return "yes" if v else "no"
-    if isinstance(v, float):
-        return "-" if math.isnan(v) else f"{v:.3g}" if abs(v) < 1e4 else f"{v:.0f}"
-    return str(v)
+#: Files ``odorloc run`` writes into ``--out`` (each checked before the episode runs).
+RUN_OUTPUTS = (
+    "trajectory.png",
+    "traces.png",
+    "recording.npz",
+    "view_3d.png",
+    "scenario.yaml",
+    "episode.gif",
+    "episode.mp4",
+)
+
+#: Files ``odorloc batch`` writes into ``--out``.
+BATCH_OUTPUTS = ("results.sqlite", "results.csv", "results.parquet", "errors.log")
+
+#: Files every reproduction writes into ``--out`` (its stores are checked by the reproduction).
+REPRODUCE_OUTPUTS = ("results.csv", "report.html", "errors.log")
+
+
+def _check_outputs(out: Path, names: tuple[str, ...], field: str = "--out") -> None:
+    """Every file a command will write into ``out`` can be written (:class:`ConfigError`
+    naming ``field`` otherwise), before any work."""
+    check_output_dir(out, field)
+    for name in names:
+        check_output_file(out / name, field)
+
+
+def _animation_progress(name: str) -> Any:
+    """A transient progress bar for writing an animation (nothing on a non-terminal)."""
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeRemainingColumn
+
+    return Progress(
+        f"writing {escape(name)}",
+        BarColumn(bar_width=30),
+        MofNCompleteColumn(),
+        "frames, ETA",
+        TimeRemainingColumn(),
+        console=console,
+        transient=True,
+    )
 
 
 @app.command()
@@ -265,7 +297,7 @@ def run(
         _check_count(frames, "--frames", 1, MAX_FRAMES)
         if seed is not None:
             check_seed(seed, "--seed")
-        check_output_dir(out, "--out")
+        _check_outputs(out, RUN_OUTPUTS)
     except OdorlocError as exc:
         _fail(str(exc))
         return
@@ -355,15 +387,35 @@ def run(
     table.add_column("value", justify="right")
     if stored is not None:
         table.add_column("stored", justify="right")
-    from odorloc.experiments.rerun import COMPARED
+    from odorloc.experiments.display import (
+        METRICS,
+        agent_table,
+        explain_failure,
+        format_metric,
+        metric_label,
+    )
 
-    for k in (*COMPARED, "wall_time", "wall_per_step_ms"):
-        cells = [k, _fmt(res.metrics.get(k))]
+    # the standard metrics in their order: what happened, what explains a failure, the cost
+    for k in METRICS:
+        if k not in res.metrics and (stored is None or k not in stored.row):
+            continue
+        cells = [metric_label(k), format_metric(k, res.metrics.get(k))]
         if stored is not None:
             was = stored.row.get(k)
-            cells.append(_fmt(bool(was) if k == "success" and was is not None else was))
+            cells.append(format_metric(k, bool(was) if k == "success" and was is not None else was))
         table.add_row(*cells)
     console.print(table)
+    headers, rows = agent_table(res.metrics.agents)
+    if rows:
+        per_agent = Table(title="per agent")
+        for i, h in enumerate(headers):
+            per_agent.add_column(h, justify="left" if i == 0 else "right")
+        for r in rows:
+            per_agent.add_row(*(escape(c) for c in r))
+        console.print(per_agent)
+    why = explain_failure(res.metrics, len(rec.sources), sc.task.end)
+    if why is not None:
+        console.print(f"failure: {escape(why)}", highlight=False)
     if stored is not None:
         from odorloc.experiments.rerun import differences
 
@@ -404,9 +456,17 @@ def run(
         (out / "scenario.yaml").write_text(again + sc.to_yaml())
         written.append(out / "scenario.yaml")
         if animation:
-            written.append(animate(rec, out / "episode.gif", max_frames=frames))
+            targets = [out / "episode.gif"]
             if ffmpeg_available():
-                written.append(animate(rec, out / "episode.mp4", max_frames=frames))
+                targets.append(out / "episode.mp4")
+            for target in targets:
+                with _animation_progress(target.name) as bar:
+                    job = bar.add_task("frames", total=None)
+
+                    def advance(i: int, n: int, bar: Any = bar, job: Any = job) -> None:
+                        bar.update(job, completed=i, total=n)
+
+                    written.append(animate(rec, target, max_frames=frames, progress=advance))
     except OSError as exc:
         _fail(f"--out: cannot write into {out}: {exc.strerror or exc}")
         return
@@ -479,7 +539,7 @@ def batch(
     try:
         _check_count(workers, "--workers", 1, 1024)
         backend = _check_backend(backend, scheduler)
-        check_output_dir(out, "--out")
+        _check_outputs(out, BATCH_OUTPUTS)
         if sweep is not None and (scenario or searcher):
             raise ConfigError("--scenario", "give a sweep file or --scenario/--searcher, not both")
         if sweep is not None and (episodes is not None or seed is not None):
@@ -527,6 +587,7 @@ def batch(
             workers=workers,
             scheduler=scheduler,
             progress=progress,
+            summary=False,
         )
     except ConfigError as exc:
         # the store and the cluster are the command's --out and --scheduler
@@ -540,10 +601,26 @@ def batch(
     except OdorlocError as exc:
         _fail(str(exc))
         return
-    with ResultStore(store_path, readonly=True) as store:
-        csv = store.to_csv(out / "results.csv")
-        pq = store.to_parquet(out / "results.parquet")
-    console.print(f"{len(df)} episodes -> {store_path}, {csv}, {pq}")
+    from odorloc.experiments.progress import print_summary
+
+    # the summary after every batch, with or without the live bar
+    print_summary(df, console=console)
+    try:
+        with ResultStore(store_path, readonly=True) as store:
+            csv = store.to_csv(out / "results.csv")
+            pq = store.to_parquet(out / "results.parquet")
+    except OSError as exc:
+        _fail(
+            f"--out: cannot write into {out}: {exc.strerror or exc} (the store holds the results)"
+        )
+        return
+    added = int(df.attrs.get("added", 0))
+    console.print(
+        f"added {added} episode{'s' if added != 1 else ''} ({len(df)} in the store)",
+        highlight=False,
+    )
+    for p in (store_path, csv, pq):
+        console.print(f"wrote {escape(str(p))}", highlight=False)
     # every result is stored and exported above; failed episodes make the exit status 1
     if _report_failures("batch", df, out):
         raise typer.Exit(code=1)
@@ -593,6 +670,9 @@ def reproduce(
             "--list", help="List the reproductions (with a name: describe only that one)."
         ),
     ] = False,
+    progress: Annotated[
+        bool, typer.Option(help="Live progress bar (the tables are printed either way).")
+    ] = True,
 ) -> None:
     """Reproduce a paper's headline comparison: table beside the paper's numbers, figures, report.
 
@@ -634,7 +714,7 @@ def reproduce(
             _check_count(episodes, "--episodes", 1, MAX_EPISODES)
         backend = _check_backend(backend, scheduler)
         target = out or Path("odorloc-reproduce") / paper
-        check_output_dir(target, "--out")
+        _check_outputs(target, REPRODUCE_OUTPUTS)
         parts = [w.strip() for o in only for w in o.split(",") if w.strip()] if only else None
         if only and not parts:
             raise ConfigError("--only", "names no sweep")
@@ -646,6 +726,7 @@ def reproduce(
             backend=backend,
             scheduler=scheduler,
             only=parts,
+            progress=progress,
         )
     except ConfigError as exc:
         # the stores and the cluster are the command's --out and --scheduler
@@ -656,8 +737,8 @@ def reproduce(
                     "use another store path", "use another --out folder or the seed it holds"
                 ),
             )
-        elif exc.field == "scheduler":
-            exc = ConfigError("--scheduler", exc.problem)
+        elif exc.field in ("scheduler", "out"):
+            exc = ConfigError(f"--{exc.field}", exc.problem)
         _fail(str(exc))
         return
     except OdorlocError as exc:
@@ -666,6 +747,14 @@ def reproduce(
     # the tables, figures and report are written; failed episodes make the exit status 1
     if _report_failures("reproduce", outcome.results, target):
         raise typer.Exit(code=1)
+
+
+#: Files ``odorloc replay-log`` writes into ``--out``.
+REPLAY_OUTPUTS = ("belief.png", "recording.npz")
+
+
+def _xy(p: Any) -> str:
+    return "(" + ", ".join(f"{float(v):.2f}" for v in p) + ") m"
 
 
 @app.command("replay-log")
@@ -682,14 +771,20 @@ def replay_log(
     seed: Annotated[int, typer.Option(help="Seed of the estimator's random stream.")] = 0,
     out: Annotated[Path, typer.Option(help="Output folder.")] = Path("odorloc-replay"),
 ) -> None:
-    """Replay an estimator offline over a recorded robot log; plot its belief on the map.
+    """Replay an estimator offline over a recorded robot log; print, draw and store its
+    estimate.
 
-    Needs the ``ros`` extra (``pip install odorloc\\[ros]``). Writes ``belief.png`` and
-    ``recording.npz`` into ``--out``.
+    Needs the ``ros`` extra (``pip install odorloc\\[ros]``). The search area is the topics
+    file's ``arena``; without one it is the driven path's extent plus ``margin`` (1 m by
+    default) on every side, and an estimate on that area's edge is warned about (the source
+    may lie beyond it). The estimate is the estimator's own sources where it has them (the
+    mapped sources of ds-mapping), else its belief's mean; with ``sources`` in the topics file
+    it is scored against them. Writes ``belief.png`` and ``recording.npz`` (the estimate in
+    its metadata) into ``--out``.
     """
     try:
         check_seed(seed, "--seed")
-        check_output_dir(out, "--out")
+        _check_outputs(out, REPLAY_OUTPUTS)
         from odorloc.replay.offline import check_estimator
 
         check_estimator(estimator, "--estimator")
@@ -710,11 +805,22 @@ def replay_log(
         log = BagLog(bag, mapping)
         src = np.asarray(log.mapping.sources, float) if log.mapping.sources else None
         rec = replay_estimator(
-            log.observations(), log.context(), estimator, seed=seed, sources=src, name=bag.name
+            log.observations(),
+            log.context(),
+            estimator,
+            seed=seed,
+            sources=src,
+            name=bag.name,
+            success_radius=log.mapping.success_radius,
         )
     except OdorlocError as exc:
         _fail(str(exc))
         return
+    m = rec.meta
+    default_area = log.mapping.arena is None
+    m["search_area_rule"] = (
+        f"path's extent + {log.mapping.margin:g} m" if default_area else "topics file's arena"
+    )
     try:
         out.mkdir(parents=True, exist_ok=True)
         plot_belief_map(rec, out / "belief.png")
@@ -722,13 +828,43 @@ def replay_log(
     except OSError as exc:
         _fail(f"--out: cannot write into {out}: {exc.strerror or exc}")
         return
-    m = rec.meta
     console.print(
         f"{m['steps']} periods, {m['detections']} with a detection, "
         f"{len(rec.beliefs)} belief snapshot(s)"
     )
+    lo, hi = m["search_area"]
+    console.print(
+        f"search area [{lo[0]:.2f}, {hi[0]:.2f}] x [{lo[1]:.2f}, {hi[1]:.2f}] m "
+        f"({m['search_area_rule']})",
+        highlight=False,
+    )
+    est = m["estimates"]
+    what = "mapped source(s)" if m["estimate_kind"] == "sources" else "belief mean"
+    if est:
+        console.print(
+            f"{escape(estimator)} estimate ({what}): " + ", ".join(_xy(e) for e in est),
+            highlight=False,
+        )
+    elif m["estimate_kind"] == "sources":
+        console.print(f"{escape(estimator)} mapped no source", highlight=False)
+    else:
+        console.print(f"{escape(estimator)} recorded no belief: no estimate", highlight=False)
     if "loc_error" in m:
-        console.print(f"final {estimator} estimate: {m['loc_error']:.2f} m from the source")
+        n_src = len(rec.sources)
+        console.print(
+            f"against {n_src} known source(s): loc_error {m['loc_error']:.2f} m (mean distance "
+            f"from each source to the nearest estimate); {m['sources_found']} of {n_src} found "
+            f"within {m['success_radius']:g} m; {m['false_sources']} false",
+            highlight=False,
+        )
+    for i in m["on_edge"]:
+        hint = " (set arena or a larger margin in the topics file)" if default_area else ""
+        err_console.print(
+            f"warning: estimate {_xy(est[i])} lies within {m['edge_tolerance']:.2f} m of the "
+            f"search area's edge: the source may be outside it{hint}",
+            highlight=False,
+            soft_wrap=True,
+        )
     for p in (out / "belief.png", out / "recording.npz"):
         console.print(f"wrote {p}")
 

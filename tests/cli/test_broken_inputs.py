@@ -11,11 +11,16 @@ time-out if they hang.
 
 from __future__ import annotations
 
+import contextlib
 import copy
 import hashlib
+import os
 import shutil
+import socket
+import sqlite3
 import subprocess
 import sys
+import threading
 import warnings
 from pathlib import Path
 from typing import Any
@@ -109,6 +114,12 @@ def _make(name: str, path: Path) -> bytes:
         return (_dump(sc) + f"description2:\n{anchors}\n{uses}\n").encode()
     if name == "duplicate_nested":
         return _dump(sc).replace("  dt: 0.25\n", "  dt: 0.25\n  dt: 0.5\n").encode()
+    if name == "many_agents":
+        # more agents than the default cap (agents.max_agents = 256), each start distinct
+        sc["agents"]["starts"] = [
+            [2.0 + 0.02 * (i % 300), 1.0 + 0.01 * (i // 30)] for i in range(300)
+        ]
+        return _dump(sc).encode()
     if name == "huge_string":
         return (_dump(sc) + "description: " + "x" * 200_000 + "\n").encode()
     if name == "sweep_many_cells":
@@ -186,8 +197,45 @@ def _content(spec: dict[str, Any], kind: str, path: Path) -> bytes:
     return (_dump(data) + spec.get("append", "")).encode()
 
 
-def materialise(case: dict[str, Any], tmp: Path, store_template: Path) -> list[str]:
-    """Write the case's files into ``tmp``; return its command line."""
+def _silent_server(stack: contextlib.ExitStack) -> int:
+    """A port that accepts connections and never says a word (like a web server)."""
+    srv = socket.socket()
+    srv.bind(("127.0.0.1", 0))
+    srv.listen(8)
+    stack.callback(srv.close)
+    return srv.getsockname()[1]
+
+
+def _banner_server(stack: contextlib.ExitStack) -> int:
+    """A port that greets every connection with an SSH banner (not a Dask handshake)."""
+    srv = socket.socket()
+    srv.bind(("127.0.0.1", 0))
+    srv.listen(8)
+    srv.settimeout(0.1)
+    stop = threading.Event()
+
+    def serve() -> None:
+        while not stop.is_set():
+            try:
+                conn, _ = srv.accept()
+            except OSError:
+                continue
+            with conn:
+                conn.sendall(b"SSH-2.0-OpenSSH_9.2p1 Debian-2\r\n")
+
+    thread = threading.Thread(target=serve, daemon=True)
+    thread.start()
+    stack.callback(srv.close)
+    stack.callback(thread.join, 2.0)
+    stack.callback(stop.set)
+    return srv.getsockname()[1]
+
+
+def materialise(
+    case: dict[str, Any], tmp: Path, store_template: Path, stack: contextlib.ExitStack
+) -> tuple[list[str], dict[str, str]]:
+    """Write the case's files into ``tmp`` and start its servers; return its command line and
+    the substitutions made in it (``{tmp}``, ``{long}``, ports)."""
     files: dict[str, tuple[dict[str, Any], str]] = {}
     if "scenario" in case:
         files["s.yaml"] = (case["scenario"], "scenario")
@@ -198,28 +246,53 @@ def materialise(case: dict[str, Any], tmp: Path, store_template: Path) -> list[s
         files[name] = (spec, "sweep" if name.startswith("sweep") else "scenario")
     setup = case.get("setup") or []
     setup = [setup] if isinstance(setup, str) else setup
+    subs = {"tmp": str(tmp), "long": "x" * 300}
     if "store" in setup:
         shutil.copytree(store_template, tmp, dirs_exist_ok=True)
         files.setdefault("sweep.yaml", ({"base": True}, "sweep"))
+    if "text_metric" in setup:
+        # text where the store keeps a number (another program wrote to it)
+        con = sqlite3.connect(tmp / "out" / "results.sqlite")
+        con.execute("UPDATE episodes SET energy = 'lots'")
+        con.commit()
+        con.close()
     if "file" in setup:
         (tmp / "afile").write_text("a file, not a folder\n")
+    if "loop" in setup:
+        os.symlink(tmp / "loopb", tmp / "loopa")
+        os.symlink(tmp / "loopa", tmp / "loopb")
+    if "silent_server" in setup:
+        subs["silent_port"] = str(_silent_server(stack))
+    if "banner_server" in setup:
+        subs["banner_port"] = str(_banner_server(stack))
     for name, (spec, kind) in files.items():
         p = tmp / name
         p.parent.mkdir(parents=True, exist_ok=True)
         p.write_bytes(_content(spec, kind, p))
     if "args" in case:
-        return [str(a).replace("{tmp}", str(tmp)) for a in case["args"]]
+        return [_substitute(str(a), subs) for a in case["args"]], subs
     if "sweep" in case or "store" in setup:
-        return ["batch", str(tmp / "sweep.yaml"), "--out", str(tmp / "out"), "--no-progress"]
-    return ["run", str(tmp / "s.yaml"), "--out", str(tmp / "out"), "--no-animation"]
+        args = ["batch", str(tmp / "sweep.yaml"), "--out", str(tmp / "out"), "--no-progress"]
+        return args, subs
+    return ["run", str(tmp / "s.yaml"), "--out", str(tmp / "out"), "--no-animation"], subs
+
+
+def _substitute(text: str, subs: dict[str, str]) -> str:
+    for k, v in subs.items():
+        text = text.replace("{" + k + "}", v)
+    return text
 
 
 def snapshot(root: Path) -> dict[str, str]:
-    """Every file and folder under ``root`` with a hash of its bytes."""
+    """Every file, folder and link under ``root`` with a hash of its bytes (links by target:
+    a link loop cannot be read)."""
     out = {}
     for p in sorted(root.rglob("*")):
         rel = str(p.relative_to(root))
-        out[rel] = "dir" if p.is_dir() else hashlib.sha256(p.read_bytes()).hexdigest()
+        if p.is_symlink():
+            out[rel] = f"link -> {os.readlink(p)}"
+        else:
+            out[rel] = "dir" if p.is_dir() else hashlib.sha256(p.read_bytes()).hexdigest()
     return out
 
 
@@ -287,7 +360,18 @@ def test_the_corpus_is_large_and_unique() -> None:
 def test_broken_input(
     case: dict[str, Any], tmp_path: Path, store_template: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    args = materialise(case, tmp_path, store_template)
+    with contextlib.ExitStack() as stack:
+        _check_case(case, tmp_path, store_template, monkeypatch, stack)
+
+
+def _check_case(
+    case: dict[str, Any],
+    tmp_path: Path,
+    store_template: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    stack: contextlib.ExitStack,
+) -> None:
+    args, subs = materialise(case, tmp_path, store_template, stack)
     before = snapshot(tmp_path)
     if case.get("process"):
         count_file = tmp_path.parent / f"{tmp_path.name}.work"
@@ -321,7 +405,7 @@ def test_broken_input(
     assert len(lines) == 1, f"expected one line on stderr, got: {stderr!r}"
     line = lines[0]
     assert line.startswith("error: ") and "Traceback" not in stderr
-    assert case["expect"] in line, line
+    assert _substitute(case["expect"], subs) in line, line
     for bad in case.get("forbid", []):
         assert bad not in line, line
     assert work == 0, f"refused after {work} world or episode steps"

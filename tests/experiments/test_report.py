@@ -24,7 +24,7 @@ SPEC = {
     "name": "report-demo",
     "seed": 5,
     "episodes": 20,
-    "keep_arrays": True,
+    "keep_episodes": [0, 3],
     "scenarios": [{"name": "toy", "grid": {"scale": [1.0, 1.5]}}],
     "searchers": [
         {"name": "a", "params": {"skill": 0.8, "trajectory": True, "fail_on": [7]}},
@@ -90,7 +90,16 @@ def test_page_is_self_contained(store_path, tmp_path):
     assert "report-demo" in page
 
 
-def test_report_main_and_csv_input(store_path, tmp_path):
+@pytest.fixture
+def few_stills(monkeypatch):
+    """A viewer of four episodes: the tests using it are not about the viewer, whose stills
+    (one figure per kept episode) would dominate their time."""
+    from odorloc.experiments import report
+
+    monkeypatch.setattr(report, "MAX_VIEWER", 4)
+
+
+def test_report_main_and_csv_input(store_path, tmp_path, few_stills):
     out = report_main(store_path, tmp_path / "m.html")
     assert out.read_text().count("<table>") >= 3
     with ResultStore(store_path, readonly=True) as st:
@@ -141,11 +150,23 @@ def test_page_renders_in_headless_chromium(store_path, tmp_path):
             timeout=90,
             check=True,
         ).stdout
-    m = re.search(r'data-rendered="images=(\d+)/(\d+) tables=(\d+)"', dom)
+    m = re.search(
+        r'data-rendered="images=(\d+)/(\d+) tables=(\d+) episodes=(\d+) sections=([\w,-]*)"',
+        dom,
+    )
     assert m, "the page's load script did not run"
-    loaded, total, tables = map(int, m.groups())
-    assert total >= 5 and loaded == total, f"only {loaded}/{total} images decoded"
-    assert tables >= 4
+    loaded, total, tables, episodes = map(int, m.groups()[:4])
+    assert total >= 8 and loaded == total, f"only {loaded}/{total} images decoded"
+    assert tables >= 6
+    # every section has a visible heading, in the page's order
+    sections = m.group(5).split(",")
+    assert sections == [
+        "settings", "summary", "paired", "paper", "figures", "viewer", "errors"
+    ], sections  # fmt: skip
+    # the picker offers every episode asked for and shows one at a time
+    assert episodes == 3
+    assert len(re.findall(r'class="episode" data-key="e\d" style="display: block;"', dom)) == 1
+    assert len(re.findall(r'class="episode" data-key="e\d" style="display: none;"', dom)) == 2
     shot = tmp_path / "shot.png"
     with tempfile.TemporaryDirectory() as prof:
         subprocess.run(
@@ -160,7 +181,7 @@ def test_page_renders_in_headless_chromium(store_path, tmp_path):
     assert (im < 200).mean() > 0.02 and im.std() > 20
 
 
-def test_unreadable_blob_is_reported_in_the_page(store_path, tmp_path) -> None:
+def test_unreadable_blob_is_reported_in_the_page(store_path, tmp_path, few_stills) -> None:
     """One stored array blob that cannot be read is named in the viewer; the rest of the page
     (tables, figures, the other episodes) is still written."""
     import sqlite3
@@ -180,7 +201,7 @@ def test_unreadable_blob_is_reported_in_the_page(store_path, tmp_path) -> None:
     assert "Summary per cell" in html and html.count("data:image/png;base64,") >= 2
 
 
-def test_report_of_a_store_leaves_its_folder_alone(store_path, tmp_path) -> None:
+def test_report_of_a_store_leaves_its_folder_alone(store_path, tmp_path, few_stills) -> None:
     """Reading a cleanly closed store creates no -wal/-shm files next to it."""
     src = tmp_path / "s"
     src.mkdir()
@@ -229,3 +250,97 @@ def test_progress_counts_a_nan_success_as_the_store_does() -> None:
     for value in (math.nan, None, True, 1.0, 0.0):
         p.advance(task, {"success": value, "status": "ok"})
     assert p.counts("c") == (5, 2, 0)
+
+
+SMALL = {
+    "name": "report-settings",
+    "seed": 11,
+    "episodes": 3,
+    "keep_arrays": True,
+    "scenarios": [{"name": "toy", "params": {"time_limit": 300.0}, "grid": {"scale": [1.0, 2.0]}}],
+    "searchers": [{"name": "a", "params": {"skill": 1.2, "trajectory": True}}],
+}
+
+
+@pytest.fixture(scope="module")
+def small_store(tmp_path_factory):
+    p = tmp_path_factory.mktemp("small") / "results.sqlite"
+    run_sweep(SMALL, p, workers=1, episode_fn=stub_episode, progress=False)
+    return p
+
+
+def test_settings_say_what_was_run(small_store, tmp_path) -> None:
+    from odorloc import __version__
+    from odorloc.experiments.provenance import machine
+
+    with ResultStore(small_store, readonly=True) as st:
+        runs = st.runs()
+    assert len(runs) == 1 and runs[0]["added"] == 6 and runs[0]["odorloc_version"] == __version__
+    page = report_main(small_store, tmp_path / "r.html", renderer=None).read_text()
+    settings = page[page.index('<h2 id="settings">') : page.index('<h2 id="summary">')]
+    text = " ".join(re.sub(r"<[^>]+>", " ", settings).split())
+    assert "root seed 11" in text and "episodes per cell 3 asked, 3 stored" in text
+    assert f"odorloc version {__version__}" in text and machine() in text.replace("&#x27;", "'")
+    assert re.search(r"wall time \d+\.\d s over 1 run", text)
+    # the scenario with its fixed and swept overrides; the searcher's parameters as given,
+    # with a note where defaults cannot be filled in (the stub's names are not registered)
+    assert "time_limit = 300.0" in text and "scale = [1.0, 2.0]" in text
+    assert "skill: 1.2" in text and "defaults not resolvable here" in text
+
+
+def test_searcher_parameters_are_resolved_with_their_defaults(tmp_path) -> None:
+    import yaml
+
+    from helpers import small_scenario_dict
+    from odorloc.experiments.report import _resolved_searcher
+    from odorloc.searchers.simple import ZigzagParams
+
+    f = tmp_path / "s.yaml"
+    f.write_text(yaml.safe_dump(small_scenario_dict("zigzag")))
+    got = _resolved_searcher(
+        {"scenario": str(f), "searcher": "zigzag", "searcher_params": {"angle_deg": 70.0}}
+    )
+    assert got == {"type": "zigzag", **ZigzagParams(angle_deg=70.0).model_dump()}
+
+
+def test_the_viewer_offers_every_kept_episode_and_the_new_figures(small_store, tmp_path) -> None:
+    page = report_main(small_store, tmp_path / "r.html", renderer=None).read_text()
+    options = re.findall(r'<option value="(e\d+)">([^<]+)</option>', page)
+    assert len(options) == 6 and options[0][1] == "toy[scale=1.0]/a, episode 0"
+    assert page.count('class="episode" data-key=') == 6
+    for caption in (
+        "Success rate per cell with its Wilson 95 % interval",
+        "Success against time per cell",
+        "Distributions per cell",
+    ):
+        assert caption in page
+
+
+def test_per_agent_values_have_their_own_section(small_store, tmp_path) -> None:
+    """Per-agent values (the store's long table) are shown per cell, one column per agent, each
+    the mean over the cell's episodes; a CSV export shows them from the table beside it."""
+    sweep = {
+        "name": "team",
+        "seed": 2,
+        "episodes": 2,
+        "scenarios": [{"name": "toy"}],
+        "searchers": [{"name": "team", "params": {"agents": 3}}],
+    }
+    store = tmp_path / "results.sqlite"
+    run_sweep(sweep, store, workers=1, episode_fn=stub_episode, progress=False)
+
+    def section(page: str) -> str:
+        part = re.split(r"<h2 |<script>", page[page.index('<h2 id="agents">') + 4 :])[0]
+        return " ".join(re.sub(r"<[^>]+>", " ", part).split())
+
+    text = section(report_main(store, tmp_path / "r.html", renderer=None).read_text())
+    # episodes 0 and 1: agent a has cues a and a + 1, mean a + 0.5
+    assert "agent 0 agent 1 agent 2" in text
+    assert "cues 0.500 1.500 2.500" in text
+    assert "declaration_time (s) 10.0 20.0 30.0" in text
+    with ResultStore(store, readonly=True) as st:
+        csv = st.to_csv(tmp_path / "results.csv")
+    assert section(report_main(csv, tmp_path / "c.html", renderer=None).read_text()) == text
+    # a store without per-agent values has no such section
+    plain = report_main(small_store, tmp_path / "p.html", renderer=None).read_text()
+    assert 'id="agents"' not in plain

@@ -593,3 +593,79 @@ def test_cli_replay_log_checks_options_and_topics_before_reading_the_bag(
     assert r.stderr.startswith(expect), r.stderr
     assert len(r.stderr.strip().splitlines()) == 1, r.stderr
     assert not out.exists()
+
+
+# ---------------------------------------------------------------------- estimates of a log
+def test_replayed_estimates_are_the_mappers_sources_or_the_belief_mean(tmp_path, episode) -> None:
+    """ds-mapping is scored on its mapped sources (not the mean of its whole map), every other
+    estimator on its belief's mean; both are stored in the recording and scored like a
+    declaration."""
+    pytest.importorskip("rosbags")
+    from odorloc.engine.episode import score_declaration
+    from odorloc.engine.recorder import Recording
+    from odorloc.replay.bag import BagLog, write_bag
+
+    write_bag(tmp_path / "b", episode.recording, MAPPING)
+    log = BagLog(tmp_path / "b", MAPPING)
+    src = np.array(MAPPING["sources"])
+    ds = replay_estimator(log.observations(), log.context(), "ds-mapping", sources=src)
+    m = ds.meta
+    est = np.asarray(m["estimates"])
+    assert m["estimate_kind"] == "sources" and len(est) >= 1
+    prob = np.asarray(ds.beliefs[-1][1]["prob"], float)
+    lo, hi = (np.asarray(ds.beliefs[-1][1][k], float) for k in ("lower", "upper"))
+    axes = [lo[a] + (np.arange(n) + 0.5) * (hi[a] - lo[a]) / n for a, n in enumerate(prob.shape)]
+    grids = np.meshgrid(*axes, indexing="ij")
+    mean = np.array([(g * prob).sum() / prob.sum() for g in grids])
+    assert not any(np.allclose(e, mean) for e in est)
+    _, err, found, false = score_declaration(est, src, 0.5)
+    assert (m["loc_error"], m["sources_found"], m["false_sources"]) == (err, found, false)
+    pf = replay_estimator(log.observations(), log.context(), "pf-entropy", sources=src, seed=3)
+    assert pf.meta["estimate_kind"] == "belief mean"
+    snap = pf.beliefs[-1][1]
+    w = np.asarray(snap["weights"], float)
+    assert np.allclose(pf.meta["estimates"], [(w / w.sum()) @ np.asarray(snap["positions"])])
+    # stored with the recording
+    back = Recording.load(pf.save(tmp_path / "r.npz"))
+    assert back.meta["estimates"] == pf.meta["estimates"]
+    # an estimate is on the edge when it lies within `edge` of the area's boundary
+    far = replay_estimator(log.observations(), log.context(), "pf-entropy", seed=3, edge=100.0)
+    assert far.meta["on_edge"] == [0] and "loc_error" not in far.meta
+
+
+def test_cli_replay_log_prints_the_estimate_and_warns_on_the_edge(
+    tmp_path, episode, monkeypatch
+) -> None:
+    pytest.importorskip("rosbags")
+    from typer.testing import CliRunner
+
+    import odorloc.replay.offline as offline
+    from odorloc.cli import app
+    from odorloc.replay.bag import write_bag
+
+    unknown = {k: v for k, v in MAPPING.items() if k not in ("sources", "arena")}
+    write_bag(tmp_path / "b", episode.recording, unknown)
+    topics = tmp_path / "t.yaml"
+    import yaml
+
+    topics.write_text(yaml.safe_dump(unknown))
+    args = [
+        "replay-log",
+        str(tmp_path / "b"),
+        "--topics",
+        str(topics),
+        "--out",
+        str(tmp_path / "o"),
+    ]
+    r = CliRunner().invoke(app, args)
+    assert r.exit_code == 0, r.output
+    # no known source: the estimate is printed all the same, and no distance
+    assert "pf-entropy estimate (belief mean): (" in r.stdout
+    assert "path's extent + 1 m" in r.stdout and "loc_error" not in r.stdout
+    assert not r.stderr
+    monkeypatch.setattr(offline, "edge_tolerance", lambda ctx: 1e3)
+    r = CliRunner().invoke(app, args)
+    assert r.exit_code == 0, r.output
+    assert r.stderr.startswith("warning: estimate (") and "set arena or a larger margin" in r.stderr
+    help_text = " ".join(CliRunner().invoke(app, ["replay-log", "--help"]).stdout.split())
+    assert "driven path's extent plus" in help_text and "(1 m by" in help_text

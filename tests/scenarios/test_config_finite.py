@@ -359,3 +359,17 @@ def test_filament_step_check_and_mid_run_guard_agree() -> None:
     # a longer step than the scenario's is still refused when it is taken
     with pytest.raises(ConfigError, match=r"world\.sources\[0\]\.rate: releases 180 filaments"):
         w.step(0.2, np.random.default_rng(1))
+
+
+def test_the_agent_cap_refuses_a_team_too_large_and_a_setting_raises_it() -> None:
+    from helpers import small_scenario_dict
+    from odorloc.core.errors import ConfigError
+    from odorloc.scenarios import Scenario
+    from odorloc.scenarios.config import MAX_AGENTS
+
+    d = small_scenario_dict("zigzag")
+    d["agents"]["starts"] = [[2.0 + 0.02 * i, 2.0] for i in range(MAX_AGENTS + 1)]
+    with pytest.raises(ConfigError, match=r"agents.starts: 257 agents, more than agents.max_"):
+        Scenario.from_dict(d)
+    d["agents"]["max_agents"] = MAX_AGENTS + 1
+    assert len(Scenario.from_dict(d).agents.starts) == MAX_AGENTS + 1

@@ -69,23 +69,23 @@ def _particles(agent: int, centre: tuple[float, float], n: int = 50, equal: bool
 def kept_figures(monkeypatch: pytest.MonkeyPatch) -> list[Any]:
     """Figures the viz functions would close, kept open to inspect (in their final state)."""
     kept: list[Any] = []
-    close = viz.plt.close
-    monkeypatch.setattr(viz.plt, "close", kept.append)
+    close = plt.close
+    monkeypatch.setattr(plt, "close", kept.append)
     yield kept
     for fig in kept:
         close(fig)
 
 
 def _magenta_frames(path: Any) -> list[bool]:
-    """Per GIF frame: does it show a declared-source marker (magenta) besides the legend's?"""
+    """Per GIF frame: does its map (left of the legend's column) show a declared-source ring?"""
     counts = []
     with Image.open(path) as im:
         for i in range(im.n_frames):
             im.seek(i)
             rgb = np.asarray(im.convert("RGB"), int)
+            rgb = rgb[:, : int(0.6 * rgb.shape[1])]
             counts.append(int((np.abs(rgb - np.array([255, 0, 255])).sum(axis=2) < 60).sum()))
-    legend_only = min(counts)
-    return [c > legend_only + 3 for c in counts]
+    return [c > 3 for c in counts]
 
 
 def test_animation_shows_the_declaration_from_its_time_on(tmp_path) -> None:
@@ -100,13 +100,18 @@ def test_animation_shows_the_declaration_from_its_time_on(tmp_path) -> None:
     assert _magenta_frames(path) == [k == 9 for k in range(10)]
 
 
-def test_animation_legend_sits_below_the_axes_with_visible_proxies(tmp_path, kept_figures) -> None:
+def _named(fig: Any, label: str) -> Any:
+    return next(ax for ax in fig.axes if ax.get_label() == label)
+
+
+def test_animation_legend_sits_outside_the_maps_with_visible_proxies(tmp_path, kept_figures):
     beliefs = [(0.0, _particles(0, (5.0, 3.0)))]
     decl = np.array([[1.2, 3.1]])
-    viz.animate(_recording(beliefs=beliefs, declared=decl), tmp_path / "a.gif", max_frames=4)
+    path = viz.animate(
+        _recording(beliefs=beliefs, declared=decl), tmp_path / "a.gif", max_frames=4, dpi=40
+    )
     (fig,) = kept_figures
-    ax = fig.axes[0]
-    leg = ax.get_legend()
+    leg = _named(fig, "legend").get_legend()
     labels = [t.get_text() for t in leg.get_texts()]
     assert labels[0] == "true source" and "robot" in labels and "declared source" in labels
     belief = next(i for i, lb in enumerate(labels) if lb.startswith("belief (particles"))
@@ -115,7 +120,12 @@ def test_animation_legend_sits_below_the_axes_with_visible_proxies(tmp_path, kep
     r, g, b = colors.to_rgb(proxy.get_color())
     assert r == g == b and proxy.get_marker() == "o" and proxy.get_markersize() >= 4
     renderer = fig.canvas.get_renderer()
-    assert leg.get_window_extent(renderer).y1 < ax.get_window_extent(renderer).y0
+    box = leg.get_window_extent(renderer)
+    for name in ("map", "belief"):
+        assert box.x0 > _named(fig, name).get_window_extent(renderer).x1
+    # wide enough to read, whatever the dpi
+    with Image.open(path) as im:
+        assert im.size[0] >= viz.MIN_ANIMATION_WIDTH
 
 
 def test_particle_colours_cannot_be_read_as_agents() -> None:
@@ -127,9 +137,9 @@ def test_particle_colours_cannot_be_read_as_agents() -> None:
 
 def test_team_animation_draws_every_agents_particles_in_its_colour(tmp_path, kept_figures) -> None:
     beliefs = [(0.0, _particles(a, (2.0 + 3 * a, 3.0))) for a in range(3)]
-    viz.animate(_recording(3, beliefs=beliefs), tmp_path / "team.gif", max_frames=4)
+    viz.animate(_recording(3, beliefs=beliefs), tmp_path / "team.gif", max_frames=4, dpi=40)
     (fig,) = kept_figures
-    ax = fig.axes[0]
+    ax = _named(fig, "belief")
     clouds = [c for c in ax.collections if isinstance(c, PathCollection)]
     assert len(clouds) == 3
     for a, cloud in enumerate(clouds):
@@ -139,7 +149,7 @@ def test_team_animation_draws_every_agents_particles_in_its_colour(tmp_path, kep
         # the agent's hue, lightened towards white and transparent
         assert np.allclose(face[:, :3], 0.6 * agent + 0.4)
         assert np.all(face[:, 3] < 1.0)
-    labels = [t.get_text() for t in ax.get_legend().get_texts()]
+    labels = [t.get_text() for t in _named(fig, "legend").get_legend().get_texts()]
     assert {"agent 0", "agent 1", "agent 2"} <= set(labels)
     assert any(lb.startswith("each agent's belief") for lb in labels)
 
@@ -152,8 +162,10 @@ def test_belief_map_of_a_team_draws_each_agents_belief() -> None:
     assert len(clouds) == 3
     assert "each agent's belief" in ax.get_title()
     # each path in its agent's colour, as in the other figures
-    paths = [ln for ln in ax.get_lines() if ln.get_label().startswith("agent ")]
-    assert [ln.get_color() for ln in paths] == viz.AGENT_COLORS[:3]
+    paths = [ln for ln in ax.get_lines() if ln.get_linestyle() == "-"]
+    assert [colors.to_hex(ln.get_color()) for ln in paths] == [
+        colors.to_hex(c) for c in viz.AGENT_COLORS[:3]
+    ]
     plt.close(fig)
 
 
@@ -200,15 +212,15 @@ def test_belief_map_draws_a_grid_over_the_arena_or_says_why_not() -> None:
 
 def test_traces_name_the_agents_and_the_wind_convention() -> None:
     fig = viz.plot_traces(_recording(2))
-    gas, wind, direction = fig.axes[0], fig.axes[1], fig.axes[-1]
-    assert [t.get_text() for t in gas.get_legend().get_texts()] == ["agent 0", "agent 1"]
-    assert "agent 0" in wind.get_title() and "towards" in wind.get_title()
-    assert "towards" in direction.get_ylabel()
+    titles = [ax.get_title() for ax in fig.axes if ax.get_title()]
+    assert titles == ["agent 0", "agent 1"]
+    assert "direction in grey" in fig.get_suptitle()
+    direction = next(ax for ax in fig.axes if "towards" in ax.get_ylabel())
     # wind towards -y reads -90 degrees
     assert np.allclose(direction.get_lines()[0].get_ydata(), -90.0)
     plt.close(fig)
     fig = viz.plot_traces(_recording(1))
-    assert fig.axes[0].get_legend() is None
+    assert [ax.get_title() for ax in fig.axes if ax.get_title()] == ["robot"]
     plt.close(fig)
 
 

@@ -15,12 +15,18 @@ and the problem, before any work starts:
 
 Outputs are checked before the work that produces them: :func:`check_output_dir` and
 :func:`check_output_file` refuse a path that is a file where a folder is needed (or the
-reverse), that lies under a file, or that cannot be written, and create nothing.
+reverse), that lies under a file, that is a device, that passes through a symbolic-link loop or
+a broken link, whose name is longer than the file system allows, or whose folder does not take
+new files (a read-only or virtual file system such as ``/proc``: found by creating and at once
+removing an empty folder there, the only way to know); they leave every folder as it was.
 """
 
 from __future__ import annotations
 
+import errno
 import os
+import stat
+import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -288,33 +294,97 @@ def load_yaml_mapping(path: str | Path, what: str = "file") -> dict[str, Any]:
 # ----------------------------------------------------------------------------- outputs
 
 
-def _first_existing(p: Path) -> Path:
-    q = p
-    while not q.exists() and q != q.parent:
-        q = q.parent
-    return q
+PATH_MAX = 4096
+"""Longest output path accepted, bytes (Linux's ``PATH_MAX``)."""
 
 
-def check_output_dir(path: str | Path, field: str = "--out") -> Path:
-    """Check that ``path`` is (or can be created as) a writable folder; create nothing.
+def _name_max(folder: Path) -> int:
+    try:
+        return int(os.pathconf(folder, "PC_NAME_MAX"))
+    except (OSError, ValueError):
+        return 255
+
+
+def _short(name: str) -> str:
+    return name if len(name) <= 24 else f"{name[:12]}...{name[-8:]}"
+
+
+def _deepest_existing(p: Path, field: str) -> tuple[Path, bool]:
+    """Walk ``p`` from the root without following it blindly: the deepest component that
+    exists and whether that is ``p`` itself.
 
     Raises
     ------
     ConfigError
-        ``field`` names the option: the path is a file, lies under a file, or is not writable.
+        A component is a file (with more to come), a symbolic-link loop, a broken link or
+        unreachable, or a name is longer than the file system allows.
+    """
+    absolute = Path(os.path.abspath(p))
+    if len(os.fsencode(str(absolute))) > PATH_MAX:
+        raise ConfigError(field, f"{_short(str(p))} is longer than {PATH_MAX} bytes")
+    parts = absolute.parts
+    cur = Path(parts[0])
+    deepest = cur
+    exists = True
+    for i, name in enumerate(parts[1:], start=1):
+        limit = _name_max(deepest)
+        if len(os.fsencode(name)) > limit:
+            raise ConfigError(
+                field,
+                f"the name {_short(name)!r} is {len(name)} characters long; the file system "
+                f"allows names of at most {limit}",
+            )
+        cur = cur / name
+        if not exists:
+            continue
+        try:
+            st = os.stat(cur)
+        except FileNotFoundError:
+            if os.path.islink(cur):
+                raise ConfigError(field, f"{cur} is a broken symbolic link") from None
+            exists = False
+            continue
+        except NotADirectoryError:
+            raise ConfigError(field, f"{p} lies under {deepest}, which is a file") from None
+        except OSError as exc:
+            if exc.errno == errno.ELOOP:
+                raise ConfigError(field, f"{cur} is a symbolic-link loop") from None
+            raise ConfigError(field, f"cannot reach {cur}: {exc.strerror or exc}") from None
+        if not stat.S_ISDIR(st.st_mode) and i < len(parts) - 1:
+            raise ConfigError(field, f"{p} lies under {cur}, which is a file")
+        deepest = cur
+    return deepest, exists
+
+
+def _takes_new_files(folder: Path, p: Path, field: str) -> None:
+    """Create and remove an empty folder in ``folder``: a read-only or virtual file system
+    (``/proc``) or a folder without write permission refuses it."""
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise ConfigError(field, f"cannot write into {p}: {folder} is not writable")
+    try:
+        probe = tempfile.mkdtemp(prefix=".odorloc-check-", dir=folder)
+    except OSError as exc:
+        raise ConfigError(
+            field, f"cannot write into {p}: {folder} takes no new files ({exc.strerror or exc})"
+        ) from None
+    os.rmdir(probe)
+
+
+def check_output_dir(path: str | Path, field: str = "--out") -> Path:
+    """Check that ``path`` is (or can be created as) a writable folder; leave it as it was.
+
+    Raises
+    ------
+    ConfigError
+        ``field`` names the option: the path is a file or a device, lies under a file, passes
+        through a link loop or a broken link, has a name too long for the file system, or its
+        folder takes no new files.
     """
     p = Path(path)
-    if p.exists():
-        if not p.is_dir():
-            raise ConfigError(field, f"{p} is a file, not a folder")
-        if not os.access(p, os.W_OK | os.X_OK):
-            raise ConfigError(field, f"{p} is not writable")
-        return p
-    base = _first_existing(p.absolute().parent)
-    if not base.is_dir():
-        raise ConfigError(field, f"{p} lies under {base}, which is a file")
-    if not os.access(base, os.W_OK | os.X_OK):
-        raise ConfigError(field, f"cannot create {p}: {base} is not writable")
+    deepest, exists = _deepest_existing(p, field)
+    if exists and not deepest.is_dir():
+        raise ConfigError(field, f"{p} is a file, not a folder")
+    _takes_new_files(deepest, p, field)
     return p
 
 
@@ -324,18 +394,19 @@ def check_output_file(path: str | Path, field: str = "--out") -> Path:
     Raises
     ------
     ConfigError
-        The path is a folder, lies under a file, or is not writable.
+        The path is a folder or a device (not a regular file), lies under a file, passes
+        through a link loop, has a name too long, or cannot be written.
     """
     p = Path(path)
-    if p.is_dir():
-        raise ConfigError(field, f"{p} is a folder, not a file")
-    if p.exists():
-        if not os.access(p, os.W_OK):
+    deepest, exists = _deepest_existing(p, field)
+    if exists:
+        st = os.stat(deepest)
+        if stat.S_ISDIR(st.st_mode):
+            raise ConfigError(field, f"{p} is a folder, not a file")
+        if not stat.S_ISREG(st.st_mode):
+            raise ConfigError(field, f"{p} is a device or special file, not a regular file")
+        if not os.access(p, os.W_OK):  # also false on a read-only file system
             raise ConfigError(field, f"{p} is not writable")
         return p
-    parent = p.absolute().parent
-    base = _first_existing(parent)
-    if not base.is_dir():
-        raise ConfigError(field, f"{p} lies under {base}, which is a file")
-    check_output_dir(parent, field)
+    _takes_new_files(deepest, p, field)
     return p

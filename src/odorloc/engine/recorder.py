@@ -45,7 +45,8 @@ class Recording:
         The arena's obstacles (slice in 3D), for plotting.
     arena_bounds : (2, d) ndarray
     meta : dict
-        Scenario name, metrics and seeds; ``events`` lists the episode's events.
+        Scenario name, metrics and seeds; ``events`` lists the episode's events; ``groups``
+        (``[{name, agents}]``) and ``platform`` (its registry name) say who the agents are.
     """
 
     t: np.ndarray
@@ -149,6 +150,14 @@ class Recorder:
         self.cfg = scenario.recording
         self.scenario_name = scenario.name
         self.n_agents = len(scenario.agents.starts)
+        # who is who, for the figures: the groups and what the agents are
+        self.team = {
+            "groups": [
+                {"name": g.name or chr(65 + k), "agents": list(g.agents)}
+                for k, g in enumerate(scenario.agents.groups)
+            ],
+            "platform": scenario.platform.type,
+        }
         self.arena = arena
         self.sources = sources
         self._t: list[float] = []
@@ -270,5 +279,10 @@ class Recorder:
             declared=declared,
             occupancy=None if occ is None else np.asarray(occ),
             arena_bounds=np.array([self.arena.lo, self.arena.hi]),
-            meta={"scenario": self.scenario_name, **metrics, "events": events or []},
+            meta={
+                "scenario": self.scenario_name,
+                **self.team,
+                **metrics,
+                "events": events or [],
+            },
         )

@@ -25,6 +25,8 @@ import multiprocessing
 import os
 import select
 import signal
+import socket
+import struct
 import threading
 import time
 import traceback
@@ -408,6 +410,108 @@ def _check_scheduler_address(address: str) -> None:
         ) from None
 
 
+MAX_HANDSHAKE_BYTES = 1 << 20
+"""Largest first message accepted from a scheduler (a Dask handshake is a few hundred bytes)."""
+
+
+def _host_port(loc: str) -> tuple[str, int]:
+    host, _, port = loc.rpartition(":")
+    return host.strip("[]"), int(port)
+
+
+def _recv_exactly(sock: socket.socket, n: int, deadline: float) -> bytes:
+    buf = b""
+    while len(buf) < n:
+        left = deadline - time.monotonic()
+        if left <= 0:
+            raise TimeoutError
+        sock.settimeout(left)
+        chunk = sock.recv(n - len(buf))
+        if not chunk:
+            raise ConnectionError("the connection was closed")
+        buf += chunk
+    return buf
+
+
+def probe_scheduler(address: str, timeout: float) -> None:
+    """Refuse, within ``timeout`` seconds, a scheduler address that does not lead to a Dask
+    scheduler: an unreachable or unroutable host, a closed port, or a server that answers but
+    not as Dask does.
+
+    A Dask scheduler speaks first: on a new connection it sends its handshake, one message of
+    Dask's TCP framing (an 8-byte little-endian length, then the frame count and the frame
+    lengths, 8 bytes each, then the frames). The probe connects, reads that message (a few
+    hundred bytes; at most :data:`MAX_HANDSHAKE_BYTES`), checks its framing and closes. A server
+    that stays silent (a web server waiting for its request) or sends something else (a banner)
+    is refused here rather than left to Dask, which would wait on it indefinitely or take a
+    banner's bytes for a length of exabytes. ``tls://`` addresses are only checked for
+    reachability (their handshake is encrypted); other transports are left to Dask.
+
+    Raises
+    ------
+    ConfigError
+        Naming ``scheduler``.
+    """
+    scheme, _, loc = address.partition("://")
+    if scheme not in ("tcp", "tls"):
+        return
+    try:
+        host, port = _host_port(loc)
+    except ValueError:
+        return  # malformed: refused by the address check
+    deadline = time.monotonic() + timeout
+    try:
+        infos = socket.getaddrinfo(host, port, type=socket.SOCK_STREAM)
+    except (socket.gaierror, UnicodeError) as exc:
+        reason = getattr(exc, "strerror", None) or exc
+        raise ConfigError("scheduler", f"cannot resolve {host!r} ({reason})") from None
+    sock = None
+    reason = "timed out"
+    for family, kind, proto, _, addr in infos:
+        left = deadline - time.monotonic()
+        if left <= 0:
+            break
+        candidate = socket.socket(family, kind, proto)
+        candidate.settimeout(left)
+        try:
+            candidate.connect(addr)
+        except OSError as exc:
+            reason = exc.strerror or type(exc).__name__
+            candidate.close()
+            continue
+        sock = candidate
+        break
+    if sock is None:
+        raise ConfigError(
+            "scheduler", f"cannot reach Dask scheduler {address} within {timeout:g} s ({reason})"
+        )
+    with sock:
+        if scheme == "tls":
+            return
+        try:
+            (total,) = struct.unpack("<Q", _recv_exactly(sock, 8, deadline))
+            head = b""
+            if 16 <= total <= MAX_HANDSHAKE_BYTES:
+                head = _recv_exactly(sock, 8, deadline)
+        except TimeoutError:
+            raise ConfigError(
+                "scheduler",
+                f"{address} accepts connections but sends no Dask handshake within "
+                f"{timeout:g} s: is it a Dask scheduler's address?",
+            ) from None
+        except OSError as exc:
+            raise ConfigError(
+                "scheduler", f"{address} closed the connection without a Dask handshake ({exc})"
+            ) from None
+        n_frames = struct.unpack("<Q", head)[0] if head else 0
+        if not (head and 1 <= n_frames <= 64 and 8 * (n_frames + 1) <= total):
+            raise ConfigError(
+                "scheduler",
+                f"{address} answers, but not as a Dask scheduler does: is it a Dask "
+                "scheduler's address?",
+            )
+
+
 class DaskBackend:
     """A Dask ``distributed`` cluster.
 
@@ -455,8 +559,10 @@ class DaskBackend:
 
         if self.scheduler is not None:
             # a malformed address fails deep inside the client, and the half-built client then
-            # blocks at exit trying to close: refuse it before connecting
+            # blocks at exit trying to close: refuse it before connecting; so is anything that
+            # is not a reachable Dask scheduler (the client would wait on it indefinitely)
             _check_scheduler_address(self.scheduler)
+            probe_scheduler(self.scheduler, self.timeout)
             try:
                 self._client = distributed.Client(
                     self.scheduler, timeout=self.timeout, set_as_default=False

@@ -127,37 +127,61 @@ def _fmt(x: float, digits: int = 1) -> str:
 
 
 def _pct_ci(p: float, lo: float, hi: float) -> str:
-    return f"{_fmt(100 * p)} [{_fmt(100 * lo)}, {_fmt(100 * hi)}]"
+    return f"{_fmt(100 * p, 0)} [{_fmt(100 * lo, 0)}, {_fmt(100 * hi, 0)}]"
 
 
 def summary_table(df: Any, level: float = 0.95, seed: int = 0, title: str | None = None) -> Any:
-    """A ``rich.table.Table`` per cell: n, success % [Wilson CI], mean time [bootstrap CI],
-    median time, mean localisation error, errors."""
+    """A ``rich.table.Table`` per cell, readable at 80 columns: n, success % [Wilson CI], mean
+    search time s [bootstrap CI] of the successful episodes, mean localisation error m, the
+    sources found and false sources per episode (what explains a failure), errors."""
+    from rich import box
     from rich.table import Table
 
     from odorloc.experiments.stats import summarize
 
     s = summarize(df, level=level, seed=seed)
     pct = f"{round(100 * level)} %"
-    t = Table(title=title or f"Sweep summary ({pct} intervals; times of successful episodes)")
-    t.add_column("cell", overflow="fold", min_width=18)
-    t.add_column("n", justify="right")
-    t.add_column(f"success % [{pct} CI]", justify="right")
-    t.add_column("mean time s [CI]", justify="right")
-    t.add_column("median time s", justify="right")
-    t.add_column("mean loc err m", justify="right")
-    t.add_column("errors", justify="right")
+    t = Table(
+        title=title or f"Sweep summary ({pct} intervals; times of successful episodes)",
+        box=box.SIMPLE_HEAD,
+        show_edge=False,
+        collapse_padding=True,
+    )
+    t.add_column("cell", overflow="fold", min_width=CELL_WIDTH)
+    t.add_column("n", justify="right", no_wrap=True)
+    t.add_column(f"success %\n[{pct} CI]", justify="right", no_wrap=True)
+    t.add_column("mean time\ns [CI]", justify="right", no_wrap=True)
+    t.add_column("loc err\nm", justify="right", no_wrap=True)
+    t.add_column("found/\nfalse", justify="right", no_wrap=True)
+    t.add_column("err", justify="right", no_wrap=True)
     for r in s.itertuples():
         t.add_row(
-            escape(str(r.cell_id)),
+            escape(_wrap_cell(str(r.cell_id))),
             str(r.n),
             _pct_ci(r.success_rate, r.success_lo, r.success_hi),
-            f"{_fmt(r.mean_time)} [{_fmt(r.mean_time_lo)}, {_fmt(r.mean_time_hi)}]",
-            _fmt(r.median_time),
+            f"{_fmt(r.mean_time)} [{_fmt(r.mean_time_lo, 0)}, {_fmt(r.mean_time_hi, 0)}]",
             _fmt(r.mean_loc_error, 2),
+            f"{_fmt(r.mean_sources_found)}/{_fmt(r.mean_false_sources)}",
             str(r.errors) if r.errors else "0",
         )
+    t.caption = (
+        "found/false: sources found and false sources declared per episode; err: episodes "
+        "that failed with an error"
+    )
     return t
+
+
+CELL_WIDTH = 18
+"""Columns of the summary's cell column (a longer cell id wraps after its world)."""
+
+
+def _wrap_cell(cell_id: str) -> str:
+    """A cell id too long for its column, broken after the world (``world/`` newline
+    ``searcher``) rather than anywhere."""
+    if len(cell_id) <= CELL_WIDTH or "/" not in cell_id:
+        return cell_id
+    world, _, searcher = cell_id.rpartition("/")
+    return f"{world}/\n{searcher}"
 
 
 def print_summary(df: Any, console: Any = None, **kw: Any) -> None:

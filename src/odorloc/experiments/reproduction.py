@@ -35,7 +35,7 @@ from typing import Any, ClassVar
 
 from odorloc.core import registry
 from odorloc.core.errors import ConfigError
-from odorloc.core.loading import check_output_dir
+from odorloc.core.loading import check_output_dir, check_output_file
 from odorloc.core.params import Params
 
 __all__ = [
@@ -189,6 +189,30 @@ class Reproduction:
         """The paper's numbers per cell id or searcher label, for the report."""
         return {}
 
+    def _run_info(
+        self,
+        specs: dict[str, Any],
+        episodes: int | None,
+        seed: int,
+        wall: float,
+        backend: str,
+        workers: int,
+    ) -> dict[str, Any]:
+        """The facts of this run for the report's settings section."""
+        from odorloc import __version__
+        from odorloc.experiments.provenance import machine
+
+        return {
+            "name": f"{self.name} ({', '.join(specs)})",
+            "seed": seed,
+            "episodes": _episodes_text(specs, episodes),
+            "wall_time": wall,
+            "odorloc_version": __version__,
+            "machine": machine(),
+            "backend": backend,
+            "workers": workers,
+        }
+
     # ------------------------------------------------------------------ template
     def run(
         self,
@@ -214,7 +238,7 @@ class Reproduction:
         seed : int
             Root seed.
         progress : bool
-            Live progress and the harness's summary.
+            Live progress bars (the tables and the harness's summary are printed either way).
         only : sequence of str, optional
             Run only these sweeps (a name selects the sweep of that name and those named
             ``<name>-...``); the others contribute the rows already in their stores.
@@ -232,6 +256,10 @@ class Reproduction:
         chosen = select_sweeps(list(specs), only)
         out = Path(out)
         check_output_dir(out, "out")
+        # every file of a fixed name, before any episode runs (figures and tables are named by
+        # the reproduction as it draws them)
+        for name in [*(f"{n}.sqlite" for n in chosen), "results.csv", "report.html"]:
+            check_output_file(out / name, "out")
         out.mkdir(parents=True, exist_ok=True)
         console = Console(width=shutil.get_terminal_size((CONSOLE_WIDTH, 24)).columns)
         # every store this run will write is checked before any episode runs: a store of other
@@ -247,6 +275,7 @@ class Reproduction:
         t0 = time.perf_counter()
         frames = []
         stores: dict[str, Path] = {}
+        added = 0
         for name, spec in specs.items():
             path = out / f"{name}.sqlite"
             if name in chosen:
@@ -258,11 +287,14 @@ class Reproduction:
                     scheduler=scheduler,
                     progress=progress,
                     group_fn=self.group_fn(),
-                    summary=progress and self.cell_summary and self.success_column == "success",
+                    # the summary is printed with or without the live bar
+                    summary=self.cell_summary and self.success_column == "success",
                     success=self.success_column,
                 )
             else:
                 part = _stored_rows(spec, path, console)
+            if name in chosen:
+                added += int(part.attrs.get("added", 0))
             if path.is_file():
                 stores[name] = path
             if len(part):
@@ -293,7 +325,12 @@ class Reproduction:
                 console.print(console_table(tab))
                 if tab.note:
                     console.print(tab.note)
-        console.print(f"wall time {wall:.0f} s on {workers} worker(s) ({backend})")
+        console.print(
+            f"added {added} episode{'s' if added != 1 else ''} ({len(df)} in the "
+            f"store{'s' if len(stores) > 1 else ''}); wall time {wall:.0f} s on {workers} "
+            f"worker(s) ({backend})",
+            highlight=False,
+        )
         sections = []
         figs: list[tuple[Path, str]] = []
         if not stores:
@@ -339,6 +376,7 @@ class Reproduction:
                         success=self.success_column,
                         success_label=self.success_label,
                         rows=df,
+                        run_info=self._run_info(specs, episodes, seed, wall, backend, workers),
                     )
             except Exception:
                 console.print(f"[red]report failed:[/]\n{traceback.format_exc()}")
@@ -346,6 +384,13 @@ class Reproduction:
             if p is not None:
                 console.print(f"wrote {p}")
         return outcome
+
+
+def _episodes_text(specs: dict[str, Any], episodes: int | None) -> str:
+    counts = {name: spec.episodes for name, spec in specs.items()}
+    if episodes is not None or len(set(counts.values())) == 1:
+        return str(episodes if episodes is not None else next(iter(counts.values())))
+    return ", ".join(f"{n}: {c}" for n, c in counts.items())
 
 
 def select_sweeps(names: Sequence[str], only: Sequence[str] | None) -> list[str]:

@@ -222,8 +222,9 @@ def summarize(
     pandas.DataFrame
         Columns ``cell_id, world_key, scenario, searcher, n, errors, successes, success_rate,
         success_lo, success_hi, mean_time, mean_time_lo, mean_time_hi, median_time,
-        median_time_lo, median_time_hi, mean_loc_error, mean_path_length, mean_start_distance``
-        plus the swept-parameter columns.
+        median_time_lo, median_time_hi, mean_loc_error, mean_path_length, mean_start_distance,
+        mean_energy, mean_sources_found, mean_false_sources`` plus the swept-parameter columns
+        (a mean is NaN where the table has no such column).
     """
     import pandas as pd
 
@@ -254,6 +255,10 @@ def summarize(
             "mean_loc_error": _nanmean(ok, "loc_error"),
             "mean_path_length": _nanmean(ok, "path_length"),
             "mean_start_distance": _nanmean(ok, "start_distance"),
+            "mean_energy": _nanmean(ok, "energy"),
+            # what explains a failure: sources found and false sources per episode
+            "mean_sources_found": _nanmean(ok, "sources_found"),
+            "mean_false_sources": _nanmean(ok, "false_sources"),
         }
         for c in swept_cols:
             row[c] = g[c].iloc[0]

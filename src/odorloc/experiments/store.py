@@ -18,7 +18,9 @@ so there is no lock contention and no per-worker file.
 Tables
 ------
 ``meta(key, value)``
-    ``config_hash``, ``sweep`` (the sweep as JSON), ``schema``, ``created``.
+    ``config_hash``, ``sweep`` (the sweep as JSON), ``schema``, ``created``, and ``runs`` (a
+    JSON list with one record per run: start, wall time, episodes added, backend, workers,
+    odorloc version, machine).
 ``episodes``
     one row per episode: ids, seeds, the standard metrics (``success``, ``search_time`` s,
     ``path_length`` m, ``loc_error`` m, ``first_detection_time`` s, ``energy`` J, ``bytes``,
@@ -366,6 +368,26 @@ class ResultStore:
         """Config hash of the sweep this store belongs to (``None`` if still empty)."""
         return self.meta().get("config_hash")
 
+    def note_run(self, record: Mapping[str, Any]) -> None:
+        """Add one run's record (see :func:`~odorloc.experiments.provenance.run_record`) to
+        the ``runs`` list kept in ``meta``; the episode rows are untouched."""
+        runs = self.runs()
+        runs.append(dict(record))
+        with self._con:
+            self._con.execute(
+                "INSERT OR REPLACE INTO meta (key, value) VALUES ('runs', ?)",
+                (json.dumps(runs, sort_keys=True),),
+            )
+
+    def runs(self) -> list[dict[str, Any]]:
+        """The records of the runs that filled the store, oldest first (empty for a store
+        written before runs were recorded)."""
+        try:
+            runs = json.loads(self.meta().get("runs", "[]"))
+        except ValueError:
+            return []
+        return [r for r in runs if isinstance(r, dict)] if isinstance(runs, list) else []
+
     def check(self, chash: str) -> None:
         """Raise :class:`ConfigError` if the store belongs to a sweep other than ``chash``."""
         current = self.config_hash
@@ -526,6 +548,21 @@ class ResultStore:
         except (sqlite3.DatabaseError, pd.errors.DatabaseError) as exc:
             reason = " ".join(str(exc).split())[-120:]
             raise ConfigError("store", f"cannot read {self.path}: {reason}") from None
+        # SQLite keeps whatever a writer put in a column: text where a number belongs is
+        # named here, before any table or figure is drawn from it
+        numeric = [k for k, t in STANDARD_METRICS.items() if t in ("REAL", "INTEGER")]
+        for k in [*numeric, "episode", "wall_time", "finished_at"]:
+            col = df[k]
+            if pd.api.types.is_numeric_dtype(col) or bool(col.isna().all()):
+                continue  # read as numbers (or all missing)
+            bad = col.map(lambda v: isinstance(v, str | bytes))
+            if bad.any():
+                example = col[bad].iloc[0]
+                raise ConfigError(
+                    "store",
+                    f"{self.path}: column {k!r} holds text ({str(example)[:40]!r}, "
+                    f"{int(bad.sum())} row(s)) where numbers belong",
+                )
         df["success"] = df["success"].astype("boolean")
         for k, t in STANDARD_METRICS.items():
             if t == "REAL":

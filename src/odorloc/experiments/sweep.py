@@ -66,6 +66,7 @@ import hashlib
 import itertools
 import json
 import math
+import time
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -774,7 +775,8 @@ def run_sweep(
     Returns
     -------
     pandas.DataFrame
-        The stored table of this sweep, ordered by cell, episode.
+        The stored table of this sweep, ordered by cell, episode; ``df.attrs["added"]`` is the
+        number of episodes this call ran and stored (fewer than the rows when it resumed).
 
     Raises
     ------
@@ -808,6 +810,9 @@ def run_sweep(
         with ResultStore(store_path, readonly=True) as probe:
             probe.check(chash)
     runner = make_backend(backend, workers=workers, scheduler=scheduler, timeout=timeout)
+    added = 0
+    started = time.time()
+    t0 = time.perf_counter()
     # connect first: an unreachable scheduler must not leave a new, empty store behind
     with runner, ResultStore(store_path) as store:
         store.check(chash)
@@ -836,7 +841,7 @@ def run_sweep(
                 else:
                     work = iter(())
                 for task, row in work:
-                    store.add(task, row)
+                    added += int(store.add(task, row))
                     prog.advance(task, row)
                 if spec.adaptive is None:
                     break
@@ -846,7 +851,12 @@ def run_sweep(
                 if not more:
                     break
                 targets.update(more)
+        from odorloc.experiments.provenance import run_record
+
+        store.note_run(run_record(started, time.perf_counter() - t0, added, backend, workers))
         df = store.frame()
+    # what this call ran, as opposed to what the store holds (a resumed sweep adds fewer)
+    df.attrs["added"] = added
     if progress if summary is None else summary:
         from odorloc.experiments.progress import print_summary
 

@@ -58,12 +58,16 @@ class Estimator(ABC):
     default_model : dict or None
         The measurement model (``{type: name, **params}``) to use where a caller has none,
         e.g. an offline replay of a log (``None``: the estimator needs no model).
+    estimate_kind : str
+        What :meth:`estimate` gives, as printed with it: ``"belief mean"`` (default) or
+        ``"sources"`` (several sources read off a map).
     """
 
     params: Params
     dims: ClassVar[tuple[int, ...]] = (2, 3)
     needs_model: ClassVar[bool] = True
     default_model: ClassVar[Mapping[str, Any] | None] = None
+    estimate_kind: ClassVar[str] = "belief mean"
 
     def __init__(self, params: Params | None = None) -> None:
         self.params = params if params is not None else Params()

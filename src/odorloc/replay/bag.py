@@ -19,8 +19,10 @@ A small YAML maps the bag's topics and message fields onto what odorloc reads::
     pose:
       topic: /odom
       field: pose.pose           # a Pose (position + orientation) or a Point
-    arena: {lower: [0, 0], upper: [10, 6]}   # optional; default: the path's extent + 1 m
+    arena: {lower: [0, 0], upper: [10, 6]}   # optional; default: the path's extent + margin
+    margin: 1.0                  # metres around the path's extent when no arena is given
     sources: [[1.5, 3.0]]        # optional true sources (scored and drawn)
+    success_radius: 0.5          # an estimate this close (metres) finds a true source
 
 :class:`BagLog` checks the topics, their message types and fields when opened (one clear line
 naming the mapping field on a missing topic, a wrong message type, a missing field, a type the
@@ -122,8 +124,12 @@ class BagMapping(Params):
     anemometer: WindTopic
     pose: PoseTopic
     arena: ArenaBox | None = None
+    margin: Positive = 1.0
+    """Without ``arena``, the search area is the path's extent plus this, metres."""
     # true/false refused: YAML would read them as 1 and 0
     sources: list[Vector] = Field(default_factory=list)
+    success_radius: Positive = 0.5
+    """A true source counts as found when an estimate lies this close, metres."""
     max_speed: Positive = 1.0
 
     @pydantic.model_validator(mode="after")
@@ -398,7 +404,7 @@ class BagLog:
 
     def context(self) -> SearchContext:
         """What an estimator may know: the arena (the mapping's, else the path's extent plus
-        1 m), the period, the speed limit and the gas threshold.
+        ``margin``, 1 m by default), the period, the speed limit and the gas threshold.
 
         Reads the whole bag once, so that every problem of the data (a value that is not
         finite, a period without a gas reading, a path or a source outside the arena) is
@@ -434,7 +440,7 @@ class BagLog:
         if box is not None:
             arena = Arena(tuple(m.arena.lower), tuple(m.arena.upper), m.arena.resolution)
         else:
-            arena = Arena(tuple(lo - 1.0), tuple(hi + 1.0), 0.1)
+            arena = Arena(tuple(lo - m.margin), tuple(hi + m.margin), 0.1)
         for i, src in enumerate(m.sources):
             if not arena.contains(np.asarray(src, float)[None, :])[0]:
                 raise ConfigError(f"sources[{i}]", f"{src} lies outside the arena")

@@ -22,7 +22,6 @@ first time the estimator's stopping rule holds), so every plot of recordings app
 
 from __future__ import annotations
 
-import math
 from collections.abc import Iterable, Mapping
 from typing import Any
 
@@ -31,11 +30,18 @@ import numpy as np
 from odorloc.core import registry
 from odorloc.core.errors import ConfigError
 from odorloc.core.types import Observation, SearchContext
+from odorloc.engine.episode import score_declaration
 from odorloc.engine.recorder import Recording
 from odorloc.inference.estimator import Estimator
 from odorloc.models.base import MeasurementModel
 
-__all__ = ["check_estimator", "replay_estimator", "resolve_estimator", "snapshot"]
+__all__ = [
+    "check_estimator",
+    "edge_tolerance",
+    "replay_estimator",
+    "resolve_estimator",
+    "snapshot",
+]
 
 
 def snapshot(belief: Any) -> dict[str, np.ndarray]:
@@ -108,8 +114,22 @@ def replay_estimator(
     belief_every: float = 10.0,
     sources: np.ndarray | None = None,
     name: str = "log",
+    success_radius: float = 0.5,
+    edge: float | None = None,
 ) -> Recording:
-    """Feed a log to an estimator and record its belief.
+    """Feed a log to an estimator and record its belief and its source estimates.
+
+    The estimate is the estimator's own (:meth:`~odorloc.inference.estimator.Estimator.estimate`
+    at the end of the log: the mapped sources of ``ds-map`` / ``ds-mapping``, the belief's mean
+    for the filters and ``odor-path``). It is stored in the recording's
+    ``meta``: ``estimates`` (``(K, d)``, metres), ``estimate_kind`` (the estimator's
+    :attr:`~odorloc.inference.estimator.Estimator.estimate_kind`, ``"sources"`` or
+    ``"belief mean"``), ``search_area`` (``[lower, upper]``) and ``on_edge`` (indices of the
+    estimates within ``edge`` of the search area's boundary: a source beyond the area would
+    put them there). With known ``sources`` it is scored like an episode's declaration
+    (:func:`~odorloc.engine.episode.score_declaration`): ``loc_error`` (the mean over true
+    sources of the distance to the nearest estimate, metres), ``sources_found`` and
+    ``false_sources`` within ``success_radius``.
 
     Parameters
     ----------
@@ -133,6 +153,11 @@ def replay_estimator(
         True sources, if known (scored and drawn).
     name : str
         Name recorded in the recording's metadata.
+    success_radius : float, metres
+        A true source is found by an estimate this close.
+    edge : float, metres, optional
+        How close to the search area's boundary an estimate is "on its edge" (default
+        :func:`edge_tolerance`).
 
     Returns
     -------
@@ -181,10 +206,23 @@ def replay_estimator(
         "steps": len(t),
         "detections": int(np.sum(det)),
     }
-    if len(src) and beliefs:
-        m = _belief_mean(beliefs[-1][1])
-        if m is not None:
-            meta["loc_error"] = float(np.min(np.linalg.norm(src[:, : len(m)] - m, axis=1)))
+    estimates, kind = _estimates(est, d)
+    meta["estimates"] = estimates.tolist()
+    meta["estimate_kind"] = kind
+    meta["search_area"] = [list(map(float, lo)), list(map(float, hi))]
+    tol = edge_tolerance(ctx) if edge is None else float(edge)
+    meta["edge_tolerance"] = tol
+    meta["on_edge"] = [
+        i
+        for i, e in enumerate(estimates)
+        if np.any(e[:2] - np.asarray(lo[:2]) <= tol) or np.any(np.asarray(hi[:2]) - e[:2] <= tol)
+    ]
+    if len(src) and len(estimates):
+        _, err, found, false = score_declaration(
+            estimates, src[:, : estimates.shape[1]], success_radius
+        )
+        meta.update(loc_error=err, sources_found=found, false_sources=false)
+        meta["success_radius"] = float(success_radius)
     return Recording(
         t=np.asarray(t, float),
         positions=np.asarray(pos, float).reshape(len(t), 1, d),
@@ -204,21 +242,18 @@ def replay_estimator(
     )
 
 
-def _belief_mean(snap: dict[str, np.ndarray]) -> np.ndarray | None:
-    """Mean position of a belief snapshot (particles or a grid with its extent)."""
-    if "positions" in snap and "weights" in snap:
-        w = np.asarray(snap["weights"], float)
-        return (w / w.sum()) @ np.asarray(snap["positions"], float)
-    if "prob" in snap and "lower" in snap:
-        p = np.asarray(snap["prob"], float)
-        lo, hi = np.asarray(snap["lower"]), np.asarray(snap["upper"])
-        axes = [
-            lo[a] + (np.arange(p.shape[a]) + 0.5) * (hi[a] - lo[a]) / p.shape[a]
-            for a in range(p.ndim)
-        ]
-        grids = np.meshgrid(*axes, indexing="ij")
-        total = p.sum()
-        if total <= 0 or not math.isfinite(total):
-            return None
-        return np.array([float((g * p).sum() / total) for g in grids])
-    return None
+def edge_tolerance(ctx: SearchContext) -> float:
+    """How close (metres) to the search area's boundary an estimate counts as on its edge: 5 %
+    of the area's shorter horizontal side, and at least one cell of the arena's grid (an
+    estimate in a map's outermost cell is on the edge)."""
+    size = np.asarray(ctx.arena.upper[:2], float) - np.asarray(ctx.arena.lower[:2], float)
+    return float(max(0.05 * float(size.min()), ctx.arena.resolution))
+
+
+def _estimates(est: Estimator, d: int) -> tuple[np.ndarray, str]:
+    """``(K, d')`` source estimates of a replayed estimator (its :meth:`Estimator.estimate`)
+    and what they are (:attr:`Estimator.estimate_kind`)."""
+    own = np.asarray(est.estimate(), float)
+    if own.size == 0:
+        return np.zeros((0, own.shape[-1] if own.ndim == 2 else d)), est.estimate_kind
+    return np.atleast_2d(own), est.estimate_kind

@@ -141,6 +141,10 @@ Point = Vector
 """A point, metres: finite components, true/false refused (the arena checks how many)."""
 
 
+MAX_AGENTS = 256
+"""Default cap on the agents of one scenario (``agents.max_agents`` raises it)."""
+
+
 class AgentsConfig(_Strict):
     """Who searches, and from where.
 
@@ -160,6 +164,10 @@ class AgentsConfig(_Strict):
     start_sets : dict of name to list of points, metres
         Named start positions, one point per group (the sweep shorthand ``start_set: NAME``
         moves each group so that its centroid lies on the set's point).
+    max_agents : int
+        Most agents the scenario may have (default :data:`MAX_AGENTS`): a guard against a
+        start list that grew by mistake, whose episode and figures would take hours; a larger
+        team raises it deliberately.
     """
 
     starts: list[Point] = Field(min_length=1)
@@ -168,11 +176,18 @@ class AgentsConfig(_Strict):
     groups: list[GroupConfig] = []
     start_points: list[Point] = []
     start_sets: dict[str, list[Point]] = {}
+    max_agents: int = Field(MAX_AGENTS, ge=1, le=1_000_000)
 
     @model_validator(mode="after")
     def _check(self) -> AgentsConfig:
         if not (self.comm_radius >= 0):
             raise ConfigError("comm_radius", "must be >= 0")
+        if len(self.starts) > self.max_agents:
+            raise ConfigError(
+                "starts",
+                f"{len(self.starts)} agents, more than agents.max_agents = {self.max_agents}; "
+                "set agents.max_agents to run a team this large",
+            )
         seen: set[int] = set()
         n = len(self.starts)
         for k, g in enumerate(self.groups):
@@ -536,7 +551,10 @@ def _resolve_files(data: dict[str, Any], base: Path) -> dict[str, Any]:
     from odorloc.core.registry import entry
 
     data = copy.deepcopy(data)
-    obstacles = data.get("world", {}).get("arena", {}).get("obstacles")
+    # any level may be of the wrong kind (world: true): the validation that follows names it
+    obstacles: Any = data
+    for key in ("world", "arena", "obstacles"):
+        obstacles = obstacles.get(key) if isinstance(obstacles, dict) else None
     if isinstance(obstacles, dict) and "file" in obstacles:
         obstacles["file"] = _absolute(obstacles["file"], base)
     for path, family in COMPONENTS.items():

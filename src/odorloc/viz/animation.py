@@ -21,5 +21,5 @@ def episode_gif(
     if info:
         rec.meta.update({k: v for k, v in info.items() if isinstance(v, str | int | float | bool)})
     with tempfile.TemporaryDirectory() as d:
-        path = animate(rec, Path(d) / "episode.gif", max_frames=max_frames, dpi=60)
+        path = animate(rec, Path(d) / "episode.gif", max_frames=max_frames)
         return path.read_bytes()

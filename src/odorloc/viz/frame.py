@@ -8,21 +8,14 @@ import itertools
 from collections.abc import Sequence
 
 import numpy as np
-from matplotlib import colormaps
+from matplotlib import colormaps, colors
+
+from odorloc.viz.team import PALETTE
 
 __all__ = ["render_rgb"]
 
-_AGENT_RGB = np.array(
-    [
-        [214, 39, 40],
-        [31, 119, 180],
-        [44, 160, 44],
-        [255, 127, 14],
-        [148, 103, 189],
-        [140, 86, 75],
-    ],
-    np.uint8,
-)
+# the agents' colours of every other figure (odorloc.viz.team.PALETTE), as 8-bit RGB
+_AGENT_RGB = np.array([[round(255 * c) for c in colors.to_rgb(name)] for name in PALETTE], np.uint8)
 
 
 def _disc(img: np.ndarray, cx: float, cy: float, r: float, rgb: Sequence[int]) -> None:

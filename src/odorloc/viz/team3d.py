@@ -8,7 +8,7 @@ are drawn instead.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -17,7 +17,7 @@ from matplotlib import animation
 
 from odorloc.engine.recorder import Recording
 from odorloc.viz.backend import pyplot
-from odorloc.viz.episode import AGENT_COLORS
+from odorloc.viz.team import team_style
 
 __all__ = ["animate_team_3d", "beliefs_at", "key_moments", "plot_team_3d"]
 
@@ -82,11 +82,14 @@ def _draw(ax: Any, rec: Recording, t: float, legend: bool = False) -> None:
     k = max(k, 1)
     snaps = beliefs_at(rec, t)
     n_agents = rec.positions.shape[1]
+    style = team_style(n_agents, rec.meta)
+    # one legend entry per UAV for a few, else per group (the first member's path carries it)
+    named = {u.agents[0]: u.label for u in style.legend_units()}
     cue_label = "cue" if legend else None
     for a in range(n_agents):
-        col = AGENT_COLORS[a % len(AGENT_COLORS)]
+        col = style.color(a)
         p = rec.positions[:k, a]
-        ax.plot(p[:, 0], p[:, 1], p[:, 2], "-", color=col, lw=1.2, label=f"agent {a}")
+        ax.plot(p[:, 0], p[:, 1], p[:, 2], "-", color=col, lw=1.2, label=named.get(a))
         ax.scatter(*p[-1], color=col, edgecolor="k", s=40, depthshade=False)
         snap = snaps.get(a)
         if snap is not None:
@@ -114,7 +117,12 @@ def _draw(ax: Any, rec: Recording, t: float, legend: bool = False) -> None:
             # One legend entry, from the first UAV with a cue (not only when agent 0 has one).
             cue_label = None
     s = rec.sources
-    ax.scatter(s[:, 0], s[:, 1], s[:, 2], marker="*", color="k", s=160, label="source")
+    if len(s):
+        # the true source above the particles and paths (never hidden), as in the 2-D figures
+        ax.scatter(
+            s[:, 0], s[:, 1], s[:, 2], marker="*", color="gold", edgecolor="k", s=220,
+            depthshade=False, zorder=10, label="true source",
+        )  # fmt: skip
     ax.set_xlim(b[0, 0], b[1, 0])
     ax.set_ylim(b[0, 1], b[1, 1])
     ax.set_zlim(b[0, 2], b[1, 2])
@@ -167,7 +175,9 @@ def plot_team_3d(
         ax.set_title(f"({chr(97 + i)}) {title}", fontsize=9, y=0.94)
         if last:
             handles, labels = ax.get_legend_handles_labels()
-    fig.legend(handles, labels, loc="lower center", ncol=len(labels), fontsize=8, frameon=False)
+    fig.legend(
+        handles, labels, loc="lower center", ncol=min(len(labels), 6), fontsize=8, frameon=False
+    )
     fig.suptitle(str(rec.meta.get("title", rec.meta.get("scenario", ""))), fontsize=10)
     fig.subplots_adjust(left=0.0, right=1.0, bottom=0.05, top=0.93, wspace=0.0, hspace=0.08)
     if path is not None:
@@ -177,13 +187,23 @@ def plot_team_3d(
 
 
 def animate_team_3d(
-    rec: Recording, path: str | Path, *, fps: int = 8, max_frames: int = 80, dpi: int = 90
+    rec: Recording,
+    path: str | Path,
+    *,
+    fps: int = 8,
+    max_frames: int = 80,
+    dpi: int = 80,
+    progress: Callable[[int, int], None] | None = None,
 ) -> Path:
-    """Animation of :func:`plot_team_3d`'s view over the episode (GIF, or MP4 for ``.mp4``)."""
+    """Animation of :func:`plot_team_3d`'s view over the episode (GIF, or MP4 for ``.mp4``),
+    at least 800 pixels wide, the legend right of the view; ``progress(frame, total)`` is
+    called after each frame is written."""
     plt = pyplot()
     path = Path(path)
-    fig = plt.figure(figsize=(7, 5.6))
-    ax = fig.add_subplot(1, 1, 1, projection="3d")
+    width = max(10.5, 800 / dpi + 0.01)
+    fig = plt.figure(figsize=(width, 6.0))
+    # the view on the left, the legend in the column on its right
+    ax = fig.add_axes((0.0, 0.02, 0.74, 0.9), projection="3d")
     steps = np.unique(np.linspace(0, len(rec.t) - 1, min(max_frames, len(rec.t))).astype(int))
 
     legend: list[Any] = []
@@ -192,21 +212,29 @@ def animate_team_3d(
         ax.cla()
         t = float(rec.t[steps[i]])
         _draw(ax, rec, t, legend=True)
-        # Under the axes, where it cannot hide a UAV; redrawn as the cue entry may appear.
+        # redrawn as the cue entry may appear
         for leg in legend:
             leg.remove()
         handles, labels = ax.get_legend_handles_labels()
         legend[:] = [
-            fig.legend(handles, labels, loc="lower center", ncol=len(labels), fontsize=7,
-                       frameon=False)
+            fig.legend(handles, labels, loc="center left", bbox_to_anchor=(0.75, 0.5),
+                       fontsize=8, frameon=False)
         ]  # fmt: skip
         ax.set_title(f"t = {t:6.0f} s", fontsize=9)
         return []
 
     anim = animation.FuncAnimation(fig, draw, frames=len(steps), blit=False)
-    if path.suffix == ".mp4":
-        anim.save(path, writer=animation.FFMpegWriter(fps=fps), dpi=dpi)
-    else:
-        anim.save(path, writer=animation.PillowWriter(fps=fps), dpi=dpi)
+    total = len(steps)
+
+    def callback(i: int, n: int) -> None:
+        if progress is not None:
+            progress(i + 1, total)
+
+    writer: Any = (
+        animation.FFMpegWriter(fps=fps)
+        if path.suffix == ".mp4"
+        else animation.PillowWriter(fps=fps)
+    )
+    anim.save(path, writer=writer, dpi=dpi, progress_callback=callback)
     plt.close(fig)
     return path

@@ -709,6 +709,7 @@ class DSMapEstimator(Estimator):
     Params = DSMapParams
     dims = (2,)
     needs_model = False
+    estimate_kind = "sources"
 
     def __init__(self, params: DSMapParams | None = None) -> None:
         super().__init__(params or DSMapParams())
