@@ -234,8 +234,8 @@ def run(
     world_key: Annotated[
         str | None,
         typer.Option(
-            help="Key of the episode's seeds (default: the scenario argument as given); the "
-            "summary and scenario.yaml name it, to repeat the episode from the saved file."
+            help="Key of the episode's seeds (default: the scenario's name, whichever way its "
+            "file is given)."
         ),
     ] = None,
     from_batch: Annotated[
@@ -311,10 +311,11 @@ def run(
                 raise ConfigError("--searcher", "is empty")
             if world_key is not None and not world_key.strip():
                 raise ConfigError("--world-key", "is empty")
-            key = world_key if world_key is not None else ref
             sc = _load_or_name_kind(
                 load_scenario, ref, "scenario", "scenario", "run it with odorloc batch"
             )
+            # the scenario's own name, however its file was typed (the seeds of a batch too)
+            key = world_key if world_key is not None else sc.name
             if searcher:
                 from odorloc.core import registry
                 from odorloc.experiments.runner import cell_scenario
@@ -396,10 +397,11 @@ def run(
                 "# repeats this episode (the cell of a stored batch; below, its scenario)\n"
             )
         else:
+            keyed = "" if key == sc.name else f" --world-key {shlex.quote(key)}"
             again = (
                 f"# odorloc run {shlex.quote(str(out / 'scenario.yaml'))} --seed {sc.seed} "
-                f"--episode {episode} --world-key {shlex.quote(key)}\n"
-                "# repeats this episode (the seeds derive from the world key)\n"
+                f"--episode {episode}{keyed}\n"
+                "# repeats this episode (the seeds derive from the scenario's name)\n"
             )
         (out / "scenario.yaml").write_text(again + sc.to_yaml())
         written.append(out / "scenario.yaml")

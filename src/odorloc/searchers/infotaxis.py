@@ -144,6 +144,7 @@ class GridPolicySearcher(Searcher):
 
     params: GridPolicyParams
     max_agents = 1
+    declares = False
     policy: ClassVar[str] = "infotaxis"
 
     def __init__(self, params: GridPolicyParams | None = None) -> None:

@@ -107,6 +107,7 @@ class ParticleInfotaxisSearcher(Searcher):
 
     params: ParticleInfotaxisParams
     max_agents = 1
+    declares = False
 
     def __init__(self, params: ParticleInfotaxisParams | None = None) -> None:
         super().__init__(params or ParticleInfotaxisParams())

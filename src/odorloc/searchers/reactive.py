@@ -113,6 +113,7 @@ class ReactiveSearcher(Searcher):
 
     params: ReactiveParams
     max_agents = 1
+    declares = False
 
     def reset(self, ctx: SearchContext, rng: np.random.Generator) -> None:
         """Start casting with empty memories."""

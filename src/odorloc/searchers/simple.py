@@ -47,6 +47,7 @@ class RandomWalkSearcher(Searcher):
     """Each agent keeps its heading plus Gaussian turns; blocked headings are redrawn."""
 
     params: RandomWalkParams
+    declares = False
 
     def reset(self, ctx: SearchContext, rng: np.random.Generator) -> None:
         super().reset(ctx, rng)
@@ -99,6 +100,7 @@ class ZigzagSearcher(Searcher):
     """
 
     params: ZigzagParams
+    declares = False
 
     def reset(self, ctx: SearchContext, rng: np.random.Generator) -> None:
         super().reset(ctx, rng)
@@ -173,6 +175,11 @@ class RectangularWaveSearcher(Searcher):
     """
 
     params: RectangularWaveParams
+    declares = False
+
+    def may_declare(self) -> bool:
+        """Only with ``declare_at_max``."""
+        return self.params.declare_at_max
 
     def reset(self, ctx: SearchContext, rng: np.random.Generator) -> None:
         super().reset(ctx, rng)
@@ -233,6 +240,11 @@ class PassiveSearcher(Searcher):
     """Stays put; records when the plume first arrives (at any of its agents)."""
 
     params: PassiveParams
+    declares = False
+
+    def may_declare(self) -> bool:
+        """Only with ``declare_on_detection``."""
+        return self.params.declare_on_detection
 
     def reset(self, ctx: SearchContext, rng: np.random.Generator) -> None:
         super().reset(ctx, rng)

@@ -39,6 +39,7 @@ class SpiralSearcher(Searcher):
     """Square-spiral search with a proximity index, one spiral per agent."""
 
     params: SpiralSearchParams
+    declares = False
 
     def reset(self, ctx: SearchContext, rng: np.random.Generator) -> None:
         super().reset(ctx, rng)
