@@ -129,7 +129,11 @@ def _failing_sweep(tmp_path, episodes: int, searchers: list[str]):
         "seed": 1,
         "episodes": episodes,
         "scenarios": [
-            {"name": "indoor-ventilated", "params": {"limits.time": 5.0, "world.warmup": 1.0}}
+            {
+                "name": "indoor-ventilated",
+                # zigzag never declares: the episodes end at the limits
+                "params": {"limits.time": 5.0, "world.warmup": 1.0, "task.end": "limits"},
+            }
         ],
         "searchers": [{"name": n} for n in searchers],
     }
@@ -200,7 +204,9 @@ def test_batch_with_an_invalid_searcher_parameter_runs_nothing(tmp_path) -> None
         "name": "t",
         "seed": 1,
         "episodes": 2,
-        "scenarios": [{"name": "indoor-ventilated", "params": {"limits.time": 5.0}}],
+        "scenarios": [
+            {"name": "indoor-ventilated", "params": {"limits.time": 5.0, "task.end": "limits"}}
+        ],
         "searchers": [{"name": "zigzag"}, {"name": "rectangular-wave", "params": {"margin": 10.0}}],
     }
     f = tmp_path / "sweep.yaml"

@@ -24,7 +24,26 @@ __all__ = ["Spiral", "SpiralParams", "proximity_index"]
 
 
 class SpiralParams(Params):
-    """Settings of the spiral (see the module docstring; lengths in metres)."""
+    """Settings of the spiral (see the module docstring).
+
+    Attributes
+    ----------
+    initial_step : float, metres
+        Length of the first legs of a spiral.
+    step_increment : float, metres
+        Growth of the leg length every second leg.
+    measure_periods : int
+        Control periods of standing still to measure after every leg.
+    kmu : float
+        Weight of the window's mean reading in the proximity index.
+    kp : float, 1/s
+        Weight of the window's local maxima (times the control period) in the proximity index.
+    patience : int
+        Measurement windows in a row without a better index before the best one decays.
+    decay : float
+        Factor applied to the best proximity index after ``patience`` windows without a better
+        one.
+    """
 
     initial_step: Positive = 0.6
     step_increment: NonNegative = 0.3

@@ -29,6 +29,7 @@ __all__ = [
     "check_scenario",
     "is_file_ref",
     "load_scenario",
+    "resolve_components",
     "resolve_ref",
     "scenario_name",
 ]
@@ -103,6 +104,50 @@ def scenario_name(ref: str | Path, base_dir: str | Path | None = None) -> str:
         builtin_path(s)  # an unknown name is refused by name
         return s
     return load_scenario(s).name
+
+
+def resolve_components(sc: Scenario) -> Scenario:
+    """The same scenario with every component's parameters written out, defaults included
+    (sub-components too: a searcher's resampler, a team's member).
+
+    The result validates to the same parameters as ``sc``, so it runs the same episodes; it
+    shows everything a scenario can set (``odorloc scenarios NAME --resolved``).
+    """
+    from odorloc.scenarios.config import COMPONENTS
+
+    data = sc.to_dict()
+    for path, family in COMPONENTS.items():
+        node: Any = data
+        *parents, last = path.split(".")
+        for k in parents:
+            node = node.get(k) if isinstance(node, dict) else None
+        if isinstance(node, dict) and isinstance(node.get(last), dict):
+            node[last] = _full_component(family, node[last], path)
+    return Scenario.from_dict(data)
+
+
+def _full_component(family: str, ref: dict[str, Any], field: str) -> dict[str, Any]:
+    """``{type, **every parameter}`` of the component ``ref`` of ``family``."""
+    from odorloc.core import registry
+
+    values = {k: v for k, v in ref.items() if k != "type"}
+    params = registry.make_params(family, ref["type"], values, field=field)
+    out: dict[str, Any] = {"type": ref["type"]}
+    for name, info in type(params).model_fields.items():
+        if info.exclude:
+            continue
+        value = getattr(params, name)
+        fam = registry.ref_family(info)
+        if fam is not None and isinstance(value, registry.ComponentRef):
+            out[name] = _full_component(fam, {"type": value.type, **value.values}, name)
+        elif fam is not None and isinstance(value, list | tuple):
+            out[name] = [
+                _full_component(fam, {"type": v.type, **v.values}, f"{name}[{i}]")
+                for i, v in enumerate(value)
+            ]
+        else:
+            out[name] = params.model_dump(mode="python", include={name})[name]
+    return out
 
 
 def check_scenario(sc: Scenario, world: Any = None) -> Any:

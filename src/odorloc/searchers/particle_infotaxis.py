@@ -54,6 +54,7 @@ class ParticleInfotaxisParams(Params):
     model : dict
         The searcher's measurement model, ``{type: name, **params}``.
     n_particles : int
+        Number of particles of the belief.
     region : ((x0, y0[, z0]), (x1, y1[, z1])), optional
         Where the initial particles lie (default: the task's search region, else the arena).
     moves : {"lattice", "neighbours"}
@@ -64,6 +65,7 @@ class ParticleInfotaxisParams(Params):
         Particles within this distance of the agent are found there (set it to the task's
         reach radius; default half a step).
     policy : {"infotaxis", "entrotaxis"}
+        The reward: expected entropy (infotaxis) or predictive entropy (entrotaxis).
     reading, n_classes, exposure, wind_average
         As for the grid policies (:class:`~odorloc.searchers.infotaxis.GridPolicyParams`).
     resampler : dict
@@ -71,6 +73,7 @@ class ParticleInfotaxisParams(Params):
     resample_threshold : float
         Resample when ``N_eff < resample_threshold N``.
     ties : {"first", "random"}
+        Equal scores: the first candidate, or one drawn at random.
     """
 
     model: Ref("model") = ComponentRef(type="vergassola")

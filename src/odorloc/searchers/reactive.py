@@ -83,8 +83,17 @@ class ReactiveParams(Params):
         Anemometer readings averaged for the upwind direction.
     threshold : float, optional
         ``rho_T`` of the taxis rules, in the sensor's units (default: its detection threshold).
-    cast_angle_deg, cast_amplitude, cast_growth, cast_max, cast_elevation_deg
-        The casting of :class:`~odorloc.behaviours.surge_cast.SurgeCastParams` (metres, degrees).
+    cast_angle_deg : float, degrees
+        Angle of the cast legs to the upwind direction.
+    cast_amplitude : float, metres
+        First cast leg's crosswind half-width.
+    cast_growth : float
+        Factor by which each cast leg grows.
+    cast_max : float, metres
+        Longest cast leg.
+    cast_elevation_deg : float, degrees
+        In 3-D, tilt of the cast legs out of the horizontal plane (up for two legs, down for
+        the next two); 0 keeps them horizontal.
     """
 
     step_length: Positive | None = None
@@ -166,7 +175,13 @@ class ReactiveSearcher(Searcher):
 
 # ---------------------------------------------------------------------- surge-cast
 class SurgeCastSearchParams(ReactiveParams):
-    """:class:`ReactiveParams` and ``surge_steps``: periods of upwind surge per detection."""
+    """:class:`ReactiveParams` and one more.
+
+    Attributes
+    ----------
+    surge_steps : int
+        Periods of upwind surge per detection.
+    """
 
     surge_steps: int = Field(4, ge=1, le=1_000_000)
 
@@ -280,7 +295,13 @@ class SurgeSpiralSearcher(ReactiveSearcher):
 
 # ---------------------------------------------------------------------- taxis rules
 class ChemotaxisParams(ReactiveParams):
-    """:class:`ReactiveParams` and ``memory``: recent samples the rule compares."""
+    """:class:`ReactiveParams` and one more.
+
+    Attributes
+    ----------
+    memory : int
+        Recent samples (positions, readings, winds) the rule compares.
+    """
 
     memory: int = Field(6, ge=2, le=10_000)
 
@@ -332,8 +353,13 @@ class ChemotaxisSearcher(_TaxisSearcher):
 
 
 class AnemotaxisParams(ReactiveParams):
-    """:class:`ReactiveParams` and ``memory``: recent readings that must all exceed the
-    threshold (and winds averaged)."""
+    """:class:`ReactiveParams` and one more.
+
+    Attributes
+    ----------
+    memory : int
+        Recent readings that must all exceed the threshold (their winds are averaged).
+    """
 
     memory: int = Field(2, ge=1, le=10_000)
 

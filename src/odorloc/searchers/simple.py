@@ -36,7 +36,15 @@ from odorloc.searchers.base import Searcher
 
 # ---------------------------------------------------------------------- random walk
 class RandomWalkParams(Params):
-    """Correlated random walk: speed fraction of the platform limit and heading noise."""
+    """Correlated random walk: speed fraction of the platform limit and heading noise.
+
+    Attributes
+    ----------
+    speed_fraction : float
+        Share of the platform's speed limit the agents drive at.
+    turn_std_deg : float, degrees
+        Standard deviation of the Gaussian heading change per control period.
+    """
 
     speed_fraction: float = Field(1.0, gt=0, le=1)
     turn_std_deg: NonNegative = 30.0
@@ -230,7 +238,14 @@ class RectangularWaveSearcher(Searcher):
 
 # ---------------------------------------------------------------------- passive
 class PassiveParams(Params):
-    """Passive monitoring: hold position; optionally declare the own position on detection."""
+    """Passive monitoring: hold position; optionally declare the own position on detection.
+
+    Attributes
+    ----------
+    declare_on_detection : bool
+        Declare the agent's own position at its first detection (it never declares
+        otherwise).
+    """
 
     declare_on_detection: bool = False
 

@@ -28,8 +28,13 @@ __all__ = ["SpiralSearchParams", "SpiralSearcher"]
 
 
 class SpiralSearchParams(SpiralParams):
-    """The spiral's settings (:class:`~odorloc.behaviours.spiral.SpiralParams`) and
-    ``max_skips``: blocked legs skipped before the spiral restarts."""
+    """The spiral's settings (:class:`~odorloc.behaviours.spiral.SpiralParams`) and one more.
+
+    Attributes
+    ----------
+    max_skips : int
+        Blocked legs skipped in a row before the spiral restarts.
+    """
 
     max_skips: int = Field(3, ge=0, le=10_000)
 
