@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import yaml
 from typer.testing import CliRunner
 
 import odorloc
@@ -28,6 +29,9 @@ def test_version_is_the_package_version_and_pyproject_agrees() -> None:
     assert r.exit_code == 0 and r.stdout.strip() == f"odorloc {odorloc.__version__}"
     meta = tomllib.loads((ROOT / "pyproject.toml").read_text())
     assert meta["project"]["version"] == odorloc.__version__
+    cff = yaml.safe_load((ROOT / "CITATION.cff").read_text())
+    assert str(cff["version"]) == odorloc.__version__ and cff["license"] == "MIT"
+    assert (ROOT / "LICENSE").read_text().startswith("MIT License")
 
 
 @pytest.mark.parametrize("cmd", [[], *([c] for c in COMMANDS)])
