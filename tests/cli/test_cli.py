@@ -185,7 +185,7 @@ def test_batch_refuses_options_the_sweep_file_sets(tmp_path) -> None:
             {
                 "seed": 1,
                 "episodes": 2,
-                "scenarios": [{"name": "indoor-ventilated"}],
+                "scenarios": [{"name": "indoor-ventilated", "params": {"task.end": "limits"}}],
                 "searchers": [{"name": "zigzag"}],
             }
         )
