@@ -27,7 +27,18 @@ FAMILIES = {
     "model": "Measurement models: the likelihood of a reading given a source hypothesis, used "
     "by estimators and planners (a searcher's model may differ from the world's plume).",
     "resampler": "Particle-filter resampling schemes, ``scheme(weights, M, rng)``.",
-    "estimator": "Estimators: beliefs about the source, updated from observations.",
+    "estimator": "Single-agent estimators: a belief about the source, updated from every "
+    "observation (``reset``, ``update``, ``belief``, ``estimate``, ``converged``).",
+    "reading": "Parts of a particle filter: how one observation becomes a likelihood (a "
+    "detection under the recorded wind window, or an outcome class).",
+    "particle_init": "Parts of a particle filter: where its particles start.",
+    "resampling_policy": "Parts of a particle filter: when it resamples.",
+    "stopping_rule": "Parts of a particle filter: when its estimate is good enough to declare.",
+    "planner": "Planners: the next target from a belief and the agent's pose "
+    "(``plan(belief, pose, rng)`` returns a ``Plan``).",
+    "candidates": "Parts of a planner: the targets it scores.",
+    "reward": "Parts of a planner: the score of a candidate (lower is better).",
+    "selection": "Parts of a planner: the candidate chosen from the scores, ties included.",
     "team_estimator": "Team estimators: one per UAV, exchanging Gaussian fits.",
     "step_planner": "Step planners of the UAV teams: a direction and a step length per decision.",
     "searcher": "Searchers: strategies that turn observations into commands and declarations.",
@@ -40,7 +51,9 @@ _OUTPUT = re.compile(r"^<!-- odorloc:output (odorloc .+?) -->$", re.M)
 def components_markdown() -> str:
     """The whole Components reference (every family, every member)."""
     from odorloc.core import describe, registry
+    from odorloc.experiments.reproduction import discover
 
+    discover()  # the papers' reproductions are components too
     out = []
     for family in registry.families():
         out.append(f"## {family}\n")

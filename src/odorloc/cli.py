@@ -744,7 +744,8 @@ def replay_log(
     estimator: Annotated[
         str,
         typer.Option(
-            help="Searcher whose belief to replay (pf-entropy, ds-mapping, ...) or odor-path."
+            help="Estimator to replay (particle-filter, ds-map, odor-path, ...) or a "
+            "searcher composing one (pf-entropy, ds-mapping, ...)."
         ),
     ] = "pf-entropy",
     seed: Annotated[int, typer.Option(help="Seed of the estimator's random stream.")] = 0,
@@ -821,7 +822,9 @@ def components(
     import textwrap
 
     from odorloc.core import describe, registry
+    from odorloc.experiments.reproduction import discover
 
+    discover()  # the papers' reproductions are listed and described too
     width = max(min(console.width, 100), 40)
     try:
         if name is None:

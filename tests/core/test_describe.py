@@ -25,21 +25,30 @@ def test_every_parameter_of_every_component_is_documented(family: str) -> None:
                 assert "``" not in text and ":class:`" not in text, where
 
 
-def test_units_types_and_defaults_of_a_known_component() -> None:
-    doc = describe.describe("searcher", "pf-entropy")
-    by = {p.name: p for p in doc.params}
-    assert len(by) == len(registry.entry("searcher", "pf-entropy").params.model_fields)
-    assert by["sensor_area"].unit == "m^2"
-    assert by["min_wind_variance"].unit == "m^2/s^2"
-    # two names on one docstring line share its type and unit
-    assert by["r_conv"].unit == by["r_err"].unit == "metres"
-    assert by["n_particles"].type == "int >= 2, <= 10000000"
-    assert by["n_particles"].default == "1000"
-    assert by["variance"].type == '{"trace", "radius", "max_axis"}'
-    assert by["resampler"].type == "component (resampler)"
-    assert by["resampler"].default == "{type: roulette}"
-    assert by["step_length"].type == "float or None" and by["step_length"].default == "null"
-    assert by["mu"].summary.endswith("eq. 10).")  # not cut at the abbreviation
+def test_units_types_and_defaults_of_known_components() -> None:
+    def params(family: str, name: str) -> dict:
+        by = {p.name: p for p in describe.describe(family, name).params}
+        assert len(by) == len(registry.entry(family, name).params.model_fields)
+        return by
+
+    model = params("model", "pang-farrell")
+    assert model["sensor_area"].unit == "m^2"
+    assert model["min_wind_variance"].unit == "m^2/s^2"
+    stopping = params("stopping_rule", "dual-convergence")
+    assert stopping["r_err"].unit == "metres"
+    assert stopping["variance"].type == '{"trace", "radius", "max_axis"}'
+    pf = params("estimator", "particle-filter")
+    assert pf["n_particles"].type == "int >= 2, <= 10000000"
+    assert pf["n_particles"].default == "1000"
+    assert pf["resampler"].type == "component (resampler)"
+    assert pf["resampler"].default == "{type: roulette}"
+    searcher = params("searcher", "pf-entropy")
+    assert searcher["step_length"].type == "float or None"
+    assert searcher["step_length"].default == "null"
+    assert searcher["step_length"].unit == "metres"
+    # a nested component's default with its settings
+    assert searcher["model"].default.startswith("{type: pang-farrell, sensor_area: 0.1")
+    assert model["sensor_area"].summary.endswith("(eq. 10).")  # not cut at the abbreviation
 
 
 def test_docstring_entries_read_units_and_skip_other_sections() -> None:
