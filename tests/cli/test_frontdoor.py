@@ -58,8 +58,11 @@ def test_components_describes_every_parameter() -> None:
     fields = registry.entry("searcher", "pf-entropy").params.model_fields
     for name in fields:
         assert re.search(rf"^  {name} : ", r.stdout, re.M), name
-    assert "sensor_area : float = 0.1  [m^2]" in r.stdout
+    assert "step_length : float or None = null  [metres]" in r.stdout
     assert all(len(line) <= 80 for line in r.stdout.splitlines())
+    # a part the searcher names is described on its own, with its units
+    r = runner.invoke(app, ["components", "pang-farrell"], env={"COLUMNS": "80"})
+    assert "sensor_area : float = 0.01  [m^2]" in r.stdout
     # a name of two families shows both; an unknown one is one line, exit 2
     r = runner.invoke(app, ["components", "vergassola"])
     assert "vergassola  (plume)" in r.stdout and "vergassola  (model)" in r.stdout
