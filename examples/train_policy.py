@@ -42,11 +42,6 @@ BASELINES = [
 ]
 
 
-def world_key(scenario: str) -> str:
-    """Seed key of the scenario: its file's stem, so results do not depend on where it lies."""
-    return Path(scenario).stem if scenario.endswith((".yaml", ".yml")) else scenario
-
-
 def normaliser(env: SearchEnv) -> tuple[np.ndarray, np.ndarray]:
     """Shift and scale from the observation bounds (unbounded readings: unit scale)."""
     lo = env.observation_space.low.astype(float)
@@ -87,7 +82,7 @@ def searcher_return(env: SearchEnv, name: str, seed: int, episode: int) -> float
 def train(
     scenario: str, iterations: int, population: int, episodes: int, seed: int
 ) -> tuple[LinearPolicy, list[float]]:
-    env = SearchEnv(scenario, action=ACTION, world_key=world_key(scenario))
+    env = SearchEnv(scenario, action=ACTION)
     shift, scale = normaliser(env)
     n_act, n_feat = env.action_space.n, len(shift) + 1
     rng = np.random.default_rng(seed)
@@ -139,7 +134,7 @@ def main() -> None:
     )
     weights = policy.save(args.out / "linear.npz")
     print(f"trained in {time.perf_counter() - t0:.0f} s; policy saved to {weights}")
-    env = SearchEnv(args.scenario, action=ACTION, world_key=world_key(args.scenario))
+    env = SearchEnv(args.scenario, action=ACTION)
     eps = range(args.train_episodes)
     mine = np.mean([episode_return(env, policy, args.train_seed, e) for e in eps])
     zig = np.mean([searcher_return(env, "zigzag", args.train_seed, e) for e in eps])
@@ -149,7 +144,7 @@ def main() -> None:
         "name": "trained-policy-vs-baselines",
         "seed": args.seed,
         "episodes": args.episodes,
-        "scenarios": [{"name": args.scenario, "label": world_key(args.scenario)}],
+        "scenarios": [{"name": args.scenario, "label": env.core.scenario.name}],
         "searchers": [
             {
                 "name": "policy",

@@ -12,9 +12,15 @@ from odorloc.experiments.runner import ROW_DEFAULTS
 from odorloc.experiments.store import ResultStore
 from odorloc.experiments.sweep import config_hash, expand_tasks, load_sweep
 
+#: Searchers of these helpers that never declare: their scenarios end at the limits (a scenario
+#: that ends on a declaration refuses them when it is loaded).
+NEVER_DECLARE = ("zigzag", "random-walk")
+
 
 def small_scenario_dict(searcher: str = "zigzag", **searcher_params: Any) -> dict[str, Any]:
-    """A 10 m x 5 m room, uniform wind, Gaussian plume; 30 s episodes."""
+    """A 10 m x 5 m room, uniform wind, Gaussian plume; 30 s episodes (ending at the limits
+    for a searcher that never declares, else on the first declaration)."""
+    end = "limits" if searcher in NEVER_DECLARE else "first_declaration"
     return {
         "name": "test-room",
         "world": {
@@ -27,6 +33,7 @@ def small_scenario_dict(searcher: str = "zigzag", **searcher_params: Any) -> dic
         "platform": {"type": "holonomic", "max_speed": 0.5},
         "agents": {"starts": [[8.0, 2.0]]},
         "searcher": {"type": searcher, **searcher_params},
+        "task": {"end": end},
         "limits": {"control_dt": 0.5, "time": 30.0},
         "recording": {"plume_stride": 10},
     }

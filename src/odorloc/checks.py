@@ -366,8 +366,9 @@ def check_searcher(
 
     A searcher that drives at most one agent runs the multi-agent case inside a ``per-agent``
     team. Checked: the action has one command per agent; the agents stay inside the arena;
-    declarations are finite ``(K, d)``; rows and recordings are identical per seed;
-    ``final_metrics`` has the same keys every time; the beliefs recorded give arrays.
+    declarations are finite ``(K, d)`` and absent when the searcher says it never declares
+    (:meth:`~odorloc.searchers.base.Searcher.may_declare`); rows and recordings are identical
+    per seed; ``final_metrics`` has the same keys every time; the beliefs recorded give arrays.
     """
     cls = registry.entry("searcher", name).build
     done = []
@@ -395,6 +396,11 @@ def check_searcher(
             _require(
                 bool(np.all(rec.positions >= lo - 1e-9) and np.all(rec.positions <= hi + 1e-9)),
                 f"{tag}: an agent left the arena",
+            )
+            searcher = registry.ComponentRef(**spec).build("searcher")
+            _require(
+                searcher.may_declare() or not a.declarations,
+                f"{tag}: declared although may_declare() says it never does",
             )
             for d in a.declarations:
                 _require(

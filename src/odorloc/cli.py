@@ -76,9 +76,34 @@ app = typer.Typer(
     no_args_is_help=False,
     add_completion=False,
     pretty_exceptions_enable=False,
+    # help texts are Markdown: paragraphs are rewrapped to the terminal, `code` shows as code
+    rich_markup_mode="markdown",
 )
 console = Console()
 err_console = Console(stderr=True)
+
+
+def _version(value: bool) -> None:
+    if value:
+        from odorloc import __version__
+
+        console.print(f"odorloc {__version__}", highlight=False)
+        raise typer.Exit()
+
+
+@app.callback()
+def _main(
+    version: Annotated[
+        bool,
+        typer.Option(
+            "--version", callback=_version, is_eager=True, help="Print the version and exit."
+        ),
+    ] = False,
+) -> None:
+    """odorloc: simulate odor plumes and robots, run and compare odor source localization.
+
+    Documentation: the `docs/` folder of the source (a MkDocs site: `mkdocs serve`).
+    """
 
 
 def _fail(msg: str) -> None:
@@ -266,8 +291,8 @@ def run(
     world_key: Annotated[
         str | None,
         typer.Option(
-            help="Key of the episode's seeds (default: the scenario argument as given); the "
-            "summary and scenario.yaml name it, to repeat the episode from the saved file."
+            help="Key of the episode's seeds (default: the scenario's name, whichever way its "
+            "file is given)."
         ),
     ] = None,
     from_batch: Annotated[
@@ -284,10 +309,11 @@ def run(
 ) -> None:
     """Run one episode, print a summary and write the figures and the animation.
 
-    Episode I of root seed R is exactly episode I of ``odorloc batch`` with ``--seed R`` and the
-    same scenario (given the same way, name or file path: the text is the seeds' world key).
+    Episode I of root seed R is exactly episode I of `odorloc batch --seed R` with the same
+    scenario. The seeds derive from the scenario's own name, so a built-in name and any path
+    to a file holding that scenario (`odorloc scenarios NAME > x.yaml`) give the same episode.
     Any stored episode of a sweep or a reproduction, whatever its overrides, is re-run with
-    ``--from-batch OUT --cell ID --episode I``.
+    `--from-batch OUT --cell ID --episode I`.
     """
     from odorloc.experiments.sweep import MAX_EPISODES
 
@@ -343,10 +369,11 @@ def run(
                 raise ConfigError("--searcher", "is empty")
             if world_key is not None and not world_key.strip():
                 raise ConfigError("--world-key", "is empty")
-            key = world_key if world_key is not None else ref
             sc = _load_or_name_kind(
                 load_scenario, ref, "scenario", "scenario", "run it with odorloc batch"
             )
+            # the scenario's own name, however its file was typed (the seeds of a batch too)
+            key = world_key if world_key is not None else sc.name
             if searcher:
                 from odorloc.core import registry
                 from odorloc.experiments.runner import cell_scenario
@@ -448,10 +475,11 @@ def run(
                 "# repeats this episode (the cell of a stored batch; below, its scenario)\n"
             )
         else:
+            keyed = "" if key == sc.name else f" --world-key {shlex.quote(key)}"
             again = (
                 f"# odorloc run {shlex.quote(str(out / 'scenario.yaml'))} --seed {sc.seed} "
-                f"--episode {episode} --world-key {shlex.quote(key)}\n"
-                "# repeats this episode (the seeds derive from the world key)\n"
+                f"--episode {episode}{keyed}\n"
+                "# repeats this episode (the seeds derive from the scenario's name)\n"
             )
         (out / "scenario.yaml").write_text(again + sc.to_yaml())
         written.append(out / "scenario.yaml")
@@ -476,24 +504,55 @@ def run(
 
 @app.command()
 def scenarios(
-    show: Annotated[str | None, typer.Argument(help="Print this scenario's YAML.")] = None,
+    show: Annotated[
+        str | None, typer.Argument(help="Print this scenario as YAML (a name or a file).")
+    ] = None,
+    resolved: Annotated[
+        bool,
+        typer.Option(
+            help="Fill in every component's parameters, defaults included (the same scenario: "
+            "`odorloc run` of the output gives the same episode)."
+        ),
+    ] = False,
 ) -> None:
-    """List the built-in scenarios (or print one as YAML)."""
+    """List the built-in scenarios, or print one as YAML to copy and edit.
+
+    The printed file keeps the scenario's `name`, which keys its seeds: running the file gives
+    the episodes of the built-in scenario. Change the `name` for other worlds.
+    """
     from odorloc.scenarios import builtin_names, get_scenario
 
     try:
         if show:
-            sys.stdout.write(get_scenario(show).to_yaml())
+            sc = get_scenario(show)
+            if resolved:
+                from odorloc.scenarios.loading import resolve_components
+
+                sc = resolve_components(sc)
+            sys.stdout.write(sc.to_yaml())
             return
-        table = Table(title="built-in scenarios")
-        for col in ("name", "paper", "searcher", "description"):
-            table.add_column(col)
-        for n in builtin_names():
-            sc = get_scenario(n)
-            table.add_row(n, sc.paper, sc.searcher.type, sc.description)
-        console.print(table)
+        if resolved:
+            raise ConfigError("--resolved", "needs a scenario name (odorloc scenarios NAME)")
+        _list_scenarios([get_scenario(n) for n in builtin_names()])
     except OdorlocError as exc:
         _fail(str(exc))
+
+
+def _list_scenarios(items: list[Any]) -> None:
+    """Each scenario's name on a line of its own, its description, searcher and paper below,
+    wrapped to the terminal: names are never cut, whatever the width."""
+    import textwrap
+
+    width = max(min(console.width, 100), 40)
+    console.print("built-in scenarios (odorloc scenarios NAME prints one)\n", highlight=False)
+    for sc in items:
+        console.print(f"[bold]{escape(sc.name)}[/]", highlight=False, soft_wrap=True)
+        about = f"{sc.description} (searcher {sc.searcher.type}" + (
+            f"; paper {sc.paper})" if sc.paper else ")"
+        )
+        for line in textwrap.wrap(about, width=width - 4, break_on_hyphens=False):
+            console.print(f"    {escape(line)}", highlight=False, soft_wrap=True)
+        console.print()
 
 
 @app.command()
@@ -529,9 +588,9 @@ def batch(
     """Run (or resume) a Monte Carlo set; every finished episode is stored at once.
 
     Re-running the same command resumes: finished episodes are skipped. Writes
-    ``results.sqlite``, ``results.csv`` and ``results.parquet`` into ``--out``. Episodes that
-    fail are stored as error rows, their tracebacks written to ``errors.log``, one summary line
-    goes to stderr and the exit status is 1 (2: invalid input, nothing run).
+    `results.sqlite`, `results.csv` and `results.parquet` into `--out`. Episodes that fail are
+    stored as error rows, their tracebacks written to `errors.log`, one summary line goes to
+    stderr and the exit status is 1 (2: invalid input, nothing run).
     """
     from odorloc.experiments.store import ResultStore
     from odorloc.experiments.sweep import MAX_EPISODES, load_sweep, run_sweep
@@ -677,8 +736,9 @@ def reproduce(
     """Reproduce a paper's headline comparison: table beside the paper's numbers, figures, report.
 
     Results are stored as they finish; running the same command again resumes. Episodes that
-    fail are stored as error rows (tracebacks in ``errors.log``): one summary line goes to
-    stderr and the exit status is 1, after the tables, figures and report of the rest.
+    fail are stored as error rows (tracebacks in `errors.log`): one summary line goes to stderr
+    and the exit status is 1, after the tables, figures and report of the rest. `--list` names
+    each reproduction with its paper's full reference.
     """
     from odorloc.experiments import reproduction as rp
 
@@ -693,16 +753,22 @@ def reproduce(
                 _fail(str(exc))
                 return
             shown = [paper]
-        for n in shown:
+        width = max(min(console.width, 100) - 4, 40)
+        for k, n in enumerate(shown):
             r = rp.get(n)
-            console.print(f"[bold]{n}[/]  ({r.paper})")
+            if k:
+                console.print()
+            console.print(f"[bold]{escape(n)}[/]", highlight=False)
             text = (
                 f"{r.summary}. Default {r.default_episodes} episode(s) per cell; the paper's "
                 f"count: --episodes {r.paper_episodes}"
                 + (f" ({r.paper_episodes_note})" if r.paper_episodes_note else "")
+                + "."
             )
-            for line in textwrap.wrap(text, width=max(console.width - 4, 40)):
-                console.print(f"    {line}", highlight=False)
+            cited = [f"Paper: {c}" for c in r.citations] or [r.reference_text()]
+            for para in (text, *cited):
+                for line in textwrap.wrap(para, width=width, break_on_hyphens=False):
+                    console.print(f"    {escape(line)}", highlight=False)
         return
     try:
         from odorloc.experiments.sweep import MAX_EPISODES
@@ -760,7 +826,10 @@ def _xy(p: Any) -> str:
 @app.command("replay-log")
 def replay_log(
     bag: Annotated[Path, typer.Argument(help="ROS 1 (.bag) or ROS 2 (folder) bag.")],
-    topics: Annotated[Path, typer.Option(help="YAML mapping topics and fields (see docs).")],
+    topics: Annotated[
+        Path,
+        typer.Option(help="YAML mapping topics and fields (docs/how-to/ros-bags.md)."),
+    ],
     estimator: Annotated[
         str,
         typer.Option(
@@ -774,13 +843,14 @@ def replay_log(
     """Replay an estimator offline over a recorded robot log; print, draw and store its
     estimate.
 
-    Needs the ``ros`` extra (``pip install odorloc\\[ros]``). The search area is the topics
-    file's ``arena``; without one it is the driven path's extent plus ``margin`` (1 m by
-    default) on every side, and an estimate on that area's edge is warned about (the source
-    may lie beyond it). The estimate is the estimator's own sources where it has them (the
-    mapped sources of ds-mapping), else its belief's mean; with ``sources`` in the topics file
-    it is scored against them. Writes ``belief.png`` and ``recording.npz`` (the estimate in
-    its metadata) into ``--out``.
+    Needs the `ros` extra (`pip install odorloc[ros]`). The search area is the topics file's
+    `arena`; without one it is the driven path's extent plus `margin` (1 m by default) on
+    every side, and an estimate on that area's edge is warned about (the source may lie beyond
+    it). The estimate is the estimator's own sources where it has them (the mapped sources of
+    ds-mapping), else its belief's mean; with `sources` in the topics file it is scored
+    against them. Writes `belief.png` and `recording.npz` (the estimate in its metadata) into
+    `--out`. The topics file is described in the documentation's how-to guide "Replay a ROS
+    bag" (`docs/how-to/ros-bags.md`).
     """
     try:
         check_seed(seed, "--seed")
@@ -870,21 +940,56 @@ def replay_log(
 
 
 @app.command()
-def components() -> None:
-    """List every registered component (wind, plume, sensors, platforms, searchers)."""
-    from odorloc.core import registry
+def components(
+    name: Annotated[
+        str | None,
+        typer.Argument(help="Describe this component: its parameters with type, default, unit."),
+    ] = None,
+    family: Annotated[
+        str | None,
+        typer.Option(help="The family, where a name serves several (e.g. plume or model)."),
+    ] = None,
+) -> None:
+    """List every registered component, or describe one with all its parameters.
+
+    A component is named in a scenario as `{type: NAME, parameter: value, ...}`; the listing
+    gives each family's members with a one-line summary.
+    """
+    import textwrap
+
+    from odorloc.core import describe, registry
     from odorloc.experiments.reproduction import discover
 
-    discover()  # the papers' reproductions are listed too
-
-    table = Table(title="components")
-    table.add_column("family")
-    table.add_column("name")
-    table.add_column("summary")
-    for fam in registry.families():
-        for e in registry.entries(fam):
-            table.add_row(fam, e.name, e.summary)
-    console.print(table)
+    discover()  # the papers' reproductions are listed and described too
+    width = max(min(console.width, 100), 40)
+    try:
+        if name is None:
+            if family is not None and family not in registry.families():
+                known = ", ".join(registry.families())
+                raise ConfigError("--family", f"unknown family {family!r} (known: {known})")
+            for fam in [family] if family else registry.families():
+                console.print(f"[bold]{escape(fam)}[/]", highlight=False)
+                entries = registry.entries(fam)
+                pad = max(len(e.name) for e in entries) + 2
+                for e in entries:
+                    text = describe.plain(e.summary)
+                    lines = textwrap.wrap(text, width=max(width - pad - 2, 20)) or [""]
+                    console.print(f"  {e.name:<{pad}}{escape(lines[0])}", highlight=False)
+                    for more in lines[1:]:
+                        console.print(f"  {'':<{pad}}{escape(more)}", highlight=False)
+                console.print()
+            console.print(
+                "odorloc components NAME describes one, with its parameters.", highlight=False
+            )
+            return
+        hits = [(family, name)] if family is not None else describe.find(name)
+        for k, (fam, n) in enumerate(hits):
+            if k:
+                console.print()
+            text = describe.render_text(describe.describe(fam, n), width=width)
+            console.print(escape(text), highlight=False, end="", soft_wrap=True)
+    except OdorlocError as exc:
+        _fail(str(exc))
 
 
 def main() -> None:

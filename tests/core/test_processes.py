@@ -64,7 +64,10 @@ def _slow_sweep(tmp_path: Path) -> Path:
         "name": "kill-me",
         "seed": 3,
         "episodes": 40,
-        "scenarios": [{"name": "indoor-ventilated", "params": {"limits.time": 300.0}}],
+        # zigzag never declares: the episodes end at the limits
+        "scenarios": [
+            {"name": "indoor-ventilated", "params": {"limits.time": 300.0, "task.end": "limits"}}
+        ],
         "searchers": [{"name": "zigzag"}],
     }
     f = tmp_path / "sweep.yaml"

@@ -299,35 +299,23 @@ def test_run_episode_i_is_batch_episode_i(tmp_path) -> None:
         "name": "same",
         "seed": 17,
         "episodes": 3,
-        "scenarios": [{"name": "indoor-ventilated", "params": {"limits.time": 20.0}}],
+        # zigzag never declares: the room's episodes end at the limits
+        "scenarios": [
+            {"name": "indoor-ventilated", "params": {"limits.time": 20.0, "task.end": "limits"}}
+        ],
         "searchers": [{"name": "zigzag"}],
     }
     df = run_sweep(spec, tmp_path / "s.sqlite", workers=1, progress=False)
     row = df[df.episode == 2].iloc[0]
     out = tmp_path / "run"
-    sc_file = tmp_path / "short.yaml"
+    sc_file = tmp_path / "room.yaml"  # keeps the name indoor-ventilated, hence its seeds
     from odorloc.scenarios import get_scenario
 
-    get_scenario("indoor-ventilated").with_overrides({"limits.time": 20.0}).to_yaml(sc_file)
-    # the scenario cut at 20 s, its seeds derived from the built-in's name (--world-key)
-    r = CliRunner().invoke(
-        app,
-        [
-            "run",
-            str(sc_file),
-            "--world-key",
-            "indoor-ventilated",
-            "--seed",
-            "17",
-            "--episode",
-            "2",
-            "--searcher",
-            "zigzag",
-            "--out",
-            str(out),
-            "--no-animation",
-        ],
-    )
+    get_scenario("indoor-ventilated").with_overrides(
+        {"limits.time": 20.0, "task.end": "limits", "searcher": {"type": "zigzag"}}
+    ).to_yaml(sc_file)
+    args = ["run", str(sc_file), "--seed", "17", "--episode", "2", "--no-animation"]
+    r = CliRunner().invoke(app, [*args, "--out", str(out)])
     assert r.exit_code == 0, r.output
     rec = Recording.load(out / "recording.npz")
     assert rec.meta["path_length"] == row.path_length

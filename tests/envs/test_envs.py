@@ -127,22 +127,14 @@ def test_seed_reaches_episode_i_and_matches_odorloc_run(tmp_path) -> None:
         done = term or trunc
         steps += 1
     out = tmp_path / "run"
-    r = CliRunner().invoke(
-        app,
-        [
-            "run",
-            "indoor-ventilated",
-            "--searcher",
-            "zigzag",
-            "--seed",
-            "5",
-            "--episode",
-            "2",
-            "--out",
-            str(out),
-            "--no-animation",
-        ],
-    )
+    # the room with zigzag, which never declares, ending at the limits; the file keeps the
+    # scenario's name, hence its seeds
+    room = tmp_path / "room.yaml"
+    get_scenario("indoor-ventilated").with_overrides(
+        {"task.end": "limits", "searcher": {"type": "zigzag"}}
+    ).to_yaml(room)
+    args = ["run", str(room), "--seed", "5", "--episode", "2", "--no-animation"]
+    r = CliRunner().invoke(app, [*args, "--out", str(out)])
     assert r.exit_code == 0, r.output
     rec = Recording.load(out / "recording.npz")
     ref = rec.positions[: len(positions), 0, :]
@@ -367,7 +359,7 @@ def test_policy_searcher_runs_what_the_env_runs() -> None:
 def test_policy_searcher_in_a_sweep_with_common_random_numbers(tmp_path) -> None:
     from odorloc.experiments.sweep import run_sweep
 
-    sc = small(time=15.0)
+    sc = small(time=15.0, **{"task.end": "limits"})  # zigzag never declares
     f = tmp_path / "s.yaml"
     sc.to_yaml(f)
     spec = {

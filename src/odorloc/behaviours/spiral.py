@@ -25,14 +25,37 @@ __all__ = ["Spiral", "SpiralLegParams", "SpiralParams", "proximity_index"]
 
 
 class SpiralLegParams(Params):
-    """The spiral's legs: the first leg's step and its growth every second leg (metres)."""
+    """The spiral's legs.
+
+    Attributes
+    ----------
+    initial_step : float, metres
+        Length of the first legs of a spiral.
+    step_increment : float, metres
+        Growth of the leg length every second leg.
+    """
 
     initial_step: Positive = 0.6
     step_increment: NonNegative = 0.3
 
 
 class SpiralParams(SpiralLegParams):
-    """Settings of the spiral search with a proximity index (see the module docstring)."""
+    """Settings of the spiral search with a proximity index (see the module docstring).
+
+    Attributes
+    ----------
+    measure_periods : int
+        Control periods of standing still to measure after every leg.
+    kmu : float
+        Weight of the window's mean reading in the proximity index.
+    kp : float, 1/s
+        Weight of the window's local maxima (times the control period) in the proximity index.
+    patience : int
+        Measurement windows in a row without a better index before the best one decays.
+    decay : float
+        Factor applied to the best proximity index after ``patience`` windows without a better
+        one.
+    """
 
     measure_periods: int = Field(2, ge=1, le=10_000)
     kmu: NonNegative = 0.5

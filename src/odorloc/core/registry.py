@@ -27,12 +27,14 @@ import importlib.metadata
 import importlib.util
 import pkgutil
 import re
+import typing
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from typing import Annotated, Any
 
 import pydantic
 from pydantic import AfterValidator, BaseModel, ConfigDict
+from pydantic.fields import FieldInfo
 from pydantic_core import PydanticCustomError
 
 from odorloc.core.errors import ConfigError, format_validation_error
@@ -44,6 +46,7 @@ __all__ = [
     "ComponentRef",
     "Entry",
     "Ref",
+    "RefFamily",
     "entries",
     "entry",
     "families",
@@ -52,6 +55,7 @@ __all__ = [
     "load_all",
     "make_params",
     "names",
+    "ref_family",
     "register",
 ]
 
@@ -331,6 +335,34 @@ def _ref_checker(family: str) -> Any:
     return check
 
 
+@dataclass(frozen=True)
+class RefFamily:
+    """Marks a ``Ref(family)`` field with the registry family of its component (read by
+    :func:`ref_family`, e.g. to document and resolve nested components)."""
+
+    family: str
+
+
 def Ref(family: str) -> Any:
     """Annotated :class:`ComponentRef` type validated against ``family`` (see the class)."""
-    return Annotated[ComponentRef, AfterValidator(_ref_checker(family))]
+    return Annotated[ComponentRef, RefFamily(family), AfterValidator(_ref_checker(family))]
+
+
+def ref_family(field: FieldInfo) -> str | None:
+    """The family of a ``Ref(family)`` parameter field (also of ``Ref(family) | None`` and
+    lists of them), else ``None``."""
+
+    def find(metadata: Any, annotation: Any) -> str | None:
+        for meta in metadata:
+            if isinstance(meta, RefFamily):
+                return meta.family
+        if typing.get_origin(annotation) is Annotated:
+            inner, *more = typing.get_args(annotation)
+            return find(more, inner)
+        for arg in typing.get_args(annotation):
+            fam = find((), arg)
+            if fam is not None:
+                return fam
+        return None
+
+    return find(field.metadata, field.annotation)

@@ -4,9 +4,10 @@ mapping, the policy encoding, the reward and the rendering.
 Seeds: ``reset(seed=R)`` starts episode 0 of root seed ``R``; each later ``reset()`` without a
 seed starts the next episode of the same root; ``options={"episode": i}`` jumps to episode
 ``i``. Episode ``i`` of root ``R`` has the world and agent seeds
-:func:`~odorloc.core.seeds.episode_seeds` ``(R, world_key, i)``, with the scenario's name (or
-the name it was given by) as the world key, so it is exactly episode ``i`` of
-``odorloc batch -s SCENARIO --seed R`` and ``odorloc run SCENARIO --seed R --episode I``.
+:func:`~odorloc.core.seeds.episode_seeds` ``(R, world_key, i)``, with the scenario's own name
+as the world key (the built-in name or a file's ``name`` field, never the path as typed), so it
+is exactly episode ``i`` of ``odorloc batch -s SCENARIO --seed R`` and
+``odorloc run SCENARIO --seed R --episode I``.
 """
 
 from __future__ import annotations
@@ -70,10 +71,10 @@ def validated(model: type[Params], value: Any, field: str) -> Any:
 
 
 def load_scenario(scenario: str | Path | Scenario) -> tuple[Scenario, str]:
-    """``(scenario, world key)``: a built-in name, a file or a :class:`Scenario` object."""
-    if isinstance(scenario, Scenario):
-        return scenario, scenario.name
-    return get_scenario(scenario), str(scenario)
+    """``(scenario, world key)``: a built-in name, a file or a :class:`Scenario` object; the
+    key is the scenario's own name, never the path a file was given by."""
+    sc = scenario if isinstance(scenario, Scenario) else get_scenario(scenario)
+    return sc, sc.name
 
 
 class EnvCore:
@@ -87,7 +88,7 @@ class EnvCore:
     record : bool
         Keep the episode's recording (``episode.result().recording`` after the end).
     world_key : str, optional
-        The world key of the seed derivation (default: the scenario's name as given).
+        The world key of the seed derivation (default: the scenario's own name).
     """
 
     def __init__(

@@ -53,7 +53,7 @@ class SearchEnv(gym.Env):
     record : bool
         Keep the episode's recording (``env.unwrapped.episode.result().recording``).
     world_key : str, optional
-        World key of the seed derivation (default: the scenario name as given).
+        World key of the seed derivation (default: the scenario's own name).
     """
 
     metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array"], "render_fps": 10}

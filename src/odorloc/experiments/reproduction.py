@@ -40,6 +40,7 @@ from odorloc.core.params import Params
 
 __all__ = [
     "CONSOLE_WIDTH",
+    "Citation",
     "Figure",
     "Reproduction",
     "ReproductionParams",
@@ -55,6 +56,43 @@ __all__ = [
 
 class ReproductionParams(Params):
     """Reproductions take their options at :meth:`Reproduction.run`, not as parameters."""
+
+
+@dataclass(frozen=True)
+class Citation:
+    """A published paper as a reproduction cites it.
+
+    Attributes
+    ----------
+    authors : str
+        The authors as the paper lists them (``"Ye, X.; Guo, B.; ..."``).
+    title : str
+    venue : str
+        Journal or proceedings with volume, issue and pages where known (``""``: unknown).
+    year : int or None
+    doi : str
+        The DOI without its resolver (``"10.3390/..."``), ``""`` when none is known.
+    note : str
+        What our copy of the paper does not say (e.g. that its title page is missing).
+    """
+
+    authors: str
+    title: str
+    venue: str = ""
+    year: int | None = None
+    doi: str = ""
+    note: str = ""
+
+    def __str__(self) -> str:
+        parts = [self.authors or "", f"({self.year})" if self.year else "", f'"{self.title}".']
+        text = " ".join(p for p in parts if p)
+        if self.venue:
+            text += f" {self.venue}."
+        if self.doi:
+            text += f" https://doi.org/{self.doi}"
+        if self.note:
+            text += f" [{self.note}]"
+        return text
 
 
 @dataclass
@@ -117,6 +155,8 @@ class Reproduction:
     ----------------
     name, paper, summary : str
         Registry name, the paper's file in ``shared/papers``, a one-line description.
+    citations : tuple of Citation
+        The full reference of each paper reproduced (``--list``, the report).
     default_episodes : int
         Episodes per cell of the default run (fits the issue's time budget on 2 cores).
     paper_episodes : int
@@ -139,6 +179,7 @@ class Reproduction:
     name: ClassVar[str] = ""
     paper: ClassVar[str] = ""
     summary: ClassVar[str] = ""
+    citations: ClassVar[tuple[Citation, ...]] = ()
     default_episodes: ClassVar[int] = 10
     paper_episodes: ClassVar[int] = 10
     paper_episodes_note: ClassVar[str] = ""
@@ -184,6 +225,13 @@ class Reproduction:
     def figures(self, df: Any, store: Any, out: Path, seed: int) -> list[Figure]:
         """The paper's figures (drawn one by one by :meth:`run`)."""
         return []
+
+    def reference_text(self) -> str:
+        """``Paper: <full reference>.`` (each cited paper), or the paper's file name."""
+        if not self.citations:
+            return f"Paper: {self.paper}."
+        refs = "; ".join(str(c) for c in self.citations)
+        return f"Paper{'s' if len(self.citations) > 1 else ''}: {refs}"
 
     def reference(self) -> dict[str, dict[str, Any]]:
         """The paper's numbers per cell id or searcher label, for the report."""
@@ -357,7 +405,7 @@ class Reproduction:
             sections.append(
                 ReportSection(
                     title=f"Reproduction: {self.summary}",
-                    text=f"Paper: {self.paper}. {len(df)} episodes, root seed {seed}.",
+                    text=f"{self.reference_text()} {len(df)} episodes, root seed {seed}.",
                     tables=[(t.title, t.headers, t.rows) for t in tables],
                     figures=figs,
                 )

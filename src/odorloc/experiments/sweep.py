@@ -28,8 +28,10 @@ Common random numbers
 ---------------------
 Every episode gets two seeds derived from the root :class:`numpy.random.SeedSequence`: the
 ``world_seed`` depends only on (root seed, world key, episode index) where the world key is the
-scenario name and its overrides, and the ``agent_seed`` on (root seed, world key, episode index)
-through a separate stream. Neither depends on the searcher, so episode ``i`` of every searcher in a
+scenario's name (the entry's ``label`` if it has one, else the scenario's own ``name`` field,
+never the path a file was given by: :func:`~odorloc.experiments.sweep_check.world_name`) and its
+swept overrides, and the ``agent_seed`` on (root seed, world key, episode index) through a
+separate stream. Neither depends on the searcher, so episode ``i`` of every searcher in a
 scenario faces the same world realisation (wind, plume, start pose) and differences between
 searchers can be paired episode by episode. Because the seeds travel inside the task, results do not
 depend on the backend, the number of workers or the order of execution.
@@ -485,13 +487,15 @@ def iter_cells(spec: SweepSpec) -> Iterator[Cell]:
     searchers, their grid. Scenario file paths are made absolute (relative to the sweep file's
     folder), so an episode opens the same file whatever the current folder of the process
     running it."""
+    from odorloc.experiments.sweep_check import world_name
     from odorloc.scenarios.loading import resolve_ref
 
     index = 0
     for i, sc in enumerate(spec.scenarios):
         ref = resolve_ref(sc.name, spec.base_dir)
+        seed_name = world_name(sc, spec.base_dir)
         for gp in _grid_points(sc.grid):
-            flow_key = f"{sc.display}{_fmt_point(gp)}"
+            flow_key = f"{seed_name}{_fmt_point(gp)}"
             for ap in _grid_points(sc.agent_grid):
                 sp = {**gp, **ap}
                 world_key = f"{sc.display}{_fmt_point(sp)}"

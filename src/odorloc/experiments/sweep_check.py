@@ -20,9 +20,9 @@ import re
 from collections.abc import Iterable, Sequence
 from typing import Any, Protocol
 
-from odorloc.core.errors import ConfigError
+from odorloc.core.errors import ConfigError, OdorlocError
 
-__all__ = ["check_names", "check_sweep", "locate"]
+__all__ = ["check_names", "check_sweep", "locate", "world_name"]
 
 
 # What this pass reads of :class:`odorloc.experiments.sweep.SweepSpec` and ``Cell``: the sweep
@@ -134,6 +134,7 @@ def check_names(spec: SweepSpec) -> None:
             # drawn sources keep a distance from the starts: the placements would not share
             # one world
             raise ConfigError(f"scenarios[{i}].agent_grid", "cannot be used with world.source_draw")
+    _distinct_world_names(spec)
     known = registry.names("searcher")
     for j, se in enumerate(spec.searchers):
         if ":" in se.name:
@@ -143,6 +144,40 @@ def check_names(spec: SweepSpec) -> None:
                 f"searchers[{j}].name",
                 f"unknown searcher {se.name!r} (known: {', '.join(known)})",
             )
+
+
+def world_name(entry: Any, base_dir: str | None = None) -> str:
+    """The name a sweep's scenario entry keys its seeds by: its ``label`` if it has one, else
+    the scenario's own ``name`` (a built-in name, or the ``name`` field of a file), never the
+    path as typed, so ``iv.yaml``, ``./iv.yaml`` and ``/abs/iv.yaml`` give the same episodes
+    (and those of the built-in scenario the file was printed from).
+
+    ``entry`` is a sweep's scenario entry (``name``, ``label``). A scenario that cannot be
+    loaded keys by the entry's ``name``; :func:`check_names` refuses it before any episode runs.
+    """
+    from odorloc.scenarios.loading import scenario_name
+
+    if entry.label:
+        return str(entry.label)
+    try:
+        return scenario_name(entry.name, base_dir)
+    except OdorlocError:
+        return str(entry.name)
+
+
+def _distinct_world_names(spec: SweepSpec) -> None:
+    """Two scenario entries must not key their seeds (and recorded flows) by the same name:
+    two files holding the same ``name``, or a file and the built-in scenario it names."""
+    seen: dict[str, int] = {}
+    for i, sc in enumerate(spec.scenarios):
+        key = world_name(sc, spec.base_dir)
+        if key in seen:
+            raise ConfigError(
+                f"scenarios[{i}].label",
+                f"{sc.name!r} is the scenario {key!r}, as scenarios[{seen[key]}] is: both "
+                "would share their seeds and flows; give one a distinct 'label'",
+            )
+        seen[key] = i
 
 
 def check_sweep(spec: SweepSpec, cells: Iterable[Cell]) -> int:

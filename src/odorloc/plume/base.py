@@ -129,6 +129,13 @@ class PlumeModel(TimeStepped, ABC):
         """
         return None
 
+    @staticmethod
+    def frame_concentration(frame: dict[str, np.ndarray], points: np.ndarray) -> np.ndarray:
+        """Concentration at ``(Q, d)`` points from a :meth:`frame`, ``(Q,)``: how a recorded
+        movie replays this plume. Plumes that can be replayed override it (their frames name
+        the plume's registry name as ``"model"``); the default refuses."""
+        raise ConfigError("movie", f"frames of plume {frame.get('model')!s} cannot be replayed")
+
     @abstractmethod
     def frame(self) -> dict[str, np.ndarray]:
         """A copy of the state needed to reproduce :meth:`concentration` (for recording)."""

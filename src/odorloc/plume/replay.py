@@ -19,7 +19,7 @@ from pydantic import Field
 
 from odorloc.core.errors import ConfigError
 from odorloc.core.params import Params
-from odorloc.core.registry import register
+from odorloc.core.registry import entry, register
 from odorloc.geometry.arena import Arena
 from odorloc.geometry.grid import multilinear
 from odorloc.plume.base import PlumeModel
@@ -113,7 +113,14 @@ class Movie:
         frame = self.frames[k]
         fn = _frame_functions().get(str(frame["model"]))
         if fn is None:
-            raise ConfigError("movie", f"unknown plume model {frame['model']!s} in frame {k}")
+            # a plume registered elsewhere replays through its own hook
+            try:
+                cls = entry("plume", str(frame["model"]), field="movie").build
+            except ConfigError:
+                raise ConfigError(
+                    "movie", f"unknown plume model {frame['model']!s} in frame {k}"
+                ) from None
+            fn = cls.frame_concentration
         return fn(frame, points)
 
     def wind_velocity(self, k: int, points: np.ndarray) -> np.ndarray:

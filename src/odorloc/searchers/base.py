@@ -44,12 +44,19 @@ class Searcher(ABC):
         team scenario runs inside a ``per-agent`` team.
     min_agents : int
         Fewest agents one instance needs (a formation that must surround a point needs three).
+    declares : bool
+        Whether the searcher declares source positions (with its default parameters). A
+        searcher that never declares (the reactive rules, coverage patterns, the infotaxis
+        family) suits only tasks that end on reaching a source (``task.end: reach``) or at the
+        limits: a scenario that ends on a declaration refuses it when it loads. Searchers whose
+        parameters decide it override :meth:`may_declare`.
     """
 
     params: Params
     dims: ClassVar[tuple[int, ...]] = (2, 3)
     max_agents: ClassVar[int | None] = None
     min_agents: ClassVar[int] = 1
+    declares: ClassVar[bool] = True
 
     def __init__(self, params: Params | None = None) -> None:
         self.params = params if params is not None else Params()
@@ -57,6 +64,14 @@ class Searcher(ABC):
     def reset(self, ctx: SearchContext, rng: np.random.Generator) -> None:
         """Prepare for a new episode (subclasses call this first)."""
         self.ctx = ctx
+
+    def may_declare(self) -> bool:
+        """Whether this searcher, with its parameters, can ever declare a source position.
+
+        Default: the class attribute :attr:`declares`. Searchers whose parameters switch
+        declarations on or off, and teams (from their members), override it.
+        """
+        return type(self).declares
 
     @abstractmethod
     def act(self, observations: Sequence[Observation], rng: np.random.Generator) -> Action:

@@ -78,8 +78,34 @@ def fit_gradient(
 class GradientBionicParams(Params):
     """Parameters of :class:`GradientBionicSearcher` (see the module docstring).
 
-    ``surge_steps`` are the steps of upwind surge after the signal is lost and ``cast`` the
-    casting legs that follow (:class:`~odorloc.behaviours.surge_cast.CastParams`).
+    Attributes
+    ----------
+    fit_readings : int
+        Recent (position, reading) pairs in the least-squares plane fit of the gradient.
+    min_spread : float, metres
+        Least spread of those positions along both principal axes for the fit to count.
+    min_gradient : float, reading units per metre
+        Least gradient magnitude to follow; below it the robot steps upwind.
+    upwind_bias : float
+        Weight ``b`` of the upwind unit vector added to the gradient direction.
+    lost_after : int
+        Steps without a detection after which the signal counts as lost (surge, then cast).
+    surge_steps : int
+        Upwind steps of a surge before casting starts.
+    cast : CastParams
+        The casting legs that follow the surge (:class:`~odorloc.behaviours.surge_cast.CastParams`).
+    step_length : float, metres, optional
+        Length of one move (default: one control period at the platform's speed limit).
+    declare_radius : float, metres
+        The last ``declare_steps`` positions must lie within this distance of their mean.
+    declare_steps : int
+        Steps of the window that confirms a peak.
+    declare_fraction : float
+        Least share of those steps with a detection.
+    declare_gradient : float, reading units per metre
+        The last fitted gradient must be weaker than this (default: no limit).
+    declare_peak_fraction : float
+        The window's mean reading must reach this share of the best reading so far.
     """
 
     fit_readings: int = Field(6, ge=3, le=10_000)

@@ -53,6 +53,7 @@ class PlanningSearcher(Searcher):
     when nothing is feasible). Single agent; never declares."""
 
     max_agents = 1
+    declares = False
 
     def __init__(self, params: Params | None = None) -> None:
         super().__init__(params)

@@ -115,6 +115,10 @@ class PolicySearcher(Searcher):
                 raise ConfigError("args", f"{p.callable}(**args) did not return a callable")
         self.policy: Callable[..., Any] = fn
 
+    def may_declare(self) -> bool:
+        """Unless the action space has no declaration (``action.declare: none``)."""
+        return self.params.action.declare != "none"
+
     def reset(self, ctx: SearchContext, rng: np.random.Generator) -> None:
         super().reset(ctx, rng)
         p = self.params

@@ -98,6 +98,7 @@ class ReactiveSearcher(Searcher):
 
     params: ReactiveParams
     max_agents = 1
+    declares = False
 
     def reset(self, ctx: SearchContext, rng: np.random.Generator) -> None:
         """Start casting with empty memories."""
@@ -143,7 +144,13 @@ class ReactiveSearcher(Searcher):
 
 # ---------------------------------------------------------------------- surge-cast
 class SurgeCastSearchParams(ReactiveParams):
-    """:class:`ReactiveParams` and ``surge_steps``: periods of upwind surge per detection."""
+    """:class:`ReactiveParams` and one more.
+
+    Attributes
+    ----------
+    surge_steps : int
+        Periods of upwind surge per detection.
+    """
 
     surge_steps: int = Field(4, ge=1, le=1_000_000)
 
@@ -256,7 +263,13 @@ class SurgeSpiralSearcher(ReactiveSearcher):
 
 # ---------------------------------------------------------------------- taxis rules
 class ChemotaxisParams(ReactiveParams):
-    """:class:`ReactiveParams` and ``memory``: recent samples the rule compares."""
+    """:class:`ReactiveParams` and one more.
+
+    Attributes
+    ----------
+    memory : int
+        Recent samples (positions, readings, winds) the rule compares.
+    """
 
     memory: int = Field(6, ge=2, le=10_000)
 
@@ -308,8 +321,13 @@ class ChemotaxisSearcher(_TaxisSearcher):
 
 
 class AnemotaxisParams(ReactiveParams):
-    """:class:`ReactiveParams` and ``memory``: recent readings that must all exceed the
-    threshold (and winds averaged)."""
+    """:class:`ReactiveParams` and one more.
+
+    Attributes
+    ----------
+    memory : int
+        Recent readings that must all exceed the threshold (their winds are averaged).
+    """
 
     memory: int = Field(2, ge=1, le=10_000)
 

@@ -36,7 +36,15 @@ from odorloc.sensors.preprocessing import WindAverage
 
 # ---------------------------------------------------------------------- random walk
 class RandomWalkParams(Params):
-    """Correlated random walk: speed fraction of the platform limit and heading noise."""
+    """Correlated random walk: speed fraction of the platform limit and heading noise.
+
+    Attributes
+    ----------
+    speed_fraction : float
+        Share of the platform's speed limit the agents drive at.
+    turn_std_deg : float, degrees
+        Standard deviation of the Gaussian heading change per control period.
+    """
 
     speed_fraction: float = Field(1.0, gt=0, le=1)
     turn_std_deg: NonNegative = 30.0
@@ -47,6 +55,7 @@ class RandomWalkSearcher(Searcher):
     """Each agent keeps its heading plus Gaussian turns; blocked headings are redrawn."""
 
     params: RandomWalkParams
+    declares = False
 
     def reset(self, ctx: SearchContext, rng: np.random.Generator) -> None:
         super().reset(ctx, rng)
@@ -99,6 +108,7 @@ class ZigzagSearcher(Searcher):
     """
 
     params: ZigzagParams
+    declares = False
 
     def reset(self, ctx: SearchContext, rng: np.random.Generator) -> None:
         super().reset(ctx, rng)
@@ -173,6 +183,11 @@ class RectangularWaveSearcher(Searcher):
     """
 
     params: RectangularWaveParams
+    declares = False
+
+    def may_declare(self) -> bool:
+        """Only with ``declare_at_max``."""
+        return self.params.declare_at_max
 
     def reset(self, ctx: SearchContext, rng: np.random.Generator) -> None:
         super().reset(ctx, rng)
@@ -223,7 +238,14 @@ class RectangularWaveSearcher(Searcher):
 
 # ---------------------------------------------------------------------- passive
 class PassiveParams(Params):
-    """Passive monitoring: hold position; optionally declare the own position on detection."""
+    """Passive monitoring: hold position; optionally declare the own position on detection.
+
+    Attributes
+    ----------
+    declare_on_detection : bool
+        Declare the agent's own position at its first detection (it never declares
+        otherwise).
+    """
 
     declare_on_detection: bool = False
 
@@ -233,6 +255,11 @@ class PassiveSearcher(Searcher):
     """Stays put; records when the plume first arrives (at any of its agents)."""
 
     params: PassiveParams
+    declares = False
+
+    def may_declare(self) -> bool:
+        """Only with ``declare_on_detection``."""
+        return self.params.declare_on_detection
 
     def reset(self, ctx: SearchContext, rng: np.random.Generator) -> None:
         super().reset(ctx, rng)

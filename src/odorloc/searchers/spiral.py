@@ -27,8 +27,13 @@ __all__ = ["SpiralSearchParams", "SpiralSearcher"]
 
 
 class SpiralSearchParams(SpiralParams):
-    """The spiral's settings (:class:`~odorloc.behaviours.spiral.SpiralParams`) and
-    ``max_skips``: blocked legs skipped before the spiral restarts."""
+    """The spiral's settings (:class:`~odorloc.behaviours.spiral.SpiralParams`) and one more.
+
+    Attributes
+    ----------
+    max_skips : int
+        Blocked legs skipped in a row before the spiral restarts.
+    """
 
     max_skips: int = Field(3, ge=0, le=10_000)
 
@@ -38,6 +43,7 @@ class SpiralSearcher(Searcher):
     """Square-spiral search with a proximity index, one spiral per agent."""
 
     params: SpiralSearchParams
+    declares = False
 
     def reset(self, ctx: SearchContext, rng: np.random.Generator) -> None:
         super().reset(ctx, rng)

@@ -27,7 +27,22 @@ from odorloc.sensors.preprocessing import WindAverage
 
 class SurgeCastPFParams(Params):
     """``surge_steps``, ``cast`` and ``wind_average`` of the motion; the ``model`` and the
-    ``estimator`` whose converged estimate is declared."""
+    ``estimator`` whose converged estimate is declared.
+
+    Attributes
+    ----------
+    surge_steps : int
+        Control periods of upwind surge after every detection.
+    cast : CastParams
+        The casting legs when the odor is lost (:class:`~odorloc.behaviours.surge_cast.CastParams`).
+    wind_average : int
+        Anemometer readings averaged for the upwind direction.
+    model : dict
+        The measurement model the estimator reads under, ``{type: name, **params}``.
+    estimator : dict
+        The single-agent estimator whose estimate is declared once its stopping rule holds,
+        ``{type: name, **params}`` (default the indoor PF paper's particle filter).
+    """
 
     surge_steps: int = Field(4, ge=1, le=1_000_000)
     cast: CastParams = CastParams()

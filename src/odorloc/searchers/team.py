@@ -66,6 +66,11 @@ class PerAgentTeam(Searcher):
             out.append(((a,), None if g is None else g.index))
         return out
 
+    def may_declare(self) -> bool:
+        """Whether the members can declare (they are alike: one built from the same settings
+        answers for all)."""
+        return self.params.member.build("searcher", field="searcher.member").may_declare()
+
     def reset(self, ctx: SearchContext, rng: np.random.Generator) -> None:
         super().reset(ctx, rng)
         ref = self.params.member

@@ -50,6 +50,7 @@ class FarrellWindParams(Params):
     frequency : float, Hz
         Natural frequency of the corner noise; ``frequency_factor`` multiplies it.
     frequency_factor : float
+        Multiplier of ``frequency`` (1, 2, 3: standard, twice, treble frequency).
     damping : float
         Damping ratio of the corner noise.
     diffusivity : (2,) tuple of float, m^2/s

@@ -84,7 +84,9 @@ class PotentialWindParams(Params):
     speed_std : float
         Relative standard deviation of the speed factor (dimensionless).
     direction_swing : float, degrees
-        Swing amplitude for ``rotate``; ``swing_mode`` as for the meander wind.
+        Swing amplitude for ``rotate``.
+    swing_mode : {"tanh", "clip", "gaussian"}
+        How the noise maps to the direction deviation, as for the meander wind.
     frequency, frequency_factor, damping
         Second-order noise settings (Hz, multiplier, damping ratio).
     vertical : float, m/s

@@ -27,7 +27,13 @@ from odorloc.experiments.reproduction import Figure, Reproduction, ReproductionP
 from odorloc.experiments.stats import mean_sd
 from odorloc.inference.evidence.mapper import RULES as MAP_RULES
 from odorloc.inference.evidence.mapper import DSMapParams
-from odorloc.papers.ds_multi_source.reference import PAPER, RATIOS, SCENES
+from odorloc.papers.ds_multi_source.reference import (
+    CITATION,
+    ODOR_PATH_CITATION,
+    PAPER,
+    RATIOS,
+    SCENES,
+)
 
 __all__ = ["DSReproduction", "ds_group", "map_errors", "residual_at", "time_to_residual"]
 
@@ -187,6 +193,7 @@ class DSReproduction(Reproduction):
 
     name = "ds-multi-source"
     paper = "ds-multi-source-mapping.txt"
+    citations = (CITATION, ODOR_PATH_CITATION)
     summary = "Sec. 4 and Figs. 1-2: D-S map with dynamic route vs rectangular wave, two sources"
     default_episodes = 10
     paper_episodes = 1

@@ -25,7 +25,7 @@ from odorloc.experiments.reproduction import (
     Table,
     fmt,
 )
-from odorloc.papers.indoor_pf_entropy.reference import TABLE1
+from odorloc.papers.indoor_pf_entropy.reference import CITATION, TABLE1
 from odorloc.viz.intervals import errorbar_lengths
 
 __all__ = ["PF_LITERAL", "PF_LITERAL_PARAMS", "IndoorReproduction", "table1_wall_time"]
@@ -68,6 +68,7 @@ class IndoorReproduction(Reproduction):
 
     name = "indoor-pf-entropy"
     paper = "indoor-pf-entropy.txt"
+    citations = (CITATION,)
     summary = "Table 1 and Fig. 8: PF + entropy vs gradient-bionic hybrid in the ventilated room"
     default_episodes = 50
     paper_episodes = 50

@@ -11,6 +11,8 @@ found the source; ``sem`` is its standard error, ``std`` the standard deviation.
 
 from __future__ import annotations
 
+from odorloc.experiments.reproduction import Citation
+
 #: Scenario of each reference setting.
 SETTINGS = {
     "2d-l1-i1": {"scenario": "lattice-isotropic-2d", "dim": 2, "length": 1.0, "intensity": 1.0},
@@ -135,3 +137,21 @@ CHECKS = {
         "first_move_gain": 0.3164586363,
     },
 }
+
+CITATIONS = (
+    Citation(
+        authors="Vergassola, M.; Villermaux, E.; Shraiman, B. I.",
+        title="'Infotaxis' as a strategy for searching without gradients",
+        venue="Nature 445, 406-409",
+        year=2007,
+        doi="10.1038/nature05464",
+    ),
+    Citation(
+        authors="Loisy, A.; Eloy, C.",
+        title="Searching for a source without gradients: how good is infotaxis and how to beat it",
+        venue="Proceedings of the Royal Society A 478, 20220118",
+        year=2022,
+        doi="10.1098/rspa.2022.0118",
+    ),
+)
+"""Infotaxis, and the lattice problem (with OTTO, its authors' code) our numbers are held to."""

@@ -37,6 +37,7 @@ import numpy as np
 
 from odorloc.core.registry import register
 from odorloc.experiments.reproduction import Figure, Reproduction, ReproductionParams, Table, fmt
+from odorloc.papers.infotaxis.reference import CITATIONS
 
 __all__ = [
     "FAMILIES",
@@ -201,6 +202,7 @@ class SingleAgentReproduction(Reproduction):
 
     name = "single-agent"
     paper = "infotaxis (Vergassola et al. 2007; Loisy & Eloy 2022)"
+    citations = CITATIONS
     summary = "infotaxis family vs reactive rules: filament, indoor and 3-D rate worlds"
     default_episodes = 12
     paper_episodes = 100

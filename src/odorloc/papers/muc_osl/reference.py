@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from odorloc.experiments.reproduction import Citation
+
 #: Table 1: algorithm and rate-plume parameters.
 TABLE1 = {
     "gamma1": 1.8,
@@ -50,3 +52,13 @@ FILAMENT_SUCCESS_8MIN = 0.90
 #: The time, s, at which the paper reads the filament world's success rates (8 minutes).
 FILAMENT_AT = 480.0
 FILAMENT_SUCCESS_8MIN_MANY_UAVS = 0.80
+
+CITATION = Citation(
+    authors="",
+    title="MUC-OSL: multi-UAV collaboration based odor source localization",
+    note=(
+        "our copy of the paper starts at its abstract: its title page, hence the authors, "
+        "venue, year and DOI, is missing; the title here is the method's own name"
+    ),
+)
+"""The paper reproduced."""

@@ -52,6 +52,7 @@ from odorloc.papers.muc_osl.analysis import Cells, add_uav_search_time, summariz
 from odorloc.papers.muc_osl.claims import evaluate_claims, when_text
 from odorloc.papers.muc_osl.reference import (
     ALGORITHMS,
+    CITATION,
     FILAMENT_AT,
     LARGEST_AREA_SUCCESS,
     TABLE2,
@@ -176,6 +177,7 @@ class MucOslReproduction(Reproduction):
 
     name = "muc-osl"
     paper = "muc-osl-multi-uav.txt"
+    citations = (CITATION,)
     summary = "MUC-OSL vs Col-Inf, Col-PF and Adap-PP: four sweeps, rate and filament worlds"
     default_episodes = 8
     paper_episodes = 200

@@ -6,6 +6,8 @@ only those quoted values are here. Times are seconds to locate both sources.
 
 from __future__ import annotations
 
+from odorloc.experiments.reproduction import Citation
+
 #: Start sets: virtual-robot positions of groups A and B (Sec. 3).
 START_SETS = {
     "P1": ((18.0, 4.0), (18.0, 14.0)),
@@ -49,3 +51,11 @@ def paper_success(label: str) -> str:
     if s is None:
         return "~anem." if label == "fluxotaxis" else "-"
     return f"{100 * sum(s.values()) / len(s):.0f}"
+CITATION = Citation(
+    authors="Ma, X.; Zhang, Y.; Miao, Y.",
+    title="A Virtual Physics-based Approach to Multiple Odor Sources Localization",
+    venue="TELKOMNIKA Indonesian Journal of Electrical Engineering 12(7), 5331-5341",
+    year=2014,
+    doi="10.11591/telkomnika.v12i7.5199",
+)
+"""The paper reproduced."""

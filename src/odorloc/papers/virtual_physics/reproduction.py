@@ -197,6 +197,7 @@ class VirtualPhysicsReproduction(Reproduction):
 
     name = "virtual-physics"
     paper = "virtual-physics-multi-group.txt"
+    citations = (ref.CITATION,)
     summary = (
         "Sec. 3 and Figs. 5-10: chemotaxis, anemotaxis, fluxotaxis formations, 3 frequencies x "
         "6 starts, readings and ablations, 10 more starts, the declaration's geometry"
