@@ -51,6 +51,8 @@ def paper_success(label: str) -> str:
     if s is None:
         return "~anem." if label == "fluxotaxis" else "-"
     return f"{100 * sum(s.values()) / len(s):.0f}"
+
+
 CITATION = Citation(
     authors="Ma, X.; Zhang, Y.; Miao, Y.",
     title="A Virtual Physics-based Approach to Multiple Odor Sources Localization",
