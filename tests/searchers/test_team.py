@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import copy
-
 import numpy as np
 import pytest
 
@@ -61,18 +59,58 @@ def test_per_agent_zigzag_team_runs_and_says_nothing() -> None:
     assert res.metrics["bytes"] == 0  # zigzag members say nothing
 
 
+class Drawer(Searcher):
+    """Holds still; draws one number at reset and one per step, and keeps them."""
+
+    Params = Params
+    max_agents = 1
+
+    def __init__(self, params=None) -> None:
+        super().__init__(params or Params())
+        self.draws: list[float] = []
+
+    def reset(self, ctx, rng) -> None:
+        super().reset(ctx, rng)
+        self.draws = [float(rng.random())]
+
+    def act(self, observations, rng):
+        self.draws.append(float(rng.random()))
+        return Action([Command.hold()])
+
+
 def test_members_draw_from_separate_streams() -> None:
     # one generator shared by the members (or two seeded alike) would give equal draws
-    sc = _team_scenario([[8.0, 1.0], [8.0, 4.0], [5.0, 3.0]], float("inf"), member="random-walk")
+    sc = _team_scenario([[8.0, 1.0], [8.0, 4.0], [5.0, 3.0]], float("inf"), "test_team:Drawer")
     b = build(sc)
-    team = b.searcher
-    team.reset(search_context(sc, b), np.random.default_rng(7))
-    # each random-walk member draws its agent's first heading from the stream it was reset with
-    headings = [float(m.headings[0]) for m in team.members]
-    assert len(set(headings)) == 3
-    # and acts with another one, one per member
-    draws = [tuple(copy.deepcopy(g).random(4).tolist()) for g in team._rngs]
-    assert len(set(draws)) == 3
+    run_episode(sc, 1, 7, built=b)
+    reset_draws = [m.draws[0] for m in b.searcher.members]
+    action_draws = [tuple(m.draws[1:]) for m in b.searcher.members]
+    assert len(set(reset_draws)) == 3
+    assert len(set(action_draws)) == 3 and len(action_draws[0]) > 3
+    # a member's action stream is not its reset stream continued
+    assert all(m.draws[1] != m.draws[0] for m in b.searcher.members)
+
+
+@pytest.mark.parametrize("member", ["test_team:Drawer", "random-walk"])
+def test_adding_a_member_leaves_the_others_draws_unchanged(member: str) -> None:
+    """A member's streams depend on its place in the team, not on the team's size: the first
+    two members of a team of three draw (and, with nothing passing between them, move) as in a
+    team of two, on the same seeds."""
+    two = [[8.0, 1.0], [8.0, 4.0]]
+    three = [*two, [5.0, 3.0]]
+    runs = {}
+    for starts in (two, three):
+        sc = _team_scenario(starts, float("inf"), member)
+        b = build(sc)
+        res = run_episode(sc, 3, 4, built=b)
+        runs[len(starts)] = (b.searcher.members, res.recording.positions)
+    (m2, pos2), (m3, pos3) = runs[2], runs[3]
+    np.testing.assert_array_equal(pos3[:, :2], pos2)
+    if member == "test_team:Drawer":
+        assert [m.draws for m in m3[:2]] == [m.draws for m in m2]
+        assert m3[2].draws not in [m.draws for m in m2]
+    else:
+        assert not np.array_equal(pos2[1:, 0], pos2[:-1, 0])  # the walkers do move
 
 
 def test_an_agents_path_does_not_depend_on_where_the_others_are() -> None:
