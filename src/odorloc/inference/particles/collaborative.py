@@ -14,7 +14,8 @@ Multi-UAV paper (MUC-OSL), Sect. III.3 and IV.1-2:
   space this is ``log w += ll_i + sum_j beta_ij ll_j``.
 
 The neighbour's likelihood ``p(d_j | o_n)`` needs its measurement ``d_j`` and where it was taken;
-:func:`fit_payload` is the message that carries both beside the fit.
+:func:`fit_payload` is the message that carries both beside the fit, with the conditions
+(exposure, wind direction) that reading's likelihood needs.
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -34,7 +36,9 @@ __all__ = [
     "confidence_factor",
     "confidence_factors",
     "fit_payload",
+    "measurement_payload",
     "read_fit_payload",
+    "read_measurement_payload",
 ]
 
 
@@ -133,6 +137,10 @@ class NeighbourFit:
         Where it took that measurement.
     cue_captured : bool
         Whether it has captured any cue so far (col-pu, eq. 17).
+    dt : float, seconds
+        The exposure of that measurement.
+    direction : (d,) ndarray or None
+        The wind direction its likelihood was evaluated with (``None``: the model's own).
     """
 
     sender: int
@@ -141,40 +149,99 @@ class NeighbourFit:
     count: float
     position: np.ndarray
     cue_captured: bool
+    dt: float = 1.0
+    direction: np.ndarray | None = None
+
+    def conditions(self) -> dict[str, Any]:
+        """The measurement-model conditions of the neighbour's measurement."""
+        out: dict[str, Any] = {"dt": self.dt}
+        if self.direction is not None:
+            out["direction"] = self.direction
+        return out
+
+
+def measurement_payload(
+    count: float,
+    position: np.ndarray,
+    cue_captured: bool,
+    dt: float,
+    direction: np.ndarray | None = None,
+) -> dict[str, np.ndarray]:
+    """A measurement as a neighbour's likelihood needs it: ``measurement`` (count, position,
+    cue flag: ``d + 2`` numbers) and its ``conditions`` (exposure and wind direction: ``d + 1``,
+    or the exposure alone when the sender's model used its own wind).
+
+    The conditions travel with the reading because a likelihood is only right under the
+    conditions of its own reading: each UAV measures its own wind.
+    """
+    pos = np.asarray(position, float).reshape(-1)
+    cond = [float(dt)]
+    if direction is not None:
+        cond += np.asarray(direction, float).reshape(pos.size).tolist()
+    return {
+        "measurement": np.concatenate([[float(count)], pos, [1.0 if cue_captured else 0.0]]),
+        "conditions": np.array(cond),
+    }
 
 
 def fit_payload(
-    mean: np.ndarray, cov: np.ndarray, count: float, position: np.ndarray, cue_captured: bool
+    mean: np.ndarray,
+    cov: np.ndarray,
+    count: float,
+    position: np.ndarray,
+    cue_captured: bool,
+    dt: float,
+    direction: np.ndarray | None = None,
 ) -> dict[str, np.ndarray]:
     """The Col-PF message: the fit (``d + d^2`` numbers, 12 in 3-D, as the paper counts it) and
-    the measurement the neighbour's likelihood needs (count, position, cue flag: ``d + 2``).
+    the last measurement with its conditions (:func:`measurement_payload`).
 
-    Every number is a float64, so a 3-D message is 17 numbers = 136 bytes.
+    Every number is a float64, so a 3-D message is 21 numbers = 168 bytes.
     """
     m = np.asarray(mean, float).reshape(-1)
     c = np.asarray(cov, float).reshape(m.size, m.size)
-    pos = np.asarray(position, float).reshape(-1)
     return {
         "fit": np.concatenate([m, c.ravel()]),
-        "measurement": np.concatenate([[float(count)], pos, [1.0 if cue_captured else 0.0]]),
+        **measurement_payload(count, position, cue_captured, dt, direction),
     }
+
+
+def read_measurement_payload(
+    sender: int, payload: Mapping[str, np.ndarray], d: int
+) -> tuple[float, np.ndarray, bool, float, np.ndarray | None]:
+    """Inverse of :func:`measurement_payload`: ``(count, position, cue_captured, dt,
+    direction)``; :class:`ConfigError` naming ``message`` for a payload of another shape."""
+    if "measurement" not in payload or "conditions" not in payload:
+        raise ConfigError("message", f"agent {sender} sent no measurement")
+    meas = np.asarray(payload["measurement"], float).reshape(-1)
+    cond = np.asarray(payload["conditions"], float).reshape(-1)
+    if meas.size != d + 2 or cond.size not in (1, d + 1):
+        raise ConfigError(
+            "message", f"agent {sender}: measurement of {meas.size}, conditions of {cond.size}"
+        )
+    if not (np.isfinite(cond[0]) and cond[0] > 0):
+        raise ConfigError("message", f"agent {sender}: exposure {cond[0]} is not > 0")
+    direction = cond[1:].copy() if cond.size > 1 else None
+    return float(meas[0]), meas[1 : 1 + d].copy(), bool(meas[-1] > 0.5), float(cond[0]), direction
 
 
 def read_fit_payload(sender: int, payload: Mapping[str, np.ndarray]) -> NeighbourFit:
     """Inverse of :func:`fit_payload`; :class:`ConfigError` for a payload of another shape."""
-    if "fit" not in payload or "measurement" not in payload:
+    if "fit" not in payload:
         raise ConfigError("message", f"agent {sender} sent no Gaussian fit")
     fit = np.asarray(payload["fit"], float)
-    meas = np.asarray(payload["measurement"], float)
     # fit holds d + d^2 numbers
     d = round((-1 + math.sqrt(1 + 4 * fit.size)) / 2)
-    if d + d * d != fit.size or meas.size != d + 2:
-        raise ConfigError("message", f"agent {sender}: fit of {fit.size}, measurement {meas.size}")
+    if d + d * d != fit.size:
+        raise ConfigError("message", f"agent {sender}: fit of {fit.size} numbers")
+    count, position, cue, dt, direction = read_measurement_payload(sender, payload, d)
     return NeighbourFit(
         sender=int(sender),
         mean=fit[:d].copy(),
         cov=fit[d:].reshape(d, d).copy(),
-        count=float(meas[0]),
-        position=meas[1 : 1 + d].copy(),
-        cue_captured=bool(meas[-1] > 0.5),
+        count=count,
+        position=position,
+        cue_captured=cue,
+        dt=dt,
+        direction=direction,
     )
