@@ -1,14 +1,15 @@
-"""Compiled kernels of the 3-D Vergassola rate and its Poisson counts (the ``fast`` extra).
+"""Compiled kernels of the 3-D Vergassola rate and its Poisson counts (numba).
 
 The estimators and planners of a UAV team evaluate eq. 1 (rate) and eq. 3 (Poisson counts) of
 the multi-UAV paper for every particle at up to 26 points, hundreds of times per episode. In
 NumPy that is some thirty array calls per evaluation on arrays of a few thousand numbers, where
 the call overhead dominates. These loops do the element-wise work in one pass each, compiled
-with numba when it is installed (:data:`HAVE_NUMBA`).
+with numba (:data:`HAVE_NUMBA`).
 
-They reproduce the NumPy code of :mod:`odorloc.models.vergassola` and
-:mod:`odorloc.models.poisson` *bit for bit*, so that installing the extra does not change a
-single episode:
+The kernels behind :meth:`~odorloc.models.vergassola.VergassolaModel.log_likelihood` and
+:meth:`~odorloc.models.vergassola.VergassolaModel.outcome_probabilities` reproduce the NumPy code
+of :mod:`odorloc.models.vergassola` and :mod:`odorloc.models.poisson` *bit for bit*, so that the
+backend does not change a single episode of the models' other users:
 
 - every operation is the same IEEE operation in the same order (sums of squares and of classes
   in index order, as NumPy's reductions over a short or a non-contiguous axis do);
@@ -17,6 +18,11 @@ single episode:
   pass them in. A compiled ``exp`` is the C library's, which differs from NumPy's in the last
   bit for a few per cent of arguments;
 - logarithms are the C library's on both sides (``scipy.special.xlogy`` calls it).
+
+The kernels of a whole measurement history (:func:`weighted_poisson_log_likelihood`) and of the
+expected counts for planning (:func:`rate_means_direct`) compute everything in one pass, with
+the C library's ``exp`` and ``log``: they equal their NumPy references within round-off (1e-9
+relative), not to the bit.
 
 The NumPy functions remain the reference (and the path without numba); the test suite checks
 the equality on random inputs.
@@ -50,7 +56,7 @@ from odorloc.core.jit import jit as _cached_jit
 
 def _available(backend: str) -> str:
     if backend == "numba" and not HAVE_NUMBA:
-        raise ValueError("numba is not installed (install the 'fast' extra), use auto or numpy")
+        raise ValueError("numba cannot be imported (a dependency of odorloc), use auto or numpy")
     return backend
 
 

@@ -1,13 +1,16 @@
-"""Compiled kernels of the lattice step planners (the ``fast`` extra).
+"""Compiled kernels of the lattice step planners (numba).
 
 Each decision of a UAV's planner scores 26 directions against every particle and every count
 class: the expected value ``E[W']`` of Adap-PP (eqs. 21-25 of the multi-UAV paper) or the
 expected posterior entropy of fixed-step infotaxis, both after cutting the classes where the
 predicted count has ended (``d_max``, eq. 24). These loops run that in one pass over the
-``(M, Z, N)`` outcome array, compiled with numba when it is installed
-(:data:`~odorloc.models.kernels.HAVE_NUMBA`).
+``(M, Z, N)`` outcome array, compiled with numba (:data:`~odorloc.models.kernels.HAVE_NUMBA`).
 
-Like :mod:`odorloc.models.kernels`, they reproduce the NumPy functions they replace
+:func:`poisson_direction_rewards` is Adap-PP's whole decision for Poisson count outcomes: from
+the ``(M, N)`` means, in two passes, with the entropy terms taken from the classes'
+log-probabilities (one logarithm per candidate and particle, not per class); it equals the
+NumPy planner within round-off (1e-9 relative). The others reproduce the NumPy functions they
+replace
 (:func:`~odorloc.planning.adaptive.merge_tail_classes`,
 :func:`~odorloc.planning.adaptive.direction_rewards`,
 :func:`~odorloc.planning.fixed_step.with_found_outcome` with

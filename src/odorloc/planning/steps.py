@@ -80,8 +80,8 @@ class LatticeParams(Params):
         Displacement of a step along a diagonal direction (see the module docstring).
     backend : {"auto", "numpy", "numba"}
         The rewards as NumPy arrays or as the compiled loops of :mod:`odorloc.planning.kernels`
-        (the ``fast`` extra; the same numbers bit for bit). ``auto`` compiles when numba is
-        installed.
+        (numba; equal to the NumPy reference within round-off, fixed-step infotaxis to the
+        bit). ``auto`` compiles when numba is importable.
     """
 
     cell: Positive = 2.0

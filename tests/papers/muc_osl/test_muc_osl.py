@@ -184,7 +184,7 @@ def test_each_preset_names_its_parts(name: str) -> None:
 
 
 def test_bytes_counted_equal_payload_sizes_times_recipients() -> None:
-    for name, per_message in (("muc-osl", 17 * 8), ("col-inf", 4 * 100 * 8)):
+    for name, per_message in (("muc-osl", 21 * 8), ("col-inf", 4 * 100 * 8)):
         sc = _scenario({"type": name}, **{"limits.time": 80.0, "agents.comm_radius": 25.0})
         ep = Episode(sc, record=False)
         obs = ep.reset(3, 4)
