@@ -271,15 +271,19 @@ class UAVPlannerMember(Searcher):
         return UAVBelief(self.estimator, cues)
 
     def diagnostics(self) -> dict[str, float]:
-        """``spread`` (m), ``n_particles``, ``ess``, ``entropy`` (weights, nats), ``iteration``."""
+        """``spread`` (m), ``n_particles``, ``ess``, ``entropy`` (weights, nats), ``iteration``
+        and the estimate (the particles' weighted mean) ``estimate_x``, ``_y`` (, ``_z``), m."""
         b = self.estimator.belief()
-        return {
+        out = {
             "spread": self.estimator.spread(),
             "n_particles": float(self.estimator.pf.n),
             "ess": b.ess,
             "entropy": b.entropy,
             "iteration": float(self.k),
         }
+        for axis, v in zip("xyz", b.mean.tolist(), strict=False):
+            out[f"estimate_{axis}"] = v
+        return out
 
     def final_metrics(self) -> dict[str, Any]:
         """Per-UAV columns: iterations, cues, particle counts, messages, steps, computation."""
