@@ -194,7 +194,6 @@ class _Fixed(Searcher):
 
 
 def _ctx(sc):
-    from odorloc.scenarios.build import search_context
 
     return search_context(sc, build(sc))
 

@@ -201,7 +201,7 @@ class MucOslReproduction(R.PointsReproduction):
 
     def _default_tables(self, g: Any, world: str) -> list[Table]:
         """Tables 2 and 3 at the default point of one world."""
-        g = g.assign(
+        g = g.copy().assign(
             kj=g[COLUMNS["energy"]] / 1e3,
             nums=_per_agent(g, "numbers_per_message", weighted=True),
             per_iter=_per_agent(g, "compute_bits") / 64 / _per_agent(g, "iterations"),
