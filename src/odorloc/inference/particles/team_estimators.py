@@ -624,8 +624,11 @@ def _read_particles(sender: int, payload: Payload, d: int) -> tuple[np.ndarray, 
     """A neighbour's particle set: positions ``(N, d)`` and normalised log-weights ``(N,)``."""
     if "positions" not in payload or "weights" not in payload:
         raise ConfigError("message", f"agent {sender} sent no particle set")
-    x = np.asarray(payload["positions"], float).reshape(-1, d)
+    x = np.asarray(payload["positions"], float)
     w = np.asarray(payload["weights"], float).reshape(-1)
+    if x.size % d:
+        raise ConfigError("message", f"agent {sender}: {x.size} coordinates for {d}-D particles")
+    x = x.reshape(-1, d)
     if len(w) != len(x) or len(w) == 0:
         raise ConfigError("message", f"agent {sender}: {len(x)} positions, {len(w)} weights")
     with np.errstate(divide="ignore"):
