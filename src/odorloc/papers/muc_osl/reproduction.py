@@ -43,7 +43,7 @@ from odorloc.scenarios import get_scenario
 
 __all__ = ["COLUMNS", "MucOslReproduction", "uav_rows"]
 
-SCENARIO, FILAMENT = "muc-osl-3d", "muc-osl-filament-3d"
+SCENARIO, FILAMENT, FILAMENT_EPISODES = "muc-osl-3d", "muc-osl-filament-3d", 5
 ALL = (*ROWS, NO_ENV_PU)
 #: Episodes per variant of the mechanism figure.
 MECHANISM_EPISODES = 12
@@ -132,7 +132,13 @@ class MucOslReproduction(R.PointsReproduction):
         return [
             R.World("rate", SCENARIO, self.rate_sweeps, self.default_episodes),
             R.World(
-                "filament", FILAMENT, self.filament_sweeps, 5, True, False, "fig9_filament.png"
+                "filament",
+                FILAMENT,
+                self.filament_sweeps,
+                FILAMENT_EPISODES,
+                True,
+                False,
+                "fig9_filament.png",
             ),
         ]
 
