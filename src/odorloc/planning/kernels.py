@@ -26,6 +26,7 @@ import math
 
 import numpy as np
 
+from odorloc.core.jit import jit as _cached_jit
 from odorloc.models.kernels import jit
 
 __all__ = [
@@ -408,8 +409,7 @@ def _poisson_tail(lam: float, k: int, pk_1: float, head_sum: float) -> float:
     return total
 
 
-@jit
-def poisson_direction_rewards(
+def _poisson_direction_rewards(
     mu: np.ndarray,
     w: np.ndarray,
     log_w: np.ndarray,
@@ -462,6 +462,7 @@ def poisson_direction_rewards(
     lf = np.empty(z)
     for c in range(z):
         lf[c] = math.lgamma(c + 1.0)
+    xt = np.ascontiguousarray(x.T)  # (d, N): the sums over particles run on contiguous rows
     probs = np.empty((m, z, n))
     pz = np.zeros((m, z))
     head = np.empty(n)
@@ -473,9 +474,10 @@ def poisson_direction_rewards(
             head[j] = probs[i, 0, j]
         for c in range(1, k):
             f = 1.0 / c
+            row, prev = probs[i, c], probs[i, c - 1]
             for j in range(n):
-                v = probs[i, c - 1, j] * lam[j] * f
-                probs[i, c, j] = v
+                v = prev[j] * lam[j] * f
+                row[j] = v
                 head[j] += v
         for j in range(n):
             if lam[j] > 600.0:
@@ -489,13 +491,13 @@ def poisson_direction_rewards(
                 tail = 1.0 - acc
                 probs[i, k, j] = tail if tail > 0.0 else 0.0
             else:
-                probs[i, k, j] = _poisson_tail(
-                    lam[j], k, probs[i, k - 1, j] if k > 0 else 1.0, head[j]
-                )
+                pk_1 = probs[i, k - 1, j] if k > 0 else 1.0
+                probs[i, k, j] = _poisson_tail(lam[j], k, pk_1, head[j])
         for c in range(z):
+            row = probs[i, c]
             acc = 0.0
             for j in range(n):
-                acc += w[j] * probs[i, c, j]
+                acc += w[j] * row[j]
             pz[i, c] = acc
     # d_max: the first class from which the predicted tail is below tail_mass at every candidate
     keep = z
@@ -513,53 +515,56 @@ def poisson_direction_rewards(
                 break
     zz = keep + 1 if keep < z else z
     out = np.empty(m)
-    ps = np.empty(zz)
-    xl = np.empty(zz)
-    ms = np.empty((zz, d))
     log_lam = np.empty(n)
-    merged = np.empty(n)
+    p = np.empty(n)
+    lp = np.empty(n)
     for i in range(m):
         lam = mu[i]
         for j in range(n):
-            log_lam[j] = math.log(lam[j]) if lam[j] > 0.0 else -np.inf
+            # a zero mean gives classes c > 0 probability 0: any finite log does for them
+            log_lam[j] = math.log(lam[j]) if lam[j] > 0.0 else -1e300
+        expected = 0.0
         for c in range(zz):
-            merge = c == keep and keep < z
-            own_tail = c == k and keep == z
-            if merge:
+            if c == keep and keep < z:
+                # the merged tail: its probability, and its logarithm where it is not 0
                 for j in range(n):
                     acc = 0.0
                     for cc in range(keep, z):
                         acc += probs[i, cc, j]
-                    merged[j] = acc
+                    p[j] = acc
+                    lp[j] = math.log(acc) if acc > 0.0 else 0.0
+            elif c == k:
+                for j in range(n):
+                    p[j] = probs[i, k, j]
+                    lp[j] = math.log(p[j]) if p[j] > 0.0 else 0.0
+            else:
+                row = probs[i, c]
+                for j in range(n):
+                    p[j] = row[j]
+                    lp[j] = c * log_lam[j] - lam[j] - lf[c]
             pc = 0.0
             xc = 0.0
-            for a in range(d):
-                ms[c, a] = 0.0
             for j in range(n):
-                p = merged[j] if merge else probs[i, c, j]
-                joint = w[j] * p
-                if joint > 0.0:
-                    if merge or own_tail:
-                        lp = math.log(p)
-                    elif c == 0:
-                        lp = -lam[j]
-                    else:
-                        lp = c * log_lam[j] - lam[j] - lf[c]
-                    pc += joint
-                    xc += joint * (log_w[j] + lp)
-                    for a in range(d):
-                        ms[c, a] += joint * x[j, a]
-            ps[c] = pc
-            xl[c] = xc
-        expected = 0.0
-        for c in range(zz):
-            pc = ps[c]
+                joint = w[j] * p[j]
+                pc += joint
+                xc += joint * (log_w[j] + lp[j])
             if pc > 1e-300:
                 acc = 0.0
                 for a in range(d):
-                    diff = targets[i, a] - ms[c, a] / pc
+                    xa = xt[a]
+                    ma = 0.0
+                    for j in range(n):
+                        ma += w[j] * p[j] * xa[j]
+                    diff = targets[i, a] - ma / pc
                     acc += diff * diff
-                ent = math.log(pc) - xl[c] / pc
+                ent = math.log(pc) - xc / pc
                 expected += pc * (math.sqrt(acc) + h1 * ent)
         out[i] = w_now - expected
     return out, zz
+
+
+#: The Poisson rewards with sums reassociated (vectorised): round-off differs from the NumPy
+#: reference's order, within its 1e-9 relative tolerance.
+poisson_direction_rewards = _cached_jit(
+    _poisson_direction_rewards, nogil=True, fastmath={"reassoc", "contract", "nsz"}
+)
