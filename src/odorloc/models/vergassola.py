@@ -500,14 +500,7 @@ class VergassolaModel(MeasurementModel):
         dt = _exposure(conditions)
         if self._compiled:
             p = self.params
-            release = conditions.get("release")
-            direction = conditions.get("direction")
-            x, s, e, q = _rate_inputs(
-                sensor_positions,
-                hypotheses,
-                p.Q if release is None else release,
-                direction if direction is not None else p.wind_direction,
-            )
+            x, s, e, q = self._inputs(sensor_positions, hypotheses, conditions)
             if x.shape[1] == 3:
                 a = float(p.sensor_radius)
                 aq = np.full(len(s), a * float(q)) if q.ndim == 0 else a * q
@@ -570,6 +563,21 @@ class VergassolaModel(MeasurementModel):
             top = 0.0
         return mu, neg, top, self._classes_for(top) if z is None else z
 
+    def _inputs(
+        self, sensor_positions: ArrayLike, hypotheses: ArrayLike, conditions: dict[str, Any]
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Checked points, hypotheses, unit wind direction and release rates of a call: the
+        ``release`` and ``direction`` conditions, else the model's."""
+        p = self.params
+        release = conditions.get("release")
+        direction = conditions.get("direction")
+        return _rate_inputs(
+            sensor_positions,
+            hypotheses,
+            p.Q if release is None else release,
+            direction if direction is not None else p.wind_direction,
+        )
+
     def _kernel_parts(
         self, sensor_positions: ArrayLike, hypotheses: ArrayLike, conditions: dict[str, Any]
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
@@ -579,14 +587,7 @@ class VergassolaModel(MeasurementModel):
         if not self._compiled:
             return None
         p = self.params
-        release = conditions.get("release")
-        direction = conditions.get("direction")
-        x, s, e, q = _rate_inputs(
-            sensor_positions,
-            hypotheses,
-            p.Q if release is None else release,
-            direction if direction is not None else p.wind_direction,
-        )
+        x, s, e, q = self._inputs(sensor_positions, hypotheses, conditions)
         if x.shape[1] != 3:
             return None
         adv, inv_lam, a2 = self._consts

@@ -39,6 +39,7 @@ __all__ = [
     "measurement_payload",
     "read_fit_payload",
     "read_measurement_payload",
+    "reading_conditions",
 ]
 
 
@@ -154,10 +155,16 @@ class NeighbourFit:
 
     def conditions(self) -> dict[str, Any]:
         """The measurement-model conditions of the neighbour's measurement."""
-        out: dict[str, Any] = {"dt": self.dt}
-        if self.direction is not None:
-            out["direction"] = self.direction
-        return out
+        return reading_conditions(self.dt, self.direction)
+
+
+def reading_conditions(dt: float, direction: np.ndarray | None) -> dict[str, Any]:
+    """The measurement-model conditions of a reading: its exposure ``dt`` (s) and, when it
+    has one, the wind ``direction`` its likelihood uses."""
+    out: dict[str, Any] = {"dt": dt}
+    if direction is not None:
+        out["direction"] = direction
+    return out
 
 
 def measurement_payload(

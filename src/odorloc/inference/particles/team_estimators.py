@@ -52,6 +52,7 @@ from odorloc.inference.particles.collaborative import (
     measurement_payload,
     read_fit_payload,
     read_measurement_payload,
+    reading_conditions,
 )
 from odorloc.inference.particles.constraints import ArenaConstraint
 from odorloc.inference.particles.filter import ParticleFilter
@@ -108,10 +109,7 @@ class Measurement:
 
     def conditions(self) -> dict[str, Any]:
         """The measurement-model conditions of this measurement."""
-        out: dict[str, Any] = {"dt": self.dt}
-        if self.direction is not None:
-            out["direction"] = self.direction
-        return out
+        return reading_conditions(self.dt, self.direction)
 
 
 class TeamEstimator(ABC):
