@@ -267,7 +267,20 @@ def trace_figure(
         ax.fill_between(k, q1, q3, color=colour, alpha=0.18, lw=0)
     for name, y in (lines or {}).items():
         ax.axhline(y, color="0.3", ls=":", lw=1)
-        ax.annotate(name, (1, y), xytext=(3, 3), textcoords="offset points", fontsize=8)
+        ax.annotate(
+            name,
+            (1.0, y),
+            xycoords=("axes fraction", "data"),
+            xytext=(-4, -11),
+            textcoords="offset points",
+            ha="right",
+            fontsize=8,
+            color="0.3",
+        )
+    lo, hi = ax.get_ylim()
+    ys = [lo, hi, *(lines or {}).values()]
+    pad = 0.04 * (max(ys) - min(ys))
+    ax.set_ylim(min(ys) - pad, max(ys) + pad)
     ax.set_xlabel(xlabel)
     ax.set_ylabel(ylabel)
     ax.grid(alpha=0.3)
