@@ -18,6 +18,7 @@ from odorloc.inference.particles.adaptive_count import (
     spacing_minimum,
 )
 from odorloc.inference.particles.collaborative import (
+    ParticleSetMessage,
     collaborative_log_likelihood,
     confidence_factor,
     confidence_factors,
@@ -180,7 +181,12 @@ def test_fit_payload_round_trip_and_size() -> None:
     wind = np.array([0.6, -0.8, 0.0])
     p = fit_payload(np.arange(3.0), np.eye(3) * 2, 4.0, [1.0, 2.0, 3.0], True, 0.5, wind)
     # 12 for the fit + count, position, cue + the reading's exposure and wind direction
-    assert sum(v.size for v in p.values()) == 21
+    assert p.numbers == 21
+    assert p.nbytes == 21 * 8
+    with pytest.raises(ValueError, match="read-only"):
+        p.mean[0] = 9.0  # what was sent cannot change
+    with pytest.raises(ValueError, match="read-only"):
+        p.measurement.direction[0] = 9.0
     f = read_fit_payload(5, p)
     assert f.sender == 5 and f.count == 4.0 and f.cue_captured
     np.testing.assert_array_equal(f.mean, [0.0, 1.0, 2.0])
@@ -189,12 +195,14 @@ def test_fit_payload_round_trip_and_size() -> None:
     np.testing.assert_array_equal(f.conditions()["direction"], wind)
     # a sender whose model used its own wind sends the exposure alone
     q = fit_payload(np.arange(3.0), np.eye(3), 0.0, [1.0, 2.0, 3.0], False, 1.0)
-    assert sum(v.size for v in q.values()) == 18
+    assert q.numbers == 18
     assert read_fit_payload(2, q).conditions() == {"dt": 1.0}
     with pytest.raises(ConfigError, match="message"):
-        read_fit_payload(1, {"positions": np.zeros((3, 3))})
+        read_fit_payload(1, ParticleSetMessage(np.zeros((3, 3)), np.ones(3) / 3))
     with pytest.raises(ConfigError, match="message"):
-        read_fit_payload(1, {**p, "conditions": np.array([0.0])})  # no exposure
+        fit_payload(np.arange(3.0), np.eye(3), 0.0, [1.0, 2.0, 3.0], False, 0.0)  # no exposure
+    with pytest.raises(ConfigError, match="message"):
+        fit_payload(np.arange(3.0), np.eye(3), 0.0, [1.0, 2.0, 3.0], False, 1.0, [1.0, 0.0])
 
 
 # ----------------------------------------------------------------------------- PUGL
@@ -309,7 +317,8 @@ def test_colpf_estimator_keeps_count_in_bounds_and_moves_particles() -> None:
         est.update(Measurement(count, pos, 1.0, k, down), {}, rng)
         assert 20 <= est.pf.n <= 160
         assert np.all(ctx.arena.is_free(est.pf.positions))
-    assert est.message()["fit"].size == 12
+    msg = est.message()
+    assert msg.mean.size + msg.cov.size == 12
 
 
 @pytest.mark.parametrize("k", [1, 200, 400])
@@ -386,12 +395,13 @@ def test_standard_pf_pools_neighbour_particles() -> None:
     est = StandardPFEstimator(StandardPFParams(n_particles=50))
     flat = TableModel(np.ones((3, 100)))
     est.reset(ctx, flat, np.random.default_rng(0))
-    theirs = {"positions": np.full((50, 3), 7.0), "weights": np.full(50, 1 / 50)}
+    theirs = ParticleSetMessage(np.full((50, 3), 7.0), np.full(50, 1 / 50))
     est.update(Measurement(0.0, np.zeros(3), 1.0, 1), {1: theirs}, np.random.default_rng(1))
     assert est.pf.n == 50
     # half of the pooled mass sat on the neighbour's point: about half the resampled particles
     near = np.linalg.norm(est.pf.positions - 7.0, axis=1) < 4.0
     assert 0.3 < near.mean() < 0.8
     msg = est.message()
-    assert msg["positions"].shape == (50, 3) and msg["weights"].shape == (50,)
-    assert sum(v.size for v in msg.values()) == 4 * 50  # the paper's 4N
+    assert msg.positions.shape == (50, 3) and msg.weights.shape == (50,)
+    assert msg.numbers == 4 * 50  # the paper's 4N
+    assert msg.nbytes == 8 * 4 * 50

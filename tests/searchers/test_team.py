@@ -9,7 +9,7 @@ from helpers import filament_scenario_dict
 from odorloc.core.errors import ConfigError
 from odorloc.core.params import Params
 from odorloc.core.types import Action, Command, Declaration
-from odorloc.engine.episode import run_episode
+from odorloc.engine.episode import Episode, run_episode
 from odorloc.scenarios import Scenario
 from odorloc.scenarios.build import build, search_context
 from odorloc.searchers.base import Searcher
@@ -29,6 +29,23 @@ class Talker(Searcher):
         o = observations[0]
         self.heard.extend(m.sender for m in o.messages)
         return Action([Command.hold()], messages={o.agent: {"x": np.zeros(8)}})
+
+
+class Dice(Searcher):
+    """Holds still; remembers the first draw of the stream it was reset with and of each
+    stream it acts with."""
+
+    Params = Params
+    max_agents = 1
+
+    def reset(self, ctx, rng) -> None:
+        super().reset(ctx, rng)
+        self.first = float(rng.random())
+        self.draws: list[float] = []
+
+    def act(self, observations, rng):
+        self.draws.append(float(rng.random()))
+        return Action([Command.hold()])
 
 
 def _team_scenario(starts, radius: float, member: str = "zigzag") -> Scenario:
@@ -59,39 +76,29 @@ def test_per_agent_zigzag_team_runs_and_says_nothing() -> None:
     assert res.metrics["bytes"] == 0  # zigzag members say nothing
 
 
-class Drawer(Searcher):
-    """Holds still; draws one number at reset and one per step, and keeps them."""
-
-    Params = Params
-    max_agents = 1
-
-    def __init__(self, params=None) -> None:
-        super().__init__(params or Params())
-        self.draws: list[float] = []
-
-    def reset(self, ctx, rng) -> None:
-        super().reset(ctx, rng)
-        self.draws = [float(rng.random())]
-
-    def act(self, observations, rng):
-        self.draws.append(float(rng.random()))
-        return Action([Command.hold()])
-
-
 def test_members_draw_from_separate_streams() -> None:
     # one generator shared by the members (or two seeded alike) would give equal draws
-    sc = _team_scenario([[8.0, 1.0], [8.0, 4.0], [5.0, 3.0]], float("inf"), "test_team:Drawer")
+    sc = _team_scenario([[8.0, 1.0], [8.0, 4.0], [5.0, 3.0]], float("inf"), member="test_team:Dice")
     b = build(sc)
-    run_episode(sc, 1, 7, built=b)
-    reset_draws = [m.draws[0] for m in b.searcher.members]
-    action_draws = [tuple(m.draws[1:]) for m in b.searcher.members]
-    assert len(set(reset_draws)) == 3
-    assert len(set(action_draws)) == 3 and len(action_draws[0]) > 3
-    # a member's action stream is not its reset stream continued
-    assert all(m.draws[1] != m.draws[0] for m in b.searcher.members)
+    team = b.searcher
+    team.reset(search_context(sc, b), np.random.default_rng(7))
+    obs = Episode(sc, built=b).reset(1, 2)
+    team.act(obs, np.random.default_rng(8))
+    team.act(obs, np.random.default_rng(9))
+    # each member was reset with a stream of its own and acts with another of its own, which
+    # goes on from step to step (the generator passed to the team's act is not the members')
+    firsts = [m.first for m in team.members]
+    acts = [tuple(m.draws) for m in team.members]
+    assert len(set(firsts)) == 3 and len(set(acts)) == 3
+    assert not set(firsts) & {d for a in acts for d in a}
+    assert all(a[0] != a[1] for a in acts)
+    again = build(sc).searcher
+    again.reset(search_context(sc, b), np.random.default_rng(7))
+    again.act(obs, np.random.default_rng(123))
+    assert [m.draws[0] for m in again.members] == [a[0] for a in acts]
 
 
-@pytest.mark.parametrize("member", ["test_team:Drawer", "random-walk"])
+@pytest.mark.parametrize("member", ["test_team:Dice", "random-walk"])
 def test_adding_a_member_leaves_the_others_draws_unchanged(member: str) -> None:
     """A member's streams depend on its place in the team, not on the team's size: the first
     two members of a team of three draw (and, with nothing passing between them, move) as in a
@@ -106,9 +113,9 @@ def test_adding_a_member_leaves_the_others_draws_unchanged(member: str) -> None:
         runs[len(starts)] = (b.searcher.members, res.recording.positions)
     (m2, pos2), (m3, pos3) = runs[2], runs[3]
     np.testing.assert_array_equal(pos3[:, :2], pos2)
-    if member == "test_team:Drawer":
-        assert [m.draws for m in m3[:2]] == [m.draws for m in m2]
-        assert m3[2].draws not in [m.draws for m in m2]
+    if member == "test_team:Dice":
+        assert [(m.first, m.draws) for m in m3[:2]] == [(m.first, m.draws) for m in m2]
+        assert m3[2].first not in [m.first for m in m2]
     else:
         assert not np.array_equal(pos2[1:, 0], pos2[:-1, 0])  # the walkers do move
 

@@ -14,29 +14,36 @@ Multi-UAV paper (MUC-OSL), Sect. III.3 and IV.1-2:
   space this is ``log w += ll_i + sum_j beta_ij ll_j``.
 
 The neighbour's likelihood ``p(d_j | o_n)`` needs its measurement ``d_j`` and where it was taken;
-:func:`fit_payload` is the message that carries both beside the fit, with the conditions
-(exposure, wind direction) that reading's likelihood needs.
+:class:`FitMessage` (built by :func:`fit_payload`) is the message that carries both beside the
+fit, with the conditions (exposure, wind direction) that reading's likelihood needs. The
+baselines' filters send :class:`ParticleSetMessage` (collaborative infotaxis shares the particle
+set) or :class:`MeasurementMessage`. Every one is a frozen payload of float64 numbers whose size
+is declared: ``nbytes = 8 x numbers``, with ``numbers`` counted as the paper counts them (plus
+the reading's conditions, which the paper does not count).
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from odorloc.core.errors import ConfigError
+from odorloc.core.types import Payload, frozen_array
 from odorloc.inference.weights import kl_gaussian, kl_gaussians
 
 __all__ = [
+    "FitMessage",
+    "MeasurementMessage",
     "NeighbourFit",
+    "ParticleSetMessage",
+    "TeamMessage",
     "collaborative_log_likelihood",
     "confidence_factor",
     "confidence_factors",
     "fit_payload",
-    "measurement_payload",
     "read_fit_payload",
     "read_measurement_payload",
     "reading_conditions",
@@ -167,28 +174,101 @@ def reading_conditions(dt: float, direction: np.ndarray | None) -> dict[str, Any
     return out
 
 
-def measurement_payload(
-    count: float,
-    position: np.ndarray,
-    cue_captured: bool,
-    dt: float,
-    direction: np.ndarray | None = None,
-) -> dict[str, np.ndarray]:
-    """A measurement as a neighbour's likelihood needs it: ``measurement`` (count, position,
-    cue flag: ``d + 2`` numbers) and its ``conditions`` (exposure and wind direction: ``d + 1``,
-    or the exposure alone when the sender's model used its own wind).
+class TeamMessage(Payload):
+    """A payload of float64 numbers: ``numbers`` of them, ``8 x numbers`` bytes."""
+
+    @property
+    def numbers(self) -> int:
+        """Numbers sent (what the multi-UAV paper counts per message)."""
+        raise NotImplementedError
+
+    @property
+    def nbytes(self) -> int:
+        return 8 * self.numbers
+
+
+@dataclass(frozen=True, eq=False)
+class MeasurementMessage(TeamMessage):
+    """One measurement as a neighbour's likelihood needs it: the count ``d_j`` (encounters),
+    where it was taken (``(d,)``, metres), whether the sender has captured a cue so far (``d +
+    2`` numbers), and the reading's conditions: its exposure ``dt`` (s) and the wind
+    ``direction`` (``(d,)``) its likelihood uses, or ``None`` when the sender's model used its
+    own wind (``1 + d`` or 1 numbers).
 
     The conditions travel with the reading because a likelihood is only right under the
     conditions of its own reading: each UAV measures its own wind.
     """
-    pos = np.asarray(position, float).reshape(-1)
-    cond = [float(dt)]
-    if direction is not None:
-        cond += np.asarray(direction, float).reshape(pos.size).tolist()
-    return {
-        "measurement": np.concatenate([[float(count)], pos, [1.0 if cue_captured else 0.0]]),
-        "conditions": np.array(cond),
-    }
+
+    count: float
+    position: np.ndarray
+    cue_captured: bool
+    dt: float
+    direction: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        pos = frozen_array(np.ravel(self.position))
+        object.__setattr__(self, "count", float(self.count))
+        object.__setattr__(self, "position", pos)
+        object.__setattr__(self, "cue_captured", bool(self.cue_captured))
+        object.__setattr__(self, "dt", float(self.dt))
+        if not (math.isfinite(self.dt) and self.dt > 0):
+            raise ConfigError("message", f"exposure {self.dt} is not > 0")
+        if self.direction is not None:
+            direction = frozen_array(np.ravel(self.direction))
+            if direction.size != pos.size:
+                raise ConfigError(
+                    "message", f"wind direction in {direction.size}-D, position in {pos.size}-D"
+                )
+            object.__setattr__(self, "direction", direction)
+
+    @property
+    def numbers(self) -> int:
+        d = int(self.position.size)
+        return d + 2 + 1 + (d if self.direction is not None else 0)
+
+    def conditions(self) -> dict[str, Any]:
+        """The measurement-model conditions of this reading (:func:`reading_conditions`)."""
+        return reading_conditions(self.dt, self.direction)
+
+
+@dataclass(frozen=True, eq=False)
+class FitMessage(TeamMessage):
+    """The Col-PF message: the Gaussian fit of the sender's particles (mean ``(d,)`` m,
+    covariance ``(d, d)`` m^2; eqs. 19-20: ``d + d^2`` numbers, 12 in 3-D, as the paper counts
+    it) and the measurement the neighbour's likelihood needs with its conditions
+    (:class:`MeasurementMessage`: ``2d + 3`` numbers, ``d + 3`` without a wind direction). A 3-D
+    message is 21 numbers = 168 bytes."""
+
+    mean: np.ndarray
+    cov: np.ndarray
+    measurement: MeasurementMessage
+
+    def __post_init__(self) -> None:
+        m = frozen_array(np.ravel(self.mean))
+        object.__setattr__(self, "mean", m)
+        object.__setattr__(self, "cov", frozen_array(np.reshape(self.cov, (m.size, m.size))))
+
+    @property
+    def numbers(self) -> int:
+        d = int(self.mean.size)
+        return d + d * d + self.measurement.numbers
+
+
+@dataclass(frozen=True, eq=False)
+class ParticleSetMessage(TeamMessage):
+    """A whole particle set: positions ``(N, d)`` (metres) and weights ``(N,)``:
+    ``N (d + 1)`` numbers."""
+
+    positions: np.ndarray
+    weights: np.ndarray
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "positions", frozen_array(self.positions))
+        object.__setattr__(self, "weights", frozen_array(np.ravel(self.weights)))
+
+    @property
+    def numbers(self) -> int:
+        return int(self.positions.size + self.weights.size)
 
 
 def fit_payload(
@@ -199,56 +279,38 @@ def fit_payload(
     cue_captured: bool,
     dt: float,
     direction: np.ndarray | None = None,
-) -> dict[str, np.ndarray]:
-    """The Col-PF message: the fit (``d + d^2`` numbers, 12 in 3-D, as the paper counts it) and
-    the last measurement with its conditions (:func:`measurement_payload`).
-
-    Every number is a float64, so a 3-D message is 21 numbers = 168 bytes.
-    """
-    m = np.asarray(mean, float).reshape(-1)
-    c = np.asarray(cov, float).reshape(m.size, m.size)
-    return {
-        "fit": np.concatenate([m, c.ravel()]),
-        **measurement_payload(count, position, cue_captured, dt, direction),
-    }
+) -> FitMessage:
+    """The Col-PF message (:class:`FitMessage`) of a fit and the last measurement with its
+    conditions."""
+    return FitMessage(mean, cov, MeasurementMessage(count, position, cue_captured, dt, direction))
 
 
-def read_measurement_payload(
-    sender: int, payload: Mapping[str, np.ndarray], d: int
-) -> tuple[float, np.ndarray, bool, float, np.ndarray | None]:
-    """Inverse of :func:`measurement_payload`: ``(count, position, cue_captured, dt,
-    direction)``; :class:`ConfigError` naming ``message`` for a payload of another shape."""
-    if "measurement" not in payload or "conditions" not in payload:
+def read_measurement_payload(sender: int, payload: Payload, d: int) -> MeasurementMessage:
+    """The :class:`MeasurementMessage` a neighbour sent, checked to be ``d``-dimensional;
+    :class:`ConfigError` naming ``message`` for another payload."""
+    if not isinstance(payload, MeasurementMessage):
         raise ConfigError("message", f"agent {sender} sent no measurement")
-    meas = np.asarray(payload["measurement"], float).reshape(-1)
-    cond = np.asarray(payload["conditions"], float).reshape(-1)
-    if meas.size != d + 2 or cond.size not in (1, d + 1):
+    if payload.position.size != d:
         raise ConfigError(
-            "message", f"agent {sender}: measurement of {meas.size}, conditions of {cond.size}"
+            "message", f"agent {sender}: position in {payload.position.size}-D, expected {d}-D"
         )
-    if not (np.isfinite(cond[0]) and cond[0] > 0):
-        raise ConfigError("message", f"agent {sender}: exposure {cond[0]} is not > 0")
-    direction = cond[1:].copy() if cond.size > 1 else None
-    return float(meas[0]), meas[1 : 1 + d].copy(), bool(meas[-1] > 0.5), float(cond[0]), direction
+    return payload
 
 
-def read_fit_payload(sender: int, payload: Mapping[str, np.ndarray]) -> NeighbourFit:
-    """Inverse of :func:`fit_payload`; :class:`ConfigError` for a payload of another shape."""
-    if "fit" not in payload:
+def read_fit_payload(sender: int, payload: Payload) -> NeighbourFit:
+    """What a :class:`FitMessage` tells a neighbour; :class:`ConfigError` for another payload
+    or one whose parts do not fit together."""
+    if not isinstance(payload, FitMessage):
         raise ConfigError("message", f"agent {sender} sent no Gaussian fit")
-    fit = np.asarray(payload["fit"], float)
-    # fit holds d + d^2 numbers
-    d = round((-1 + math.sqrt(1 + 4 * fit.size)) / 2)
-    if d + d * d != fit.size:
-        raise ConfigError("message", f"agent {sender}: fit of {fit.size} numbers")
-    count, position, cue, dt, direction = read_measurement_payload(sender, payload, d)
+    d = payload.mean.size
+    meas = read_measurement_payload(sender, payload.measurement, d)
     return NeighbourFit(
         sender=int(sender),
-        mean=fit[:d].copy(),
-        cov=fit[d:].reshape(d, d).copy(),
-        count=count,
-        position=position,
-        cue_captured=cue,
-        dt=dt,
-        direction=direction,
+        mean=payload.mean.copy(),
+        cov=payload.cov.copy(),
+        count=meas.count,
+        position=meas.position.copy(),
+        cue_captured=meas.cue_captured,
+        dt=meas.dt,
+        direction=None if meas.direction is None else meas.direction.copy(),
     )

@@ -42,14 +42,16 @@ from pydantic import Field, model_validator
 from odorloc.core.errors import ConfigError
 from odorloc.core.params import NonNegative, Params, Positive
 from odorloc.core.registry import ComponentRef, Ref, register
-from odorloc.core.types import SearchContext
+from odorloc.core.types import Payload, SearchContext
 from odorloc.inference.belief import ParticleBelief
 from odorloc.inference.particles.adaptive_count import CueDistanceCount, spacing_minimum
 from odorloc.inference.particles.collaborative import (
+    MeasurementMessage,
     NeighbourFit,
+    ParticleSetMessage,
+    TeamMessage,
     confidence_factors,
     fit_payload,
-    measurement_payload,
     read_fit_payload,
     read_measurement_payload,
     reading_conditions,
@@ -80,8 +82,6 @@ __all__ = [
     "StandardPFParams",
     "TeamEstimator",
 ]
-
-Payload = Mapping[str, np.ndarray]
 
 
 @dataclass(frozen=True)
@@ -163,8 +163,8 @@ class TeamEstimator(ABC):
         """One iteration with the own measurement ``m`` and the neighbours' latest messages."""
 
     @abstractmethod
-    def message(self) -> dict[str, np.ndarray]:
-        """The payload to broadcast after the last update (empty: say nothing)."""
+    def message(self) -> TeamMessage | None:
+        """The payload to broadcast after the last update (``None``: say nothing)."""
 
     # ----------------------------------------------------------------- reading
     def acceptance(self) -> dict[str, float]:
@@ -517,11 +517,11 @@ class ColPFEstimator(TeamEstimator):
         """Share of the reversible moves accepted so far, per kind (NaN before any)."""
         return {k: (a / n if n else math.nan) for k, (n, a) in self.moves.items()}
 
-    def message(self) -> dict[str, np.ndarray]:
+    def message(self) -> TeamMessage | None:
         """The fit (eqs. 19-20) and the last measurement with its position, the cue flag and
         its conditions (exposure, wind direction)."""
         if self.last is None:
-            return {}
+            return None
         mean, cov = self.fit
         last = self.last
         return fit_payload(
@@ -572,9 +572,9 @@ class StandardPFEstimator(TeamEstimator):
             # (eq. 11 with beta = 1)
             readings = [(m.count, m.position, m.dt, m.direction, 1.0)]
             for s in sorted(inbox):
-                count, pos, _, dt, direction = read_measurement_payload(s, inbox[s], d)
-                readings.append((count, pos, dt, direction, 1.0))
-                received += 2 * d + 3 if direction is not None else d + 3
+                got = read_measurement_payload(s, inbox[s], d)
+                readings.append((got.count, got.position, got.dt, got.direction, 1.0))
+                received += got.numbers
             ll = _readings_log_likelihood(self.model, readings, pf.positions)
             evaluated = pf.n * len(readings)
         else:
@@ -584,17 +584,17 @@ class StandardPFEstimator(TeamEstimator):
         pf.resample_if_needed(rng, n=p.n_particles)
         self.processed = float(evaluated * (d + 1) + received)
 
-    def message(self) -> dict[str, np.ndarray]:
+    def message(self) -> TeamMessage | None:
         """Positions and weights of every particle, the measurement, or nothing (``share``)."""
         p = self.params
         if p.share == "particles":
-            return {"positions": self.pf.positions.copy(), "weights": self.pf.weights.copy()}
+            return ParticleSetMessage(self.pf.positions, self.pf.weights)
         if p.share == "measurements" and self.last is not None:
             last = self.last
-            return measurement_payload(
+            return MeasurementMessage(
                 last.count, last.position, self.cue_captured, last.dt, last.direction
             )
-        return {}
+        return None
 
 
 Reading = tuple[float, np.ndarray, float, "np.ndarray | None", float]
@@ -620,10 +620,10 @@ def _readings_log_likelihood(
 
 def _read_particles(sender: int, payload: Payload, d: int) -> tuple[np.ndarray, np.ndarray]:
     """A neighbour's particle set: positions ``(N, d)`` and normalised log-weights ``(N,)``."""
-    if "positions" not in payload or "weights" not in payload:
+    if not isinstance(payload, ParticleSetMessage):
         raise ConfigError("message", f"agent {sender} sent no particle set")
-    x = np.asarray(payload["positions"], float)
-    w = np.asarray(payload["weights"], float).reshape(-1)
+    x = np.asarray(payload.positions, float)
+    w = np.asarray(payload.weights, float).reshape(-1)
     if x.size % d:
         raise ConfigError("message", f"agent {sender}: {x.size} coordinates for {d}-D particles")
     x = x.reshape(-1, d)

@@ -25,6 +25,7 @@ from odorloc.core.registry import register
 from odorloc.experiments import point_reports as R
 from odorloc.experiments.claims import Claim, Points
 from odorloc.experiments.reproduction import Figure, ReproductionParams, Table
+from odorloc.experiments.store import agent_values
 from odorloc.experiments.variants import restrict
 from odorloc.papers.muc_osl.claims import LABELS, evaluate_claims
 from odorloc.papers.muc_osl.reference import FILAMENT_AT, LARGEST_AREA_SUCCESS, TABLE2, TABLE3
@@ -81,13 +82,13 @@ def uav_rows(df: Any, limit: float) -> Any:
 
 
 def _per_agent(h: Any, key: str, weighted: bool = False) -> Any:
-    """Per episode, the sum over the UAVs of a per-agent column (``key``, ``key_1``, ...);
+    """Per episode, the sum over the UAVs of a per-agent value (the ``agents`` column);
     ``weighted``: its mean weighted by the messages each UAV sent."""
-    cols = h.filter(regex=rf"^{key}(_\d+)?$")
+    v = agent_values(h, key)
     if not weighted:
-        return cols.to_numpy(float).sum(axis=1)
-    sent = h[[c.replace(key, "messages_sent") for c in cols.columns]].to_numpy(float)
-    return (cols.to_numpy(float) * sent).sum(axis=1) / sent.sum(axis=1)
+        return np.nansum(v.to_numpy(float), axis=1)
+    sent = agent_values(h, "messages_sent").reindex(columns=v.columns).to_numpy(float)
+    return np.nansum(v.to_numpy(float) * sent, axis=1) / np.nansum(sent, axis=1)
 
 
 @register("reproduction", "muc-osl", ReproductionParams, "MUC-OSL: Sect. VI, Figs. 4-7 and 9")
