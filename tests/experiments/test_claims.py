@@ -170,6 +170,9 @@ def test_sweeps_restrict_and_variant_sweep_files() -> None:
         restrict(sweeps, {"size": [3]})
     with pytest.raises(ConfigError, match=r"^values\.size: must be a list"):
         restrict(sweeps, {"size": "4"})
+    # not strict: a value the sweep lacks is left out, and a sweep left with none
+    assert [s.values for s in restrict(sweeps, {"size": [3, 4]}, strict=False)] == [(4,)]
+    assert restrict(sweeps, {"size": [3]}, strict=False) == []
     worlds = [WorldVariant(), WorldVariant("[r=0]", {"agents.comm_radius": 0.0}), WorldVariant()]
     files = variant_sweeps(
         "muc-osl-3d",

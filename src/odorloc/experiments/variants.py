@@ -148,14 +148,19 @@ class Sweep:
         return f"{value:g}"
 
 
-def restrict(sweeps: Sequence[Sweep], values: Mapping[str, Sequence[Any]] | None) -> list[Sweep]:
+def restrict(
+    sweeps: Sequence[Sweep], values: Mapping[str, Sequence[Any]] | None, strict: bool = True
+) -> list[Sweep]:
     """``sweeps`` cut to ``values`` (sweep key -> values to keep; a sweep without any is left
     out; ``None`` keeps everything). A value given as a list stands for a tuple (YAML, JSON).
+    ``strict=False`` leaves out the values a sweep lacks (a second set of sweeps with fewer
+    values, cut by the values checked against the first).
 
     Raises
     ------
     ConfigError
-        Naming ``values`` for an unknown key, ``values.<key>`` for a value the sweep lacks.
+        Naming ``values`` for an unknown key, ``values.<key>`` for a value the sweep lacks
+        (``strict`` only).
     """
     if values is None:
         return list(sweeps)
@@ -170,7 +175,7 @@ def restrict(sweeps: Sequence[Sweep], values: Mapping[str, Sequence[Any]] | None
             raise ConfigError(f"values.{key}", f"must be a list of values, got {given!r}")
         keep[key] = tuple(tuple(v) if isinstance(v, list) else v for v in given)
         for v in keep[key]:
-            if v not in known[key].values:
+            if strict and v not in known[key].values:
                 ticks = ", ".join(known[key].tick(k) for k in known[key].values)
                 raise ConfigError(
                     f"values.{key}", f"{v!r} is not a value of the sweep (known: {ticks})"

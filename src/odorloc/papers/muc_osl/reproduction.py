@@ -82,13 +82,13 @@ def uav_rows(df: Any, limit: float) -> Any:
 
 
 def _per_agent(h: Any, key: str, weighted: bool = False) -> Any:
-    """Per episode, the sum over the UAVs of a per-agent value (the ``agents`` column);
-    ``weighted``: its mean weighted by the messages each UAV sent."""
-    v = agent_values(h, key)
+    """Per episode, the UAVs' sum of a per-agent value (NaN if none); ``weighted``: per message."""
+    v, none = agent_values(h, key), np.full(len(h), math.nan)
     if not weighted:
-        return np.nansum(v.to_numpy(float), axis=1)
-    sent = agent_values(h, "messages_sent").reindex(columns=v.columns).to_numpy(float)
-    return np.nansum(v.to_numpy(float) * sent, axis=1) / np.nansum(sent, axis=1)
+        return np.where(v.isna().all(axis=1), none, np.nansum(v.to_numpy(float), axis=1))
+    w = agent_values(h, "messages_sent").reindex(columns=v.columns).to_numpy(float)
+    n = np.nansum(w, axis=1)  # messages sent per episode
+    return np.divide(np.nansum(v.to_numpy(float) * w, axis=1), n, out=none, where=n > 0)
 
 
 @register("reproduction", "muc-osl", ReproductionParams, "MUC-OSL: Sect. VI, Figs. 4-7 and 9")
@@ -122,7 +122,7 @@ class MucOslReproduction(R.PointsReproduction):
         self.limit = float(time_limit or get_scenario(SCENARIO).limits.time)
         self.at = min(FILAMENT_AT, self.limit)
         self.rate_sweeps = restrict(SWEEPS, values)
-        self.filament_sweeps = restrict(fig9_settings(), values) if filament else []
+        self.filament_sweeps = restrict(fig9_settings(), values, strict=False) if filament else []
         self.note = (
             "SR: success rate % [95 % Wilson]; MST: mean search time s [95 % bootstrap], "
             f"failures at {self.limit:g} s;\nsearch time: reach_fly_hover_turn_time (fly + hover "
