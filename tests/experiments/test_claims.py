@@ -14,6 +14,7 @@ from odorloc.core.errors import ConfigError
 from odorloc.experiments.claims import (
     Cells,
     Points,
+    PointSummary,
     best_everywhere,
     bootstrap,
     combine,
@@ -24,6 +25,7 @@ from odorloc.experiments.claims import (
     slope,
     slope_difference,
     summarize_point,
+    summary_texts,
     sweep_rows,
     trend_claims,
     verdict,
@@ -188,3 +190,17 @@ def test_sweeps_restrict_and_variant_sweep_files() -> None:
     assert keys == ["muc-osl-3d", "muc-osl-3d[r=0]"]  # the duplicate world runs once
     assert [c.world_key for c in expand_cells(base)] == ["muc-osl-3d"]
     assert all(s.params["limits.time"] == 30.0 for s in main.scenarios)
+
+
+def test_summary_texts_give_a_dash_where_nothing_is_defined() -> None:
+    nan = math.nan
+    assert summary_texts(PointSummary(4, 1, 0.25, 0.05, 0.7, 300.0, 200.0, 400.0, 100.0)) == (
+        "25 [5, 70]",
+        "300 [200, 400]",
+    )
+    # successes whose time was not recorded: the rate stands, the time is undefined
+    assert summary_texts(PointSummary(1, 1, 1.0, 0.2, 1.0, nan, nan, nan, nan)) == (
+        "100 [20, 100]",
+        "-",
+    )
+    assert summary_texts(PointSummary(0, 0, nan, nan, nan, nan, nan, nan, nan)) == ("-", "-")

@@ -508,13 +508,12 @@ def paired_difference(
 
 
 def summary_texts(p: PointSummary) -> tuple[str, str]:
-    """``("SR [lo, hi]", "MST [lo, hi]")`` of a cell (success in %, time in s; ``-`` if empty)."""
+    """``("SR [lo, hi]", "MST [lo, hi]")`` of a cell (success in %, time in s; ``-`` if empty,
+    and for a time when no episode has one)."""
     if p.n == 0:
         return "-", "-"
-    return (
-        f"{100 * p.sr:.0f} [{100 * p.sr_lo:.0f}, {100 * p.sr_hi:.0f}]",
-        f"{p.mst:.0f} [{p.mst_lo:.0f}, {p.mst_hi:.0f}]",
-    )
+    mst = "-" if math.isnan(p.mst) else f"{p.mst:.0f} [{p.mst_lo:.0f}, {p.mst_hi:.0f}]"
+    return f"{100 * p.sr:.0f} [{100 * p.sr_lo:.0f}, {100 * p.sr_hi:.0f}]", mst
 
 
 #: Header of :func:`sweep_rows`' long rows after the caller's tag columns.

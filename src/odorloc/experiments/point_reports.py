@@ -33,7 +33,7 @@ from odorloc.experiments.claims import (
     summary_texts,
     sweep_rows,
 )
-from odorloc.experiments.reproduction import Figure, Reproduction, Table, fmt
+from odorloc.experiments.reproduction import CONSOLE_WIDTH, Figure, Reproduction, Table, fmt
 from odorloc.experiments.variants import Sweep
 
 __all__ = [
@@ -74,6 +74,9 @@ def sweep_tables(
         head = [sw.xlabel.split(" (")[0], *(names.get(a, a) for a in methods)]
         title = f"{sw.figure}, {world} world: %s against {sw.xlabel}"
         words = (statements or {}).get(sw.key, "")
+        notes = "\n".join(t for t in (note, words) if t)
+        # times with their intervals are wide: with many methods the console gets the means
+        fits = _console_width(head, mst) <= CONSOLE_WIDTH
         tables += [
             Table(f"{world}_{sw.key}_sr", title % "success rate % [95 %]", head, sr),
             Table(
@@ -81,10 +84,33 @@ def sweep_tables(
                 title % "mean search time s [95 %]",
                 head,
                 mst,
-                note="\n".join(t for t in (note, words) if t),
+                console=fits,
+                note=notes,
             ),
         ]
+        if not fits:
+            means = [[r[0], *(c.split(" [")[0] for c in r[1:])] for r in mst]
+            tables.append(
+                Table(
+                    f"{world}_{sw.key}_mst_means",
+                    title % "mean search time s (intervals in the report)",
+                    head,
+                    means,
+                    note=notes,
+                )
+            )
     return tables, long
+
+
+def _console_width(head: Sequence[str], rows: Sequence[Sequence[str]]) -> int:
+    """Columns a console table of ``head`` and ``rows`` needs at least: each column as wide as
+    its widest cell and header (a word of it for the first, which may wrap), two spaces between
+    columns."""
+    widths = [
+        max([len(w) for w in (h.split() if i == 0 else [h])] + [len(r[i]) for r in rows])
+        for i, h in enumerate(head)
+    ]
+    return sum(widths) + 2 * len(widths)
 
 
 def claims_tables(claims: Sequence[Claim]) -> list[Table]:
