@@ -264,6 +264,7 @@ def test_muc_osl_speed_episodes_timed_after_a_warm_up(monkeypatch: pytest.Monkey
 def test_muc_osl_speed_loops_agree_with_the_vector_code() -> None:
     from odorloc.inference.belief import ParticleBelief
     from odorloc.inference.particles.team_estimators import ColPFEstimator, ColPFParams
+    from odorloc.planning.base import Pose
 
     ms = load("muc_osl_speed")
     case, ctx, rng = ms.sample_case(), ms.context(), np.random.default_rng(1)
@@ -289,21 +290,22 @@ def test_muc_osl_speed_loops_agree_with_the_vector_code() -> None:
 
     bound = model.bind(dt=1.0, direction=ms.WIND)
     params = ms.AdaptivePlannerParams(l_max=4, tail_mass=1e-300, backend="numpy")
-    planner = ms.AdaptivePathPlanner(params)
-    planner.reset(ctx)
+    planner = ms._planner(params, ctx, model, case["hist"])
     belief = ParticleBelief(case["x"], case["lw"])
-    plan = planner.plan(belief, case["pos"], bound, case["hist"], rng)
+    plan = planner.plan(
+        belief, Pose(case["pos"], conditions={"dt": 1.0, "direction": ms.WIND}), rng
+    )
     z = bound.outcome_probabilities(case["pos"] + planner.steps, case["x"]).shape[1]
     k, length, rewards = ms.adap_pp_loop(case, params.h1_scale, params.h2_scale, 4, z)
     finite = np.isfinite(rewards)
-    assert (plan.direction, plan.length) == (k, length)
-    np.testing.assert_allclose(plan.scores[finite], rewards[finite], rtol=1e-8, atol=1e-8)
+    assert plan.index == k and plan.extra["length"] == length
+    np.testing.assert_allclose(-plan.scores[finite], rewards[finite], rtol=1e-8, atol=1e-8)
 
 
 @pytest.mark.parametrize("count", [1.0, 0.0])
 def test_muc_osl_speed_colpf_loop_is_the_whole_update(count: float) -> None:
-    """From the same seed the loop ends where the timed update ends: resampled (N_eff < N / 2
-    in the case), all 160 particles moved upwind, col-pu only without the own cue."""
+    """From the same seed the loop ends where the timed printed update ends: resampled, N_s
+    particles moved upwind, col-pu only without the own cue."""
     from odorloc.inference.particles.team_estimators import ColPFEstimator, ColPFParams
 
     ms = load("muc_osl_speed")
@@ -312,17 +314,19 @@ def test_muc_osl_speed_colpf_loop_is_the_whole_update(count: float) -> None:
     w0 = np.exp(case["lw"])
     mean0 = w0 @ case["x"]
     fit = (mean0, ((case["x"] - mean0) * w0[:, None]).T @ (case["x"] - mean0))
-    params = ColPFParams(n_particles=ms.N, n_max=ms.N)
+    params = ColPFParams(n_particles=ms.N, n_max=ms.N, pugl_move="printed")
     est = ColPFEstimator(params)
     est.reset(ctx, model, rng, n=ms.N)
     diff = ms.colpf_update_agreement(est, case, fit)
     assert diff["agree"], diff
-    assert diff["n_s"] == ms.N
+    n_s = round(ms.N * (1 - (case["k"] / 800) ** 1.8) ** 4)  # eq. 15
+    assert diff["n_s"] == n_s
     ref = ms.colpf_update_loop(case, fit, params, np.random.default_rng(7))
-    assert ref["w"] == [1.0 / ms.N] * ms.N
-    no_col = ColPFParams(n_particles=ms.N, n_max=ms.N, col_pu=False)
+    no_col = ColPFParams(n_particles=ms.N, n_max=ms.N, col_pu=False, pugl_move="printed")
     alone = ms.colpf_update_loop(case, fit, no_col, np.random.default_rng(7))
     assert (alone["x"] == ref["x"]) == (count > 0)
+    with pytest.raises(ValueError, match="printed"):
+        ms.colpf_update_loop(case, fit, ColPFParams(n_particles=ms.N), np.random.default_rng(7))
 
 
 # ---------------------------------------------------------------------- odor_path_speed

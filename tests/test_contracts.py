@@ -149,6 +149,30 @@ def test_components_by_import_path_must_belong_to_the_family() -> None:
         assert ei.value.field == "x.type"
 
 
+@pytest.mark.parametrize("name", registry.names("team_estimator"))
+def test_every_team_estimator(name: str) -> None:
+    assert checks.check_team_estimator(name) == f"team estimator {name}: 2D, 3D"
+
+
+@pytest.mark.parametrize("name", registry.names("step_planner"))
+def test_every_step_planner(name: str) -> None:
+    assert checks.check_step_planner(name) == f"step planner {name}: 2D, 3D"
+
+
+def test_the_team_estimator_check_finds_a_filter_that_leaves_the_arena(monkeypatch) -> None:
+    """A printed, unprojected env-pu (particles pushed out of the arena) breaks the contract."""
+    from odorloc.inference.particles import team_estimators
+
+    def outside(x, sel, upwind, rng, **kwargs):
+        out = np.array(x, float)
+        out[sel] += 100.0
+        return out
+
+    monkeypatch.setattr(team_estimators, "env_position_update", outside)
+    with pytest.raises(checks.ContractError, match="outside the free arena"):
+        checks.check_team_estimator("col-pf", {"pugl_move": "printed"})
+
+
 # ----------------------------------------------------------------------------- measurement models
 #: Conditions the models' calls need (wind and windows in 3 components; cut for 2-D).
 MODEL_CONDITIONS: dict[str, dict] = {

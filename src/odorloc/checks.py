@@ -20,6 +20,7 @@ finiteness, determinism per seed, staying inside the arena, the declaration form
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Mapping, Sequence
 from functools import lru_cache
@@ -29,7 +30,7 @@ import numpy as np
 
 from odorloc.core import registry
 from odorloc.core.errors import ConfigError
-from odorloc.core.types import Command, Observation, SearchContext, SensorInfo
+from odorloc.core.types import Command, Observation, Payload, SearchContext, SensorInfo
 from odorloc.engine.episode import Episode, EpisodeResult, run_episode
 from odorloc.geometry.arena import Arena
 from odorloc.plume.sources import Source
@@ -46,6 +47,8 @@ __all__ = [
     "check_resampler",
     "check_searcher",
     "check_sensor",
+    "check_step_planner",
+    "check_team_estimator",
     "check_wind",
     "compare_runs",
     "observation_stream",
@@ -808,3 +811,209 @@ def check_planner(
         _require(plans > 0, f"{tag}: the estimator {spec['type']} formed no belief to plan on")
         done.append(f"{dim}D ({plans} plans)")
     return f"planner {name}: {', '.join(done)}"
+
+
+def _uav_context(dim: int) -> SearchContext:
+    arena = _arena(dim)
+    start = [0.5] * dim
+    return SearchContext(arena=arena, dt=1.0, agent_ids=(0,), start=[start], speed_limits=[1.0])
+
+
+def _uav_model(dim: int) -> Any:
+    """The Vergassola encounter model of the UAV members (its defaults: a 1 m sensor)."""
+    return registry.ComponentRef(type="vergassola").build("model")
+
+
+def _check_particles(tag: str, positions: np.ndarray, weights: np.ndarray, arena: Arena) -> None:
+    _require(
+        positions.ndim == 2 and positions.shape == (len(weights), arena.dim),
+        f"{tag}: particles {positions.shape} for {len(weights)} weights",
+    )
+    _require(bool(np.all(np.isfinite(positions))), f"{tag}: non-finite particles")
+    _require(bool(np.all(arena.is_free(positions))), f"{tag}: a particle outside the free arena")
+    _require(
+        bool(np.all(weights >= 0)) and abs(float(weights.sum()) - 1.0) < 1e-9,
+        f"{tag}: weights not normalised",
+    )
+
+
+def _check_message(msg: Any, tag: str) -> None:
+    """A team message: a frozen payload whose declared size is a non-negative whole number of
+    bytes and whose numbers are finite floats."""
+    _require(isinstance(msg, Payload), f"{tag}: a message that is no Payload ({type(msg)})")
+    _require(isinstance(msg.nbytes, int) and msg.nbytes >= 0, f"{tag}: message size {msg.nbytes!r}")
+    stack = [msg]
+    while stack:
+        part = stack.pop()
+        _require(dataclasses.is_dataclass(part), f"{tag}: a message that is no dataclass")
+        for f in dataclasses.fields(part):
+            v = getattr(part, f.name)
+            if isinstance(v, Payload):
+                stack.append(v)
+            elif isinstance(v, np.ndarray):
+                _require(
+                    v.dtype.kind == "f" and bool(np.all(np.isfinite(v))),
+                    f"{tag}: message {f.name} holds non-finite or non-float numbers",
+                )
+
+
+def check_team_estimator(
+    name: str, params: Mapping[str, Any] | None = None, dims: Sequence[int] = (2, 3)
+) -> str:
+    """Run two members of a ``team_estimator`` side by side for a few iterations, exchanging
+    their messages, in 2-D and 3-D, twice per seed.
+
+    Checked: particles finite, inside the free arena, weights normalised, after the reset and
+    every update; a finite estimate and spread; messages that are payloads of a declared size
+    holding finite float arrays; a finite,
+    non-negative count of processed numbers; acceptance rates in ``[0, 1]`` (or NaN before any
+    move); identical particles per seed; a message of another shape refused naming
+    ``message``.
+    """
+    from odorloc.core.types import ArrayPayload
+    from odorloc.inference.particles.team_estimators import Measurement
+
+    entry = registry.entry("team_estimator", name)
+    pp = registry.make_params("team_estimator", name, dict(params or {}))
+    done = []
+    for dim in dims:
+        tag = f"team estimator {name} {dim}D"
+        ctx, model = _uav_context(dim), _uav_model(dim)
+        wind = np.zeros(dim)
+        wind[0] = 1.0
+        runs = []
+        for _ in range(2):
+            rng = np.random.default_rng(5)
+            team = [entry.build(pp), entry.build(pp)]
+            for est in team:
+                est.reset(ctx, model, rng)
+                b = est.belief()
+                _check_particles(f"{tag} reset", b.positions, b.weights, ctx.arena)
+            inbox: list[dict] = [{}, {}]
+            for k in range(1, 7):
+                for i, est in enumerate(team):
+                    pos = ctx.arena.lo + (0.2 + 0.1 * k + 0.3 * i) * ctx.arena.size
+                    count = float(k % 3 == 0)
+                    est.update(Measurement(count, pos, 1.0, k, wind), inbox[i], rng)
+                    b = est.belief()
+                    _check_particles(f"{tag} iteration {k}", b.positions, b.weights, ctx.arena)
+                    _require(
+                        est.estimate().shape == (dim,)
+                        and bool(np.all(np.isfinite(est.estimate())))
+                        and math.isfinite(est.spread())
+                        and est.spread() >= 0,
+                        f"{tag}: estimate or spread not finite",
+                    )
+                    _require(
+                        math.isfinite(est.processed) and est.processed >= 0,
+                        f"{tag}: processed count {est.processed}",
+                    )
+                    for key, v in est.acceptance().items():
+                        _require(math.isnan(v) or 0.0 <= v <= 1.0, f"{tag}: acceptance {key} {v}")
+                msgs = [est.message() for est in team]
+                for msg in msgs:
+                    if msg is not None:
+                        _check_message(msg, tag)
+                inbox = [
+                    {} if msgs[1] is None else {1: msgs[1]},
+                    {} if msgs[0] is None else {0: msgs[0]},
+                ]
+            runs.append([est.belief().positions for est in team])
+        _require(
+            all(np.array_equal(a, b) for a, b in zip(*runs, strict=True)),
+            f"{tag}: particles differ per seed",
+        )
+        if inbox[0]:
+            # a payload of another kind than the member sends
+            bad = {1: ArrayPayload({"x": np.zeros(1)})}
+            try:
+                team[0].update(
+                    Measurement(0.0, ctx.arena.lo + 0.5 * ctx.arena.size, 1.0, 7, wind),
+                    bad,
+                    np.random.default_rng(0),
+                )
+            except ConfigError as exc:
+                _require(exc.field == "message", f"{tag}: a bad message refused as {exc.field}")
+            else:
+                raise ContractError(f"{tag}: a message of another shape was accepted")
+        done.append(f"{dim}D")
+    return f"team estimator {name}: {', '.join(done)}"
+
+
+def check_step_planner(
+    name: str, params: Mapping[str, Any] | None = None, dims: Sequence[int] = (2, 3)
+) -> str:
+    """Plan from several beliefs and positions (a corner among them) in 2-D and 3-D, twice per
+    seed, through the :class:`~odorloc.planning.base.Planner` interface.
+
+    Checked: a model is required at reset (``ConfigError`` naming ``model``); one candidate
+    per lattice direction; scores ``(M,)``, ``inf`` where infeasible; the chosen index feasible
+    and its target free and inside the arena; ``extra`` gives an integer ``length`` in
+    ``1 .. l_max``; ``work`` a non-negative integer; the same plan per seed.
+    """
+    from odorloc.inference.belief import ParticleBelief
+    from odorloc.planning.base import Plan, Pose
+    from odorloc.planning.steps import lattice_offsets
+
+    entry = registry.entry("step_planner", name)
+    pp = registry.make_params("step_planner", name, dict(params or {}))
+    done = []
+    for dim in dims:
+        tag = f"step planner {name} {dim}D"
+        ctx, model, arena = _uav_context(dim), _uav_model(dim), _arena(dim)
+        try:
+            entry.build(pp).reset(ctx)
+        except ConfigError as exc:
+            _require(exc.field == "model", f"{tag}: no model refused as {exc.field}")
+        else:
+            raise ContractError(f"{tag}: reset without a measurement model was accepted")
+        rng = np.random.default_rng(9)
+        cases = []
+        for j in range(4):
+            x = arena.lo + rng.random((60, dim)) * arena.size
+            lw = rng.normal(0.0, 1.0 + j, 60)
+            lw -= lw.max() + np.log(np.exp(lw - lw.max()).sum())
+            pos = arena.lo.copy() if j == 0 else arena.lo + rng.random(dim) * arena.size
+            cases.append((ParticleBelief(x, lw), pos, x[:5]))
+        wind = np.zeros(dim)
+        wind[0] = 1.0
+        plans: list[list[Plan]] = []
+        for _ in range(2):
+            planner = entry.build(pp)
+            planner.reset(ctx, model)
+            got = []
+            for belief, pos, hist in cases:
+                for h in hist:
+                    planner.record(h)
+                pose = Pose(pos, conditions={"dt": 1.0, "direction": wind})
+                got.append(planner.plan(belief, pose, np.random.default_rng(3)))
+            plans.append(got)
+        m = len(lattice_offsets(dim))
+        for p, q in zip(*plans, strict=True):
+            _require(
+                p.candidates.shape == (m, dim)
+                and p.scores.shape == (m,)
+                and p.feasible.shape == (m,),
+                f"{tag}: plan shapes",
+            )
+            _require(
+                bool(np.all(np.isinf(p.scores[~p.feasible]))),
+                f"{tag}: a finite score for an infeasible direction",
+            )
+            _require(isinstance(p.work, int) and p.work >= 0, f"{tag}: work {p.work!r}")
+            extra = p.extra or {}
+            if p.index is not None:
+                _require(bool(p.feasible[p.index]), f"{tag}: an infeasible direction chosen")
+                _require(bool(arena.is_free(p.target[None])[0]), f"{tag}: target not free")
+                length, l_max = extra.get("length"), extra.get("l_max")
+                _require(
+                    isinstance(length, int) and isinstance(l_max, int) and 1 <= length <= l_max,
+                    f"{tag}: length {length}, l_max {l_max}",
+                )
+            _require(
+                p.index == q.index and np.array_equal(p.scores, q.scores),
+                f"{tag}: plans differ per seed",
+            )
+        _require(plans[0][0].index is not None, f"{tag}: no direction feasible from the corner")
+        done.append(f"{dim}D")
+    return f"step planner {name}: {', '.join(done)}"

@@ -1,9 +1,11 @@
-"""The compiled kernels (``fast`` extra) give the NumPy numbers bit for bit.
+"""The compiled kernels (numba) give the NumPy numbers: bit for bit, or within round-off.
 
 The Vergassola likelihood and outcome classes (:mod:`odorloc.models.kernels`) and the lattice
-planners' rewards (:mod:`odorloc.planning.kernels`) replace NumPy code; the claim is exact
-equality, not closeness, so that installing numba changes no episode. Every comparison here is
-``array_equal``; the episodes at the end compare whole metric rows.
+planners' rewards (:mod:`odorloc.planning.kernels`) replace NumPy code; for those the claim is
+exact equality (``array_equal``), so that the backend changes no episode of the standard filter
+and fixed-step infotaxis (whole metric rows at the end). The kernels of the UAV iteration (a
+measurement history's log-likelihood, the expected counts, Adap-PP's Poisson rewards) compute
+in one pass with the C library's ``exp`` and ``log``: they are held to 1e-9 relative.
 """
 
 from __future__ import annotations
@@ -12,8 +14,6 @@ import itertools
 
 import numpy as np
 import pytest
-
-pytest.importorskip("numba")
 
 from odorloc.core.errors import ConfigError
 from odorloc.core.seeds import episode_seeds
@@ -28,8 +28,11 @@ from odorloc.planning import kernels
 from odorloc.planning.adaptive import (
     AdaptivePathPlanner,
     AdaptivePlannerParams,
+    direction_rewards,
+    merge_tail_classes,
     step_rewards,
 )
+from odorloc.planning.base import Pose
 from odorloc.planning.fixed_step import FixedStepInfotaxis, FixedStepParams
 from odorloc.scenarios import get_scenario
 from odorloc.searchers.uav_team import SENSOR_RADIUS
@@ -172,9 +175,9 @@ def test_compiled_outcome_classes_refuse_invalid_means() -> None:
 
 def test_backend_numba_is_refused_without_numba(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(model_kernels, "HAVE_NUMBA", False)
-    with pytest.raises(Exception, match="numba is not installed"):
+    with pytest.raises(Exception, match="numba cannot be imported"):
         VergassolaModelParams(backend="numba")
-    with pytest.raises(Exception, match="numba is not installed"):
+    with pytest.raises(Exception, match="numba cannot be imported"):
         AdaptivePlannerParams(backend="numba")
     assert not model_kernels.compiled("auto")
     assert VergassolaModelParams(backend="auto").backend == "auto"
@@ -190,8 +193,9 @@ def _belief(rng: np.random.Generator, n: int) -> ParticleBelief:
 
 @pytest.mark.parametrize("trial", range(60))
 def test_planners_compiled_equal_numpy(trial: int) -> None:
-    """Both step planners (and the model under them) give the same scores, choices and
-    computation counts; near walls some directions are blocked."""
+    """Both step planners (and the model under them) give the same choices, equal scores
+    (fixed-step infotaxis to the bit; Adap-PP's Poisson kernel within 1e-9 relative) and the
+    same computation counts; near walls some directions are blocked."""
     rng = np.random.default_rng(500 + trial)
     models = _models()
     belief = _belief(rng, int(rng.integers(20, 161)))
@@ -212,15 +216,101 @@ def test_planners_compiled_equal_numpy(trial: int) -> None:
                 )
             else:
                 planner = FixedStepInfotaxis(FixedStepParams(backend=backend, tail_mass=tail))
-            planner.reset(_ctx())
-            plan = planner.plan(
-                belief, pos, models[backend].bind(**cond), hist, np.random.default_rng(7)
+            planner.reset(_ctx(), models[backend])
+            for p in hist:
+                planner.record(p)
+            plans[backend] = planner.plan(
+                belief, Pose(pos, conditions=cond), np.random.default_rng(7)
             )
-            plans[backend] = (plan, planner.processed)
-        (a, pa), (b, pb) = plans["numpy"], plans["numba"]
-        assert np.array_equal(a.scores, b.scores), kind
-        assert (a.direction, a.length, pa) == (b.direction, b.length, pb), kind
+        a, b = plans["numpy"], plans["numba"]
+        if kind == "fixed":
+            assert np.array_equal(a.scores, b.scores), kind
+        else:
+            np.testing.assert_allclose(b.scores, a.scores, rtol=1e-9, atol=0)
+            np.testing.assert_array_equal(a.feasible, b.feasible)
+        assert (a.index, a.extra["length"], a.work) == (b.index, b.extra["length"], b.work), kind
         assert (a.target is None and b.target is None) or np.array_equal(a.target, b.target)
+
+
+def test_poisson_direction_kernel_equals_numpy_on_extreme_means() -> None:
+    """Adap-PP's fused kernel against :func:`merge_tail_classes` + :func:`direction_rewards` on
+    the NumPy classes of the same means: means from 0 to beyond 600, every tail path, class
+    counts from 2 to 40, within 1e-9 relative."""
+    rng = np.random.default_rng(11)
+    for trial in range(40):
+        m, n = int(rng.integers(1, 27)), int(rng.integers(1, 170))
+        scale = [1e-20, 1e-3, 1.0, 5.0, 50.0, 800.0][trial % 6]
+        mu = scale * rng.exponential(1.0, (m, n))
+        if trial % 4 == 0:
+            mu[:, : n // 3] = 0.0
+        z = int(rng.integers(2, 41))
+        lw = rng.normal(0.0, 2.0, n)
+        lw -= lw.max() + np.log(np.exp(lw - lw.max()).sum())
+        w = np.exp(lw)
+        x = _cloud(rng, n, 10.0)
+        targets = _cloud(rng, m, 10.0)
+        h1 = float(rng.uniform(0.0, 3.0))
+        tail = [1e-6, 1e-3, 1e-300][trial % 3]
+        q = np.moveaxis(censored_poisson(mu, z), -1, 1)
+        qm = merge_tail_classes(w, q, tail)
+        ref = direction_rewards(w, x, qm, targets, targets[0], h1)
+        # direction_rewards takes W_k from the position; give the kernel the same W_k
+        gap = targets[0] - w @ x
+        h_now = -float(np.sum(w * lw))
+        got, kept = kernels.poisson_direction_rewards(
+            mu, w, lw, x, targets, z, tail, h1, float(np.sqrt(gap @ gap)) + h1 * h_now
+        )
+        assert kept == qm.shape[1], trial
+        np.testing.assert_allclose(got, ref, rtol=1e-9, atol=1e-9 * abs(ref).max())
+
+
+def test_poisson_outcomes_are_the_models_classes() -> None:
+    """The means and class count a model gives for its Poisson outcomes reproduce its outcome
+    probabilities (compiled means within round-off of the NumPy ones)."""
+    rng = np.random.default_rng(12)
+    fast, ref = _models()["numba"], _models()["numpy"]
+    for _ in range(20):
+        x = _cloud(rng, int(rng.integers(1, 150)), 15.0)
+        t = _cloud(rng, int(rng.integers(1, 27)), 15.0)
+        direction = rng.standard_normal(3)
+        cond = {
+            "dt": float(rng.uniform(0.5, 2.0)),
+            "direction": direction / np.linalg.norm(direction),
+        }
+        mu_f, z_f = fast.poisson_outcomes(t, x, **cond)
+        mu_r, z_r = ref.poisson_outcomes(t, x, **cond)
+        assert z_f == z_r
+        np.testing.assert_allclose(mu_f, mu_r, rtol=1e-12, atol=0)
+        q = ref.outcome_probabilities(t, x, **cond)
+        np.testing.assert_allclose(np.moveaxis(censored_poisson(mu_r, z_r), -1, 1), q, rtol=1e-12)
+
+
+@pytest.mark.parametrize("trial", range(20))
+def test_weighted_log_likelihood_compiled_equals_numpy(trial: int) -> None:
+    """A measurement history (readings with their own exposures, wind directions, some given
+    none, and exponents, some 0) at particle clouds: the compiled pass equals the NumPy
+    evaluation within 1e-9 relative, and both refuse a NaN hypothesis."""
+    rng = np.random.default_rng(900 + trial)
+    fast, ref = _models()["numba"], _models()["numpy"]
+    k, n = int(rng.integers(1, 400)), int(rng.integers(1, 170))
+    x = _cloud(rng, n, float(rng.uniform(0.5, 30.0)))
+    s = _cloud(rng, k, 20.0)
+    counts = rng.poisson(rng.uniform(0.0, 3.0), k).astype(float)
+    e = rng.uniform(0.0, 1.0, k)
+    e[rng.random(k) < 0.2] = 0.0
+    dirs = rng.standard_normal((k, 3)) * [1.0, 1.0, 0.2]
+    dirs[rng.random(k) < 0.3] = np.nan
+    dts = rng.uniform(0.5, 3.0, k)
+    record = {"dt": dts, "direction": dirs}
+    cond = {"release": rng.uniform(1.0, 20.0, n)} if trial % 4 == 0 else {}
+    got = fast.weighted_log_likelihood(counts, s, x, e, record, **cond)
+    want = ref.weighted_log_likelihood(counts, s, x, e, record, **cond)
+    np.testing.assert_allclose(got, want, rtol=1e-9, atol=0)
+    bad = x.copy()
+    bad[0, 1] = np.nan
+    for model in (fast, ref):
+        with pytest.raises(ConfigError, match="expected_counts"):
+            model.weighted_log_likelihood(counts, s, bad, np.ones(k), record)
 
 
 def test_step_rewards_kernel_equals_numpy() -> None:
@@ -237,17 +327,18 @@ def test_step_rewards_kernel_equals_numpy() -> None:
         assert np.array_equal(got, step_rewards(pos, step, lmax, est, hist, h2))
 
 
-@pytest.mark.parametrize("algorithm", ["muc-osl", "col-inf", "col-pf", "adap-pp"])
-def test_episodes_are_the_same_with_and_without_the_kernels(algorithm: str) -> None:
-    """Whole team episodes (3 UAVs, 5 minutes) give the same metric rows bit for bit."""
+def test_baseline_episodes_are_the_same_with_and_without_the_kernels() -> None:
+    """Col-Inf (the standard filter and fixed-step infotaxis, whose kernels reproduce NumPy to
+    the bit) gives the same metric rows with and without the compiled kernels (3 UAVs,
+    5 minutes). The Col-PF and Adap-PP kernels agree with NumPy within round-off, not to the
+    bit (tested per kernel above), so their episodes may part after enough iterations."""
     sc = get_scenario("muc-osl-3d").with_overrides({"limits": {"control_dt": 1.0, "time": 300.0}})
     rows = {}
     for backend in ("numpy", "numba"):
-        planner = "adap-pp" if algorithm in ("muc-osl", "adap-pp") else "fixed-step-infotaxis"
         searcher = {
-            "type": algorithm,
+            "type": "col-inf",
             "model": {"type": "vergassola", "sensor_radius": SENSOR_RADIUS, "backend": backend},
-            "planner": {"type": planner, "backend": backend},
+            "planner": {"type": "fixed-step-infotaxis", "backend": backend},
         }
         res = run_episode(
             sc.with_overrides({"searcher": searcher}), *episode_seeds(5, "muc-osl-3d", 1)

@@ -158,8 +158,8 @@ def test_collaborative_weight_update_hand_worked_with_two_neighbours() -> None:
     v = np.linalg.solve(cov, np.ones(3))
     dm = np.ones(3) * math.sqrt(2 * math.log(2) / float(np.ones(3) @ v))
     inbox = {
-        1: fit_payload(mean + dm, cov, 1.0, [1.0, 0.0, 0.0], True),
-        2: fit_payload(mean, cov, 0.0, [2.0, 0.0, 0.0], False),
+        1: fit_payload(mean + dm, cov, 1.0, [1.0, 0.0, 0.0], True, 1.0),
+        2: fit_payload(mean, cov, 0.0, [2.0, 0.0, 0.0], False, 1.0),
     }
     est.update(Measurement(1.0, np.array([0.0, 0.0, 0.0]), 1.0, 1), inbox, np.random.default_rng(1))
     assert est.betas[1] == pytest.approx(0.5, rel=1e-6)
@@ -178,17 +178,31 @@ def test_collaborative_log_likelihood_rejects_bad_betas() -> None:
 
 
 def test_fit_payload_round_trip_and_size() -> None:
-    p = fit_payload(np.arange(3.0), np.eye(3) * 2, 4.0, [1.0, 2.0, 3.0], True)
-    assert p.numbers == 17  # 12 for the fit + count, position, cue
-    assert p.nbytes == 17 * 8
+    wind = np.array([0.6, -0.8, 0.0])
+    p = fit_payload(np.arange(3.0), np.eye(3) * 2, 4.0, [1.0, 2.0, 3.0], True, 0.5, wind)
+    # 12 for the fit + count, position, cue + the reading's exposure and wind direction
+    assert p.numbers == 21
+    assert p.nbytes == 21 * 8
     with pytest.raises(ValueError, match="read-only"):
         p.mean[0] = 9.0  # what was sent cannot change
+    with pytest.raises(ValueError, match="read-only"):
+        p.measurement.direction[0] = 9.0
     f = read_fit_payload(5, p)
     assert f.sender == 5 and f.count == 4.0 and f.cue_captured
     np.testing.assert_array_equal(f.mean, [0.0, 1.0, 2.0])
     np.testing.assert_array_equal(f.cov, np.eye(3) * 2)
+    assert f.conditions()["dt"] == 0.5
+    np.testing.assert_array_equal(f.conditions()["direction"], wind)
+    # a sender whose model used its own wind sends the exposure alone
+    q = fit_payload(np.arange(3.0), np.eye(3), 0.0, [1.0, 2.0, 3.0], False, 1.0)
+    assert q.numbers == 18
+    assert read_fit_payload(2, q).conditions() == {"dt": 1.0}
     with pytest.raises(ConfigError, match="message"):
         read_fit_payload(1, ParticleSetMessage(np.zeros((3, 3)), np.ones(3) / 3))
+    with pytest.raises(ConfigError, match="message"):
+        fit_payload(np.arange(3.0), np.eye(3), 0.0, [1.0, 2.0, 3.0], False, 0.0)  # no exposure
+    with pytest.raises(ConfigError, match="message"):
+        fit_payload(np.arange(3.0), np.eye(3), 0.0, [1.0, 2.0, 3.0], False, 1.0, [1.0, 0.0])
 
 
 # ----------------------------------------------------------------------------- PUGL
@@ -309,14 +323,20 @@ def test_colpf_estimator_keeps_count_in_bounds_and_moves_particles() -> None:
 
 @pytest.mark.parametrize("k", [1, 200, 400])
 def test_colpf_update_moves_n_s_particles_upwind(k: int) -> None:
-    """Inside one update, PUGL moves exactly N_s of eq. 15 particles, each straight upwind by at
-    most ``env_step`` (eq. 16, invariant reading); the others keep their positions. Without
-    resampling or a count change the particles before and after the update can be matched
-    one to one."""
+    """Inside one update, PUGL as printed moves exactly N_s of eq. 15 particles, each straight
+    upwind by at most ``env_step`` (eq. 16, invariant reading); the others keep their positions.
+    Without resampling or a count change the particles before and after the update can be
+    matched one to one."""
     ctx = _uav_context()
     rng = np.random.default_rng(11)
     est = ColPFEstimator(
-        ColPFParams(resample_threshold=0.0, adaptive_count=False, env_step=2.0, n_max=160)
+        ColPFParams(
+            resample_threshold=0.0,
+            adaptive_count=False,
+            env_step=2.0,
+            n_max=160,
+            pugl_move="printed",
+        )
     )
     est.reset(ctx, VergassolaModel(), rng)
     # particles away from the walls, so that no move is cut short by the arena
@@ -334,6 +354,34 @@ def test_colpf_update_moves_n_s_particles_upwind(k: int) -> None:
     assert np.all((d[moved, 1] > 0.0) & (d[moved, 1] <= 2.0))
     # the steps are rand * env_step: spread over the whole interval, not one fixed length
     assert d[moved, 1].std() > 0.3
+
+
+@pytest.mark.parametrize("k", [1, 400])
+def test_reversible_update_proposes_n_s_moves_along_the_wind_axis(k: int) -> None:
+    """With reversible moves the same update proposes eq. 16's step for N_s particles, upwind
+    or downwind; the accepted ones move along the wind axis by at most ``env_step``, both ways,
+    and the others keep their positions."""
+    ctx = _uav_context()
+    rng = np.random.default_rng(11)
+    est = ColPFEstimator(
+        ColPFParams(resample_threshold=0.0, adaptive_count=False, env_step=2.0, n_max=160)
+    )
+    est.reset(ctx, VergassolaModel(), rng)
+    x0 = np.column_stack(
+        [rng.uniform(20, 80, 100), rng.uniform(10, 40, 100), rng.uniform(5, 25, 100)]
+    )
+    est.pf.replace(x0, np.full(100, -math.log(100)))
+    down = np.array([0.0, -1.0, 0.0])
+    est.update(Measurement(0.0, np.array([50.0, 5.0, 10.0]), 1.0, k, down), {}, rng)
+    d = est.pf.positions - x0
+    moved = np.flatnonzero(np.any(d != 0.0, axis=1))
+    n_s = round(100 * (1 - (k / 800) ** 1.8) ** 4)
+    assert est.n_moved == n_s and 0 < len(moved) <= n_s
+    assert est.acceptance()["env"] == pytest.approx(len(moved) / n_s)
+    assert np.all(d[moved, 0] == 0.0) and np.all(d[moved, 2] == 0.0)
+    assert np.all(np.abs(d[moved, 1]) <= 2.0)
+    if len(moved) > 10:
+        assert (d[moved, 1] > 0).any() and (d[moved, 1] < 0).any()
 
 
 def test_standard_pf_pools_neighbour_particles() -> None:

@@ -40,6 +40,7 @@ def test_reproduction_survives_degenerate_results(name, kind, tmp_path, monkeypa
         import odorloc.papers.muc_osl.reproduction as muc
 
         monkeypatch.setattr(muc, "_fig3", lambda seed, path, time_limit=None: _blank(path))
+        monkeypatch.setattr(muc, "_mechanism", lambda seed, path, n, time_limit=None: _blank(path))
     out = r.run(tmp_path, episodes=1, workers=1, seed=3, progress=False)
     assert out.failed_figures == [], out.failed_figures
     assert out.report is not None and out.report.is_file()

@@ -24,9 +24,17 @@ from odorloc.planning.adaptive import (
     source_area_ratio,
     step_rewards,
 )
+from odorloc.planning.base import Plan, Pose
 from odorloc.planning.fixed_step import FixedStepInfotaxis, FixedStepParams, with_found_outcome
 from odorloc.planning.rewards import expected_entropy
 from odorloc.planning.steps import lattice_offsets
+
+
+def _plan(planner, belief, pos, history, rng, **conditions) -> Plan:
+    """One decision from ``pos`` after the measurement points ``history``."""
+    for p in history:
+        planner.record(p)
+    return planner.plan(belief, Pose(np.asarray(pos, float), conditions=conditions), rng)
 
 
 def _ctx(upper: tuple[float, ...] = (100.0, 60.0, 30.0)) -> SearchContext:
@@ -153,22 +161,30 @@ def test_l_max_from_the_source_area_ratio() -> None:
 def test_adaptive_planner_goes_towards_a_converged_estimate_in_long_steps() -> None:
     ctx = _ctx()
     planner = AdaptivePathPlanner(AdaptivePlannerParams(l_max=5))
-    planner.reset(ctx)
+    planner.reset(ctx, VergassolaModel())
     rng = np.random.default_rng(2)
     src = np.array([60.0, 40.0, 20.0])
     x = src + rng.normal(0, 0.5, (100, 3))
     belief = ParticleBelief(x, np.full(100, -math.log(100)))
     pos = np.array([40.0, 40.0, 20.0])
-    model = VergassolaModel().bind(dt=1.0)
-    plan = planner.plan(belief, pos, model, np.array([pos]), rng)
-    np.testing.assert_allclose(planner.steps[plan.direction], [2.0, 0.0, 0.0])
-    assert plan.length == 5
+    plan = _plan(planner, belief, pos, [pos], rng, dt=1.0)
+    np.testing.assert_allclose(planner.steps[plan.index], [2.0, 0.0, 0.0])
+    assert plan.extra["length"] == 5 and plan.extra["l_max"] == 5
     np.testing.assert_allclose(plan.target, [50.0, 40.0, 20.0])
+    assert plan.work > 0 and plan.score == plan.scores.min()
     # earlier measurement points only the 5-cell sphere holds (centre 45, radius 5; the
     # 4-cell one ends at x = 48) cost h2 = 0.1 D = 2 m each: R = 18, 16, 14, 12, 10 + 3 * 2
+    other = AdaptivePathPlanner(AdaptivePlannerParams(l_max=5))
+    other.reset(ctx, VergassolaModel())
     hist = np.array([pos, [49.0, 40.0, 20.0], [49.5, 40.0, 20.0], [49.5, 40.5, 20.0]])
-    short = planner.plan(belief, pos, model, hist, rng)
-    assert short.length == 4
+    short = _plan(other, belief, pos, hist, rng, dt=1.0)
+    assert short.extra["length"] == 4
+    np.testing.assert_allclose(short.target, [48.0, 40.0, 20.0])
+
+
+def test_a_step_planner_needs_a_measurement_model() -> None:
+    with pytest.raises(ConfigError, match=r"^model: "):
+        AdaptivePathPlanner().reset(_ctx())
 
 
 def test_planners_stay_inside_the_arena() -> None:
@@ -176,14 +192,14 @@ def test_planners_stay_inside_the_arena() -> None:
     rng = np.random.default_rng(3)
     x = rng.uniform([0, 0, 0], [100, 60, 30], (80, 3))
     belief = ParticleBelief(x, np.full(80, -math.log(80)))
-    model = VergassolaModel().bind(dt=1.0)
     corner = np.array([0.0, 0.0, 0.0])
     for planner in (AdaptivePathPlanner(), FixedStepInfotaxis()):
-        planner.reset(ctx)
-        plan = planner.plan(belief, corner, model, np.array([corner]), rng)
+        planner.reset(ctx, VergassolaModel())
+        plan = _plan(planner, belief, corner, [corner], rng, dt=1.0)
         assert plan.target is not None
         assert ctx.arena.is_free(plan.target[None])[0]
         assert not plan.feasible[0]  # (-1, -1, -1) leaves the box
+        assert plan.scores[0] == np.inf
 
 
 def test_found_outcome_makes_a_probability_distribution() -> None:
@@ -224,29 +240,29 @@ def _brute_expected_entropy(w: np.ndarray, q: np.ndarray) -> np.ndarray:
 def test_fixed_step_infotaxis_takes_the_least_expected_entropy() -> None:
     ctx = _ctx((40.0, 40.0, 40.0))
     planner = FixedStepInfotaxis()
-    planner.reset(ctx)
+    planner.reset(ctx, VergassolaModel())
     rng = np.random.default_rng(5)
     x = rng.uniform(0, 40, (120, 3))
     belief = ParticleBelief(x, np.full(120, -math.log(120)))
     pos = np.array([20.0, 20.0, 20.0])
     model = VergassolaModel().bind(dt=1.0)
-    plan = planner.plan(belief, pos, model, np.array([pos]), rng)
-    assert plan.length == 1
-    assert plan.scores[plan.direction] == pytest.approx(np.min(plan.scores), rel=1e-9)
-    np.testing.assert_allclose(plan.target, pos + planner.steps[plan.direction])
+    plan = _plan(planner, belief, pos, [pos], rng, dt=1.0)
+    assert plan.extra["length"] == 1
+    assert plan.score == pytest.approx(np.min(plan.scores), rel=1e-9)
+    np.testing.assert_allclose(plan.target, pos + planner.steps[plan.index])
     # the scores themselves, from a belief that prefers one side, against Bayes' rule by hand:
     # every count class (none merged) conditioned on not found, and the found class
     for backend in ("numpy", "numba"):
         exact = FixedStepInfotaxis(FixedStepParams(tail_mass=1e-300, ties="first", backend=backend))
-        exact.reset(ctx)
+        exact.reset(ctx, VergassolaModel())
         lw = -0.5 * np.sum((x - [30.0, 25.0, 20.0]) ** 2, axis=1) / 36.0
         lw -= math.log(np.exp(lw).sum())
         skewed = ParticleBelief(x, lw)
-        got = exact.plan(skewed, pos, model, np.array([pos]), rng)
+        got = _plan(exact, skewed, pos, [pos], rng, dt=1.0)
         targets = pos + exact.steps
         q = model.outcome_probabilities(targets, x)
         ref = _brute_expected_entropy(np.exp(lw), with_found_outcome(q, targets, x, 2.0))
         np.testing.assert_allclose(got.scores, ref, rtol=1e-9)
-        assert got.direction == int(np.argmin(ref))
+        assert got.index == int(np.argmin(ref))
         # the directions differ clearly, so the choice is the reward's and not a tie's
         assert np.ptp(ref) > 0.1

@@ -342,6 +342,14 @@ def test_uav_timing_and_energy(sky):
     assert u.movement_energy == pytest.approx(16759.0)
     assert u.energy == pytest.approx(16759.0)
     assert u.movement_energy == pytest.approx(movement_energy(u.params, 18.0, 3, 1))
+    # the paper's search time of a UAV (fly + hover + turn, Sect. VI.1) and E_M in the stats
+    assert s["fly_hover_turn_time"] == pytest.approx(18.0 + 3.0 + 1.0)
+    assert s["movement_energy"] == pytest.approx(16759.0)
+    u.charge_comm(1000.0)
+    u.charge_compute(1e9)
+    # radio and computation stay apart from the movement energy
+    assert u.stats["movement_energy"] == pytest.approx(16759.0)
+    assert u.energy > u.stats["movement_energy"]
 
 
 def test_uav_phases_span_periods(sky):

@@ -98,6 +98,28 @@ def test_members_draw_from_separate_streams() -> None:
     assert [m.draws[0] for m in again.members] == [a[0] for a in acts]
 
 
+@pytest.mark.parametrize("member", ["test_team:Dice", "random-walk"])
+def test_adding_a_member_leaves_the_others_draws_unchanged(member: str) -> None:
+    """A member's streams depend on its place in the team, not on the team's size: the first
+    two members of a team of three draw (and, with nothing passing between them, move) as in a
+    team of two, on the same seeds."""
+    two = [[8.0, 1.0], [8.0, 4.0]]
+    three = [*two, [5.0, 3.0]]
+    runs = {}
+    for starts in (two, three):
+        sc = _team_scenario(starts, float("inf"), member)
+        b = build(sc)
+        res = run_episode(sc, 3, 4, built=b)
+        runs[len(starts)] = (b.searcher.members, res.recording.positions)
+    (m2, pos2), (m3, pos3) = runs[2], runs[3]
+    np.testing.assert_array_equal(pos3[:, :2], pos2)
+    if member == "test_team:Dice":
+        assert [(m.first, m.draws) for m in m3[:2]] == [(m.first, m.draws) for m in m2]
+        assert m3[2].first not in [m.first for m in m2]
+    else:
+        assert not np.array_equal(pos2[1:, 0], pos2[:-1, 0])  # the walkers do move
+
+
 def test_an_agents_path_does_not_depend_on_where_the_others_are() -> None:
     # random-walk members draw every step: moving agent 1 elsewhere must leave agent 0's path as
     # it was, to the bit (nothing passes between members that say nothing, and the bodies stay
@@ -179,7 +201,6 @@ class _Fixed(Searcher):
 
 
 def _ctx(sc):
-    from odorloc.scenarios.build import search_context
 
     return search_context(sc, build(sc))
 

@@ -1,4 +1,4 @@
-"""Compiled kernels: numba (the ``fast`` extra) with a cache that hits across processes.
+"""Compiled kernels: numba (a dependency) with a cache that hits across processes.
 
 A kernel is compiled once per machine and loaded from the cache by every later process (a sweep
 worker, a second ``odorloc run``). The cache lives in the user's cache folder, never in the

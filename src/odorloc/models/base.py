@@ -17,6 +17,7 @@ its own parameter, so it may differ from the world's plume (model mismatch is a 
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
@@ -69,6 +70,83 @@ class MeasurementModel(ABC):
         ]
         return np.array(rows, float).reshape(len(sp), -1)
 
+    def weighted_log_likelihood(
+        self,
+        z: Any,
+        sensor_positions: np.ndarray,
+        hypotheses: np.ndarray,
+        exponents: np.ndarray,
+        record_conditions: Mapping[str, np.ndarray] | None = None,
+        **conditions: Any,
+    ) -> np.ndarray:
+        """``sum_k e_k log p(z_k | x_n)`` over ``K`` readings, each at its own sensor position
+        and under its own conditions, ``(N,)``.
+
+        A measurement history evaluated at once (a tempered product of likelihoods: a
+        neighbour's reading counted with its confidence factor, eq. 11 of the multi-UAV paper).
+
+        Parameters
+        ----------
+        z : (K,) array_like
+            The readings.
+        sensor_positions : (K, d) ndarray, metres
+        hypotheses : (N, d) ndarray, metres
+        exponents : (K,) ndarray
+            ``e_k >= 0``; a reading with ``e_k = 0`` contributes nothing (not ``0 * -inf``).
+        record_conditions : mapping of str to (K, ...) ndarray, optional
+            Conditions that differ between readings, one row per reading (an exposure ``dt``
+            ``(K,)``, a wind ``direction`` ``(K, d)``). A row that is all NaN means "not given":
+            the model's default.
+        **conditions
+            Conditions shared by every reading.
+
+        The readings are checked by :meth:`prepare_readings` and evaluated by
+        :meth:`prepared_log_likelihood`; a caller that evaluates the same readings at many
+        hypothesis sets (a Metropolis-Hastings move) prepares them once.
+        """
+        prepared = self.prepare_readings(
+            z, sensor_positions, exponents, record_conditions, **conditions
+        )
+        return self.prepared_log_likelihood(prepared, hypotheses)
+
+    def prepare_readings(
+        self,
+        z: Any,
+        sensor_positions: np.ndarray,
+        exponents: np.ndarray,
+        record_conditions: Mapping[str, np.ndarray] | None = None,
+        **conditions: Any,
+    ) -> Any:
+        """The readings of :meth:`weighted_log_likelihood` checked once, in the form
+        :meth:`prepared_log_likelihood` evaluates (the default keeps them as given)."""
+        zs = list(np.atleast_1d(np.asarray(z, dtype=object)))
+        sp = np.atleast_2d(np.asarray(sensor_positions, float))
+        e = np.asarray(exponents, float).reshape(-1)
+        per = {k: np.asarray(v) for k, v in (record_conditions or {}).items()}
+        if not (len(zs) == len(sp) == len(e)) or any(len(v) != len(e) for v in per.values()):
+            raise ConfigError(
+                "readings", f"{len(zs)} readings, {len(sp)} positions, {len(e)} exponents"
+            )
+        if np.any(~(e >= 0)):
+            raise ConfigError("exponents", "must be >= 0")
+        return _Readings(zs, sp, e, per, dict(conditions))
+
+    def prepared_log_likelihood(self, prepared: Any, hypotheses: np.ndarray) -> np.ndarray:
+        """``sum_k e_k log p(z_k | x_n)`` of readings from :meth:`prepare_readings`, ``(N,)``.
+
+        Default: one :meth:`log_likelihood` call per reading.
+        """
+        r: _Readings = prepared
+        out = np.zeros(len(np.atleast_2d(hypotheses)))
+        for k in np.flatnonzero(r.exponents > 0):
+            cond = dict(r.conditions)
+            for key, values in r.record.items():
+                v = np.asarray(values[k], float)
+                if not np.all(np.isnan(v)):
+                    cond[key] = v if v.ndim else float(v)
+            out += r.exponents[k] * self.log_likelihood(r.z[k], r.positions[k], hypotheses, **cond)
+        return out
+
     @abstractmethod
     def outcome_probabilities(
         self, sensor_positions: np.ndarray, hypotheses: np.ndarray, **conditions: Any
@@ -77,6 +155,19 @@ class MeasurementModel(ABC):
 
         For every ``(m, i)`` the ``Z`` classes sum to one.
         """
+
+    def poisson_outcomes(
+        self, sensor_positions: np.ndarray, hypotheses: np.ndarray, **conditions: Any
+    ) -> tuple[np.ndarray, int] | None:
+        """The Poisson means behind :meth:`outcome_probabilities`, when its classes are Poisson
+        counts: ``(means (M, N), Z)`` such that the outcome probabilities are the classes
+        ``0 .. Z-2`` and ``>= Z-1`` of Poisson(means). ``None`` (the default) for any other
+        outcome model.
+
+        A planner that knows the classes are Poisson works on their log-probabilities
+        directly (``c log mu - mu - log c!``) instead of taking the log of every class.
+        """
+        return None
 
     def outcome_values(
         self, sensor_positions: np.ndarray, hypotheses: np.ndarray, **conditions: Any
@@ -96,6 +187,26 @@ class MeasurementModel(ABC):
         return BoundModel(self, conditions)
 
 
+class _Readings:
+    """Readings kept as given (:meth:`MeasurementModel.prepare_readings`)."""
+
+    __slots__ = ("conditions", "exponents", "positions", "record", "z")
+
+    def __init__(
+        self,
+        z: list[Any],
+        positions: np.ndarray,
+        exponents: np.ndarray,
+        record: dict[str, np.ndarray],
+        conditions: dict[str, Any],
+    ) -> None:
+        self.z = z
+        self.positions = positions
+        self.exponents = exponents
+        self.record = record
+        self.conditions = conditions
+
+
 class BoundModel:
     """A measurement model with fixed conditions: ``log_likelihood(z, s, x)`` and
     ``outcome_probabilities(S, x)`` without keywords."""
@@ -111,6 +222,12 @@ class BoundModel:
     def outcome_probabilities(self, sensor_positions: np.ndarray, hypotheses: np.ndarray) -> Any:
         """See :meth:`MeasurementModel.outcome_probabilities`."""
         return self.model.outcome_probabilities(sensor_positions, hypotheses, **self.conditions)
+
+    def poisson_outcomes(
+        self, sensor_positions: np.ndarray, hypotheses: np.ndarray
+    ) -> tuple[np.ndarray, int] | None:
+        """See :meth:`MeasurementModel.poisson_outcomes`."""
+        return self.model.poisson_outcomes(sensor_positions, hypotheses, **self.conditions)
 
     def outcome_values(self, sensor_positions: np.ndarray, hypotheses: np.ndarray) -> np.ndarray:
         """See :meth:`MeasurementModel.outcome_values`."""

@@ -1,14 +1,15 @@
-"""Compiled kernels of the 3-D Vergassola rate and its Poisson counts (the ``fast`` extra).
+"""Compiled kernels of the 3-D Vergassola rate and its Poisson counts (numba).
 
 The estimators and planners of a UAV team evaluate eq. 1 (rate) and eq. 3 (Poisson counts) of
 the multi-UAV paper for every particle at up to 26 points, hundreds of times per episode. In
 NumPy that is some thirty array calls per evaluation on arrays of a few thousand numbers, where
 the call overhead dominates. These loops do the element-wise work in one pass each, compiled
-with numba when it is installed (:data:`HAVE_NUMBA`).
+with numba (:data:`HAVE_NUMBA`).
 
-They reproduce the NumPy code of :mod:`odorloc.models.vergassola` and
-:mod:`odorloc.models.poisson` *bit for bit*, so that installing the extra does not change a
-single episode:
+The kernels behind :meth:`~odorloc.models.vergassola.VergassolaModel.log_likelihood` and
+:meth:`~odorloc.models.vergassola.VergassolaModel.outcome_probabilities` reproduce the NumPy code
+of :mod:`odorloc.models.vergassola` and :mod:`odorloc.models.poisson` *bit for bit*, so that the
+backend does not change a single episode of the models' other users:
 
 - every operation is the same IEEE operation in the same order (sums of squares and of classes
   in index order, as NumPy's reductions over a short or a non-contiguous axis do);
@@ -17,6 +18,11 @@ single episode:
   pass them in. A compiled ``exp`` is the C library's, which differs from NumPy's in the last
   bit for a few per cent of arguments;
 - logarithms are the C library's on both sides (``scipy.special.xlogy`` calls it).
+
+The kernels of a whole measurement history (:func:`weighted_poisson_log_likelihood`) and of the
+expected counts for planning (:func:`rate_means_direct`) compute everything in one pass, with
+the C library's ``exp`` and ``log``: they equal their NumPy references within round-off (1e-9
+relative), not to the bit.
 
 The NumPy functions remain the reference (and the path without numba); the test suite checks
 the equality on random inputs.
@@ -40,6 +46,8 @@ __all__ = [
     "rate_exponent_direct",
     "rate_exponent_gram",
     "rate_means",
+    "rate_means_direct",
+    "weighted_poisson_log_likelihood",
 ]
 
 from odorloc.core.jit import HAVE_NUMBA
@@ -48,7 +56,7 @@ from odorloc.core.jit import jit as _cached_jit
 
 def _available(backend: str) -> str:
     if backend == "numba" and not HAVE_NUMBA:
-        raise ValueError("numba is not installed (install the 'fast' extra), use auto or numpy")
+        raise ValueError("numba cannot be imported (a dependency of odorloc), use auto or numpy")
     return backend
 
 
@@ -307,3 +315,128 @@ def censored_classes(
                 any_rest = True
             out[i, k, j] = 0.0 if t < 0.0 else t  # numpy.maximum(t, 0.0)
     return out, rest, any_rest
+
+
+@jit
+def weighted_poisson_log_likelihood(
+    x: np.ndarray,
+    s: np.ndarray,
+    e: np.ndarray,
+    counts: np.ndarray,
+    log_fact: np.ndarray,
+    scale: np.ndarray,
+    exponents: np.ndarray,
+    aq: np.ndarray,
+    adv: float,
+    inv_lam: float,
+    a2: float,
+) -> np.ndarray:
+    """``sum_k e_k log Poisson(d_k | R(s_k; x_n) dt_k)`` for every hypothesis, ``(N,)``
+    (eqs. 1, 3 and 11 of the multi-UAV paper: a measurement history, each reading at its own
+    sensor position with its own exposure and wind direction).
+
+    Parameters
+    ----------
+    x : (N, 3) ndarray, metres
+        Source hypotheses.
+    s : (K, 3) ndarray, metres
+        Where each reading was taken.
+    e : (K, 3) ndarray
+        Unit vector the wind blew towards at each reading.
+    counts, log_fact : (K,) ndarray
+        The counts ``d_k`` and ``log(d_k!)``.
+    scale : (K,) ndarray, seconds
+        The exposure ``dt_k`` of each reading.
+    exponents : (K,) ndarray
+        ``e_k`` (1 for the UAV's own reading, the confidence factor for a neighbour's).
+    aq : (N,) ndarray
+        ``a Q`` of each hypothesis.
+    adv, inv_lam, a2 : float
+        ``V / (2 D)`` (1/m), ``1 / lambda`` (1/m) and the squared sensor radius (m^2).
+
+    Notes
+    -----
+    The same maths as the NumPy evaluation of
+    :meth:`~odorloc.models.vergassola.VergassolaModel.weighted_log_likelihood` (its reference),
+    equal to it within round-off (1e-9 relative): the C library's ``exp`` and ``log``, sums in
+    reading order. ``log mu`` is taken from the exponent directly for a non-zero count, so an
+    expected count that underflows never gives ``-inf`` where the rate is merely tiny.
+    """
+    n = x.shape[0]
+    k = s.shape[0]
+    d = x.shape[1]
+    out = np.empty(n)
+    for i in range(n):
+        acc = 0.0
+        for j in range(k):
+            if exponents[j] == 0.0:
+                continue
+            r2 = 0.0
+            along = 0.0
+            for a in range(d):
+                diff = s[j, a] - x[i, a]
+                r2 += diff * diff
+                along += diff * e[j, a]
+            if r2 < a2:
+                r2 = a2
+            r = math.sqrt(r2)
+            expo = along * adv - r * inv_lam
+            mu = scale[j] * aq[i] * math.exp(expo) / r
+            v = -mu - log_fact[j]
+            if counts[j] != 0.0:
+                v += counts[j] * (math.log(scale[j] * aq[i]) + expo - math.log(r))
+            acc += exponents[j] * v
+        out[i] = acc
+    return out
+
+
+@jit
+def rate_means_direct(
+    x: np.ndarray,
+    s: np.ndarray,
+    e: np.ndarray,
+    aq: np.ndarray,
+    dt: float,
+    adv: float,
+    inv_lam: float,
+    a2: float,
+) -> tuple[np.ndarray, float]:
+    """Expected counts ``R(x_m; s_n) dt`` ``(M, N)`` of the 3-D rate (eqs. 1, 3) and their
+    maximum, in one pass (the C library's ``exp``; equal to
+    :func:`~odorloc.models.vergassola.vergassola_rate` times ``dt`` within round-off).
+
+    Parameters
+    ----------
+    x : (M, 3) ndarray, metres
+        Sensor positions.
+    s : (N, 3) ndarray, metres
+        Source hypotheses.
+    e : (3,) ndarray
+        Unit vector the wind blows towards.
+    aq : (N,) ndarray
+        ``a Q`` of each hypothesis.
+    dt : float, seconds
+    adv, inv_lam, a2 : float
+        ``V / (2 D)``, ``1 / lambda`` and ``a^2``.
+    """
+    m = x.shape[0]
+    n = s.shape[0]
+    d = x.shape[1]
+    mu = np.empty((m, n))
+    top = -np.inf
+    for i in range(m):
+        for j in range(n):
+            r2 = 0.0
+            along = 0.0
+            for k in range(d):
+                diff = x[i, k] - s[j, k]
+                r2 += diff * diff
+                along += diff * e[k]
+            if r2 < a2:
+                r2 = a2
+            r = math.sqrt(r2)
+            v = dt * (aq[j] * math.exp(along * adv - r * inv_lam) / r)
+            mu[i, j] = v
+            if v > top:
+                top = v
+    return mu, top

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import math
 from collections import OrderedDict
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
@@ -306,6 +307,154 @@ class VergassolaModel(MeasurementModel):
         mu = self.rate(sp, hypotheses, conditions.get("release"), conditions.get("direction"))
         return poisson_log_pmf(k, mu * dt)
 
+    def prepare_readings(
+        self,
+        z: Any,
+        sensor_positions: np.ndarray,
+        exponents: np.ndarray,
+        record_conditions: Mapping[str, np.ndarray] | None = None,
+        **conditions: Any,
+    ) -> Any:
+        """Readings with their own exposure ``dt`` ``(K,)`` and wind ``direction`` ``(K, d)``
+        checked once (see :meth:`~odorloc.models.base.MeasurementModel.weighted_log_likelihood`):
+        directions made unit (NaN rows: the shared ``direction``, else the model's), readings
+        with exponent 0 left out. Other per-reading conditions take the base class's path."""
+        per = dict(record_conditions or {})
+        if set(per) - {"dt", "direction"}:
+            return super().prepare_readings(z, sensor_positions, exponents, per, **conditions)
+        sp = np.atleast_2d(np.asarray(sensor_positions, float))
+        counts = np.asarray(z, float).reshape(-1)
+        e = np.asarray(exponents, float).reshape(-1)
+        dim = sp.shape[1]
+        if not (len(counts) == len(sp) == len(e)) or dim not in (2, 3):
+            raise ConfigError(
+                "readings", f"{len(counts)} counts, positions {sp.shape}, {len(e)} exponents"
+            )
+        check_counts(counts)
+        if np.any(~(e >= 0)):
+            raise ConfigError("exponents", "must be >= 0")
+        dts = _record_exposures(per.get("dt"), conditions, len(counts))
+        dirs = self._record_directions(per.get("direction"), conditions, len(counts), dim)
+        release = conditions.get("release")
+        q = np.asarray(self.params.Q if release is None else release, float)
+        if np.any(~(q >= 0)) or not np.all(np.isfinite(q)) or q.ndim > 1:
+            raise ConfigError("release", "needs one rate >= 0 or one per source")
+        keep = e > 0
+        if not keep.all():
+            counts, sp, e, dts, dirs = counts[keep], sp[keep], e[keep], dts[keep], dirs[keep]
+        return _VergassolaReadings(
+            np.ascontiguousarray(sp),
+            np.ascontiguousarray(dirs),
+            counts,
+            gammaln(counts + 1.0),
+            dts,
+            e,
+            q,
+        )
+
+    def prepared_log_likelihood(self, prepared: Any, hypotheses: np.ndarray) -> np.ndarray:
+        """``sum_k e_k log Poisson(z_k | R(s_k) dt_k)``, ``(N,)``, of prepared readings.
+
+        In 3-D with the compiled backend one pass of
+        :func:`~odorloc.models.kernels.weighted_poisson_log_likelihood`; otherwise the NumPy
+        evaluation :meth:`_weighted_log_likelihood_numpy`, its reference (the two agree within
+        round-off).
+        """
+        if not isinstance(prepared, _VergassolaReadings):
+            return super().prepared_log_likelihood(prepared, hypotheses)
+        r = prepared
+        x = np.ascontiguousarray(hypotheses, dtype=float)
+        if x.ndim != 2 or x.shape[1] != r.positions.shape[1]:
+            raise ConfigError(
+                "hypotheses", f"expected (N, {r.positions.shape[1]}) points, got {x.shape}"
+            )
+        q = r.release if r.release.ndim == 0 else r.release.reshape(-1)
+        if q.ndim and len(q) != len(x):
+            raise ConfigError("release", f"needs one rate or {len(x)} (one per source)")
+        if self._compiled and x.shape[1] == 3:
+            p = self.params
+            a = float(p.sensor_radius)
+            aq = np.full(len(x), a * float(q)) if q.ndim == 0 else np.ascontiguousarray(a * q)
+            out = kernels.weighted_poisson_log_likelihood(
+                x,
+                r.positions,
+                r.directions,
+                r.counts,
+                r.log_fact,
+                r.dts,
+                r.exponents,
+                aq,
+                p.V / (2.0 * p.D),
+                1.0 / self.length,
+                a * a,
+            )
+        else:
+            out = self._weighted_log_likelihood_numpy(
+                x,
+                r.positions,
+                r.directions,
+                r.counts,
+                r.dts,
+                r.exponents,
+                np.broadcast_to(q, (len(x),)),
+            )
+        total = out.sum()
+        # -inf is allowed (a reading impossible under a hypothesis), NaN and +inf are not
+        if total != total or total == np.inf:
+            raise ConfigError("expected_counts", "must be finite and >= 0")
+        return out
+
+    def _weighted_log_likelihood_numpy(
+        self,
+        x: np.ndarray,
+        sp: np.ndarray,
+        dirs: np.ndarray,
+        counts: np.ndarray,
+        dts: np.ndarray,
+        e: np.ndarray,
+        q: np.ndarray,
+    ) -> np.ndarray:
+        """The NumPy reference of :meth:`weighted_log_likelihood` (either dimension)."""
+        p = self.params
+        lam = self.length
+        a = float(p.sensor_radius)
+        rel = sp[:, None, :] - x[None, :, :]  # (K, N, d)
+        r = np.sqrt(np.maximum((rel * rel).sum(axis=2), a * a))
+        along = np.einsum("knd,kd->kn", rel, dirs)
+        expo = along * (p.V / (2.0 * p.D)) - r / lam
+        with np.errstate(divide="ignore"):
+            if x.shape[1] == 3:
+                # eq. 1: a Q exp(...) / |r|, times the exposure
+                log_mu = np.log(dts[:, None] * a * q[None, :]) + expo - np.log(r)
+            else:
+                # 2-D: Q / ln(lambda / a) K0(|r| / lambda) exp(V (r . e) / (2 D))
+                log_mu = (
+                    np.log(dts[:, None] * q[None, :] / math.log(lam / a))
+                    + np.log(k0e(r / lam))
+                    + expo
+                )
+        mu = np.exp(log_mu)
+        c = counts[:, None]
+        ll = np.where(c > 0, c * log_mu, 0.0) - mu - gammaln(c + 1.0)
+        return e @ ll if len(e) else np.zeros(len(x))
+
+    def _record_directions(
+        self, given: np.ndarray | None, conditions: dict[str, Any], k: int, dim: int
+    ) -> np.ndarray:
+        """Unit wind directions of ``k`` readings ``(k, dim)``; NaN rows take the default (the
+        shared ``direction`` condition, else the model's)."""
+        default = conditions.get("direction")
+        base = unit_direction(default if default is not None else self.params.wind_direction, dim)
+        if given is None:
+            return np.broadcast_to(base, (k, dim)).copy()
+        g = np.asarray(given, float).reshape(k, dim).copy()
+        missing = np.isnan(g).all(axis=1)
+        g[missing] = base
+        norm = np.sqrt((g * g).sum(axis=1))
+        if not np.all(norm > 0) or not np.all(np.isfinite(norm)):
+            raise ConfigError("wind_direction", f"needs non-zero {dim}-vectors")
+        return g / norm[:, None]
+
     def n_classes(self, mean: np.ndarray) -> int:
         """Count classes needed so that the tail beyond holds < ``tail_mass`` (capped)."""
         return self._classes_for(float(np.max(mean)) if np.size(mean) else 0.0)
@@ -335,6 +484,41 @@ class VergassolaModel(MeasurementModel):
             return out
         # C order (M, Z, N): planners reduce over the last axis and reshape freely
         return np.ascontiguousarray(np.moveaxis(censored_poisson(mu, z), -1, 1))
+
+    def poisson_outcomes(
+        self, sensor_positions: np.ndarray, hypotheses: np.ndarray, **conditions: Any
+    ) -> tuple[np.ndarray, int]:
+        """Expected counts ``R dt`` ``(M, N)`` and the class count ``Z`` of
+        :meth:`outcome_probabilities` (eq. 3: its classes are Poisson counts of these means).
+
+        In 3-D with the compiled backend the means are one pass of
+        :func:`~odorloc.models.kernels.rate_means_direct` (the C library's ``exp``: equal to the
+        NumPy means within round-off, not to the bit).
+        """
+        fixed = conditions.get("n_classes")
+        z = None if fixed is None else check_n_classes(fixed)
+        dt = _exposure(conditions)
+        if self._compiled:
+            p = self.params
+            x, s, e, q = self._inputs(sensor_positions, hypotheses, conditions)
+            if x.shape[1] == 3:
+                a = float(p.sensor_radius)
+                aq = np.full(len(s), a * float(q)) if q.ndim == 0 else a * q
+                mu, top = kernels.rate_means_direct(
+                    np.ascontiguousarray(x),
+                    np.ascontiguousarray(s),
+                    e,
+                    np.ascontiguousarray(aq, dtype=float),
+                    dt,
+                    p.V / (2.0 * p.D),
+                    1.0 / self.length,
+                    a * a,
+                )
+                if mu.size and not (top < math.inf and mu.min() >= 0.0):
+                    raise ConfigError("expected_counts", "must be finite and >= 0")
+                return mu, self._classes_for(top if mu.size else 0.0) if z is None else z
+        mu, _, _, zz = self._class_means(sensor_positions, hypotheses, conditions)
+        return mu, zz
 
     def outcome_values(
         self, sensor_positions: np.ndarray, hypotheses: np.ndarray, **conditions: Any
@@ -379,6 +563,21 @@ class VergassolaModel(MeasurementModel):
             top = 0.0
         return mu, neg, top, self._classes_for(top) if z is None else z
 
+    def _inputs(
+        self, sensor_positions: ArrayLike, hypotheses: ArrayLike, conditions: dict[str, Any]
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Checked points, hypotheses, unit wind direction and release rates of a call: the
+        ``release`` and ``direction`` conditions, else the model's."""
+        p = self.params
+        release = conditions.get("release")
+        direction = conditions.get("direction")
+        return _rate_inputs(
+            sensor_positions,
+            hypotheses,
+            p.Q if release is None else release,
+            direction if direction is not None else p.wind_direction,
+        )
+
     def _kernel_parts(
         self, sensor_positions: ArrayLike, hypotheses: ArrayLike, conditions: dict[str, Any]
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
@@ -388,14 +587,7 @@ class VergassolaModel(MeasurementModel):
         if not self._compiled:
             return None
         p = self.params
-        release = conditions.get("release")
-        direction = conditions.get("direction")
-        x, s, e, q = _rate_inputs(
-            sensor_positions,
-            hypotheses,
-            p.Q if release is None else release,
-            direction if direction is not None else p.wind_direction,
-        )
+        x, s, e, q = self._inputs(sensor_positions, hypotheses, conditions)
         if x.shape[1] != 3:
             return None
         adv, inv_lam, a2 = self._consts
@@ -429,6 +621,43 @@ def _log_rows(
     if not valid:
         raise ConfigError("expected_counts", "must be finite and >= 0")
     return ll
+
+
+class _VergassolaReadings:
+    """Readings checked by :meth:`VergassolaModel.prepare_readings` (exponent-0 ones left out)."""
+
+    __slots__ = ("counts", "directions", "dts", "exponents", "log_fact", "positions", "release")
+
+    def __init__(
+        self,
+        positions: np.ndarray,
+        directions: np.ndarray,
+        counts: np.ndarray,
+        log_fact: np.ndarray,
+        dts: np.ndarray,
+        exponents: np.ndarray,
+        release: np.ndarray,
+    ) -> None:
+        self.positions = positions
+        self.directions = directions
+        self.counts = counts
+        self.log_fact = log_fact
+        self.dts = dts
+        self.exponents = exponents
+        self.release = release
+
+
+def _record_exposures(given: np.ndarray | None, conditions: dict[str, Any], k: int) -> np.ndarray:
+    """Exposures of ``k`` readings ``(k,)``, seconds: ``given`` with NaN for the shared ``dt``."""
+    if given is None:
+        return np.full(k, _exposure(conditions))
+    dts = np.asarray(given, float).reshape(k).copy()
+    missing = np.isnan(dts)
+    if missing.any():
+        dts[missing] = _exposure(conditions)
+    if not (np.all(np.isfinite(dts)) and np.all(dts > 0)):
+        raise ConfigError("dt", "the exposure time must be a finite number > 0")
+    return dts
 
 
 def _exposure(conditions: dict[str, Any]) -> float:

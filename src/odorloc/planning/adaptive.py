@@ -55,8 +55,9 @@ from odorloc.core.registry import register
 from odorloc.inference.belief import ParticleBelief
 from odorloc.models.base import BoundModel
 from odorloc.planning import kernels
+from odorloc.planning.base import Plan, Pose
 from odorloc.planning.selection import select
-from odorloc.planning.steps import LatticeParams, StepPlan, StepPlanner
+from odorloc.planning.steps import LatticeParams, StepPlanner
 
 __all__ = [
     "AdaptivePathPlanner",
@@ -295,8 +296,8 @@ class AdaptivePathPlanner(StepPlanner):
     params: AdaptivePlannerParams
     Params = AdaptivePlannerParams
 
-    def reset(self, ctx: Any) -> None:
-        super().reset(ctx)
+    def reset(self, ctx: Any, model: Any = None) -> None:
+        super().reset(ctx, model)
         self.l_max: int | None = self.params.l_max
         self.zeta = math.nan
 
@@ -308,44 +309,29 @@ class AdaptivePathPlanner(StepPlanner):
             self.l_max = max_step(self.zeta, p.zeta_product)
         return self.l_max
 
-    def plan(
-        self,
-        belief: ParticleBelief,
-        position: np.ndarray,
-        model: BoundModel,
-        history: np.ndarray,
-        rng: np.random.Generator,
-    ) -> StepPlan:
+    def plan(self, belief: ParticleBelief, pose: Pose, rng: np.random.Generator) -> Plan:
         p = self.params
-        pos = np.asarray(position, float)
+        pos = np.asarray(pose.position, float)
+        model = self.bound_model(pose)
         targets = pos + self.steps
         ok = self.feasible(pos, targets)
-        scores = np.full(len(targets), -np.inf)
-        if not ok.any():
-            return StepPlan(None, None, 0, self.steps, scores, ok)
-        x = belief.positions
-        w = belief.weights
-        est = w @ x
-        cov = belief.cov.tolist()
-        # numpy.trace without its call: the diagonal summed in order
-        var = cov[0][0]
-        for i in range(1, len(cov)):
-            var += cov[i][i]
-        var = max(var, 0.0)
-        h1 = p.h1_scale * (var if p.h1 == "variance" else math.sqrt(var))
-        q = model.outcome_probabilities(targets[ok], x)
-        if self.compiled:
-            scores[ok], n_classes = _direction_rewards_compiled(
-                w, x, q, targets[ok], pos, h1, p.tail_mass, est
-            )
-            q_size = q.shape[0] * n_classes * q.shape[2]
-        else:
-            q = merge_tail_classes(w, q, p.tail_mass)
-            scores[ok] = direction_rewards(w, x, q, targets[ok], pos, h1)
-            q_size = q.size
-        k = select(scores, mode="max", feasible=ok, ties="first")
-        assert k is not None
+        # minimised: the negated reward W - E[W'] (eq. 25 maximises it)
+        scores = np.full(len(targets), np.inf)
         l_max = self._l_max(model)
+        if not ok.any():
+            return Plan(None, targets, scores, ok, 0, {"length": 0, "l_max": l_max})
+        x = belief.positions
+        lw = belief.log_weights
+        w = np.exp(lw)
+        est = w @ x
+        dx = x - est
+        # tr(Sigma) of the weighted particles
+        var = max(float(np.einsum("n,nd,nd->", w, dx, dx)), 0.0)
+        h1 = p.h1_scale * (var if p.h1 == "variance" else math.sqrt(var))
+        rewards, size = self._direction_rewards(model, w, lw, x, est, targets[ok], pos, h1)
+        scores[ok] = -rewards
+        k = select(scores, mode="min", feasible=ok, ties="first")
+        assert k is not None
         step = self.steps[k]
         lengths = np.arange(1, l_max + 1)
         cand = pos + lengths[:, None] * step
@@ -354,13 +340,52 @@ class AdaptivePathPlanner(StepPlanner):
         fine = np.cumprod(fine).astype(bool)
         gap = pos - est
         h2 = p.h2_scale * math.sqrt(float(gap.dot(gap)))
+        history = self.history
         if self.compiled:
-            hist = np.ascontiguousarray(np.asarray(history, float).reshape(-1, pos.size))
             step_norm = math.sqrt(float(step.dot(step)))
-            r = kernels.step_rewards(pos, step, step_norm, l_max, est, hist, h2)
+            r = kernels.step_rewards(pos, step, step_norm, l_max, est, history, h2)
         else:
             r = step_rewards(pos, step, l_max, est, history, h2)
         j = select(r, mode="min", feasible=fine, ties="first")
         length = 1 if j is None else int(lengths[j])
-        self.processed = float(q_size * (x.shape[1] + 1) + l_max * (len(history) + 1))
-        return StepPlan(pos + length * step, k, length, self.steps, scores, ok)
+        work = size * (x.shape[1] + 1) + l_max * (len(history) + 1)
+        extra = {"length": length, "l_max": l_max, "step_scores": r}
+        return Plan(k, pos + length * self.steps, scores, ok, int(work), extra)
+
+    def _direction_rewards(
+        self,
+        model: BoundModel,
+        w: np.ndarray,
+        lw: np.ndarray,
+        x: np.ndarray,
+        est: np.ndarray,
+        targets: np.ndarray,
+        pos: np.ndarray,
+        h1: float,
+    ) -> tuple[np.ndarray, int]:
+        """``W_k - E[W_{k+1}]`` of the feasible candidates and the size of the outcome array
+        (candidates x classes kept x particles)."""
+        p = self.params
+        if self.compiled:
+            poisson = model.poisson_outcomes(targets, x)
+            if poisson is not None:
+                mu, z = poisson
+                gap = pos - est
+                w_now = math.sqrt(float(gap.dot(gap))) - h1 * float(xlogy(w, w).sum())
+                rewards, kept = kernels.poisson_direction_rewards(
+                    np.ascontiguousarray(mu),
+                    w,
+                    np.ascontiguousarray(lw, dtype=float),
+                    np.ascontiguousarray(x, dtype=float),
+                    np.ascontiguousarray(targets),
+                    int(z),
+                    p.tail_mass,
+                    h1,
+                    w_now,
+                )
+                return rewards, mu.shape[0] * kept * mu.shape[1]
+            q = model.outcome_probabilities(targets, x)
+            rewards, kept = _direction_rewards_compiled(w, x, q, targets, pos, h1, p.tail_mass, est)
+            return rewards, q.shape[0] * kept * q.shape[2]
+        q = merge_tail_classes(w, model.outcome_probabilities(targets, x), p.tail_mass)
+        return direction_rewards(w, x, q, targets, pos, h1), q.size

@@ -21,12 +21,12 @@ from odorloc.core.params import Positive
 from odorloc.core.registry import register
 from odorloc.inference.belief import ParticleBelief
 from odorloc.inference.weights import normalise_log_weights
-from odorloc.models.base import BoundModel
 from odorloc.planning import kernels
 from odorloc.planning.adaptive import merge_tail_classes
+from odorloc.planning.base import Plan, Pose
 from odorloc.planning.rewards import expected_entropy
 from odorloc.planning.selection import select
-from odorloc.planning.steps import LatticeParams, StepPlan, StepPlanner
+from odorloc.planning.steps import LatticeParams, StepPlanner
 
 __all__ = ["FixedStepInfotaxis", "FixedStepParams", "with_found_outcome"]
 
@@ -74,19 +74,14 @@ class FixedStepInfotaxis(StepPlanner):
     params: FixedStepParams
     Params = FixedStepParams
 
-    def plan(
-        self,
-        belief: ParticleBelief,
-        position: np.ndarray,
-        model: BoundModel,
-        history: np.ndarray,
-        rng: np.random.Generator,
-    ) -> StepPlan:
-        pos = np.asarray(position, float)
+    def plan(self, belief: ParticleBelief, pose: Pose, rng: np.random.Generator) -> Plan:
+        pos = np.asarray(pose.position, float)
         targets = pos + self.steps
         ok = self.feasible(pos, targets)
         scores = np.full(len(targets), np.inf)
+        work = 0
         if ok.any():
+            model = self.bound_model(pose)
             x = belief.positions
             p = self.params
             q = model.outcome_probabilities(targets[ok], x)
@@ -105,8 +100,8 @@ class FixedStepInfotaxis(StepPlanner):
                 q = with_found_outcome(q, targets[ok], x, p.found_radius)
                 scores[ok] = expected_entropy(belief.log_weights, q)
                 size = q.size
-            self.processed = float(size * (x.shape[1] + 1))
+            work = size * (x.shape[1] + 1)
         k = select(scores, mode="min", feasible=ok, ties=self.params.ties, rtol=1e-9, rng=rng)
-        if k is None:
-            return StepPlan(None, None, 0, self.steps, scores, ok)
-        return StepPlan(targets[k], k, 1, self.steps, scores, ok)
+        return Plan(
+            k, targets, scores, ok, int(work), {"length": 1 if k is not None else 0, "l_max": 1}
+        )

@@ -7,6 +7,19 @@ multi-UAV paper V.1) times a number of cells. Its parts are the candidate set
 over the belief and the measurement model's outcome probabilities, and
 :func:`~odorloc.planning.selection.select`.
 
+Step planners implement :class:`~odorloc.planning.base.Planner`::
+
+    planner.reset(ctx, model)                 # the arena, and the UAV's measurement model
+    planner.record(position)                  # each measurement point, as it is taken
+    plan = planner.plan(belief, pose, rng)    # pose.conditions: the next reading's (dt, wind)
+    plan.target, plan.extra["length"]         # the next hover point, cells along the direction
+
+The :class:`~odorloc.planning.base.Plan` of a step planner has one candidate per direction, at
+the step length the planner chose (``extra["length"]``; 1 for a fixed step): ``scores`` are the
+directions' (minimised) scores and ``feasible`` says whether a direction's first cell is free
+and reachable. The chosen target is free and reachable at its length. ``work`` counts the
+numbers the decision processed (the computation measure of eq. 7).
+
 - :class:`~odorloc.planning.adaptive.AdaptivePathPlanner` (``adap-pp``): direction by
   ``W - E[W']``, then the step length (eqs. 21-28);
 - :class:`~odorloc.planning.fixed_step.FixedStepInfotaxis` (``fixed-step-infotaxis``): one cell
@@ -21,10 +34,9 @@ direction ``cell`` metres per step).
 from __future__ import annotations
 
 import itertools
-from abc import ABC, abstractmethod
-from dataclasses import dataclass
+from abc import abstractmethod
 from functools import lru_cache
-from typing import ClassVar, Literal
+from typing import Any, ClassVar, Literal
 
 import numpy as np
 
@@ -32,11 +44,12 @@ from odorloc.core.errors import ConfigError
 from odorloc.core.params import Params, Positive
 from odorloc.core.types import SearchContext
 from odorloc.inference.belief import ParticleBelief
-from odorloc.models.base import BoundModel
+from odorloc.models.base import BoundModel, MeasurementModel
 from odorloc.models.kernels import Backend, compiled
+from odorloc.planning.base import Plan, Planner, Pose
 from odorloc.planning.candidates import reachable
 
-__all__ = ["LatticeParams", "StepPlan", "StepPlanner", "lattice_offsets"]
+__all__ = ["LatticeParams", "StepPlanner", "lattice_offsets"]
 
 
 @lru_cache(maxsize=4)
@@ -67,8 +80,8 @@ class LatticeParams(Params):
         Displacement of a step along a diagonal direction (see the module docstring).
     backend : {"auto", "numpy", "numba"}
         The rewards as NumPy arrays or as the compiled loops of :mod:`odorloc.planning.kernels`
-        (the ``fast`` extra; the same numbers bit for bit). ``auto`` compiles when numba is
-        installed.
+        (numba; equal to the NumPy reference within round-off, fixed-step infotaxis to the
+        bit). ``auto`` compiles when numba is importable.
     """
 
     cell: Positive = 2.0
@@ -76,38 +89,10 @@ class LatticeParams(Params):
     backend: Backend = "auto"
 
 
-@dataclass(frozen=True)
-class StepPlan:
-    """A step planner's decision.
+class StepPlanner(Planner):
+    """Base class of the step planners (see the module docstring).
 
-    Attributes
-    ----------
-    target : (d,) ndarray or None, metres
-        The next hover point (``None`` when every direction is blocked).
-    direction : int or None
-        Index of the chosen direction in :attr:`steps`.
-    length : int
-        Number of cells.
-    steps : (M, d) ndarray, metres
-        One-cell displacement of every direction.
-    scores : (M,) ndarray
-        The direction score (``inf``/``-inf`` for blocked directions).
-    feasible : (M,) bool ndarray
-    """
-
-    target: np.ndarray | None
-    direction: int | None
-    length: int
-    steps: np.ndarray
-    scores: np.ndarray
-    feasible: np.ndarray
-
-
-class StepPlanner(ABC):
-    """Base class of the step planners.
-
-    After :meth:`reset`, :attr:`steps` are the one-cell displacements ``(M, d)``; :attr:`processed`
-    counts the numbers the last :meth:`plan` processed (the computation measure of eq. 7);
+    After :meth:`reset`, :attr:`steps` are the one-cell displacements ``(M, d)`` and
     :attr:`compiled` says whether the rewards run as compiled kernels (``backend``).
     """
 
@@ -115,17 +100,37 @@ class StepPlanner(ABC):
     Params: ClassVar[type[Params]]
 
     def __init__(self, params: LatticeParams | None = None) -> None:
-        self.params = params if params is not None else type(self).Params()  # type: ignore[assignment]
+        super().__init__(params if params is not None else type(self).Params())
         self.compiled = compiled(self.params.backend)
 
-    def reset(self, ctx: SearchContext) -> None:
-        """Prepare for an episode in ``ctx``."""
-        self.ctx = ctx
+    def reset(self, ctx: SearchContext, model: Any = None) -> None:
+        """Prepare for an episode in ``ctx`` with the UAV's measurement ``model``."""
+        if not isinstance(model, MeasurementModel):
+            raise ConfigError("model", "a step planner needs the UAV's measurement model")
+        super().reset(ctx, model)
         o = lattice_offsets(ctx.dim)
         if self.params.moves == "unit":
             o = o / np.linalg.norm(o, axis=1)[:, None]
         self.steps = self.params.cell * o
-        self.processed = 0.0
+        # measurement points, (K, d) in a buffer that doubles when full
+        self._points = np.empty((64, ctx.dim))
+        self._n_points = 0
+
+    def record(self, position: np.ndarray) -> None:
+        """Note a measurement point of the UAV (Adap-PP's step reward counts them, eq. 27)."""
+        if self._n_points == len(self._points):
+            self._points = np.concatenate([self._points, np.empty_like(self._points)])
+        self._points[self._n_points] = np.asarray(position, float)
+        self._n_points += 1
+
+    @property
+    def history(self) -> np.ndarray:
+        """The measurement points recorded so far, ``(K, d)`` metres (a view)."""
+        return self._points[: self._n_points]
+
+    def bound_model(self, pose: Pose) -> BoundModel:
+        """The model with the conditions of the reading the plan anticipates bound."""
+        return self.model.bind(**pose.conditions)
 
     def feasible(self, position: np.ndarray, targets: np.ndarray) -> np.ndarray:
         """``(M,)`` bool: targets inside the free arena reachable in a straight line."""
@@ -143,26 +148,16 @@ class StepPlanner(ABC):
         return arena.is_free(targets) & reachable(arena, position, targets)
 
     @abstractmethod
-    def plan(
-        self,
-        belief: ParticleBelief,
-        position: np.ndarray,
-        model: BoundModel,
-        history: np.ndarray,
-        rng: np.random.Generator,
-    ) -> StepPlan:
+    def plan(self, belief: ParticleBelief, pose: Pose, rng: np.random.Generator) -> Plan:
         """The next hover point.
 
         Parameters
         ----------
         belief : ParticleBelief
             The UAV's particles.
-        position : (d,) ndarray, metres
-        model : BoundModel
-            The measurement model with the next measurement's conditions bound (exposure,
-            wind direction).
-        history : (K, d) ndarray, metres
-            The UAV's past measurement points (the current one included).
+        pose : Pose
+            Its position and the conditions of the next reading (exposure, wind direction),
+            bound into the model for this decision.
         rng : numpy.random.Generator
             For random tie-breaking.
         """

@@ -310,16 +310,28 @@ class UAV(Platform):
 
     @property
     def stats(self) -> dict[str, float]:
-        """Time and counts since reset: ``fly_time, hover_time, turn_time, idle_time`` (s),
-        ``n_turns, n_hovers`` and ``distance`` (m)."""
+        """Time, counts and movement energy since reset: ``fly_time, hover_time, turn_time,
+        idle_time`` (s), ``fly_hover_turn_time`` (s: their sum without the idle time, the
+        multi-UAV paper's search time of a UAV, Sect. VI.1), ``n_turns, n_hovers``,
+        ``distance`` (m) and ``movement_energy`` (J: ``E_M`` of eqs. 4-6, radio and computation
+        apart).
+
+        An episode row carries each as ``team_<key>`` (summed over the UAVs) and, with a reach
+        radius, ``reach_<key>`` of the first UAV to reach the source at that moment: so
+        ``reach_fly_hover_turn_time`` is the paper's search time, while the row's
+        ``search_time`` is the simulated time at which the episode ended.
+        """
+        t = self._t
         return {
-            "fly_time": self._t["fly"],
-            "hover_time": self._t["hover"],
-            "turn_time": self._t["turn"],
-            "idle_time": self._t["idle"],
+            "fly_time": t["fly"],
+            "hover_time": t["hover"],
+            "turn_time": t["turn"],
+            "idle_time": t["idle"],
+            "fly_hover_turn_time": t["fly"] + t["hover"] + t["turn"],
             "n_turns": float(self._n_turns),
             "n_hovers": float(self._n_hovers),
             "distance": self.path_length,
+            "movement_energy": self.movement_energy,
         }
 
     # ------------------------------------------------------------------ kinematics

@@ -8,10 +8,11 @@ the scenario (``agents.groups``), which sees the observations of its group's age
 know of each other only what they tell each other in messages.
 
 Members keep the global agent ids (observations, messages, declarations), their own random
-streams, and their beliefs are all recorded. A member's first stream (its :meth:`reset`) depends
-only on its place in the team; its second (its actions) is spawned after every member's first,
-so it depends on the team's size too: a member of a team of three draws other numbers than the
-same member of a team of two (seeds give the same episode for the same team, as everywhere).
+streams, and their beliefs are all recorded. Member ``k`` draws from the ``k``-th child of the
+team's stream: its reset from that child, its actions from a stream spawned from that child.
+Both depend only on the member's place in the team, never on the team's size, so adding a
+member leaves the others' draws unchanged (what the others then *do* may still change, through
+the messages and bodies of the new member).
 
 A member's declaration is forwarded tagged with its agent and group, so the scenario's end rule
 (``task.end``) decides whether it ends the episode; with ``declare: all`` the team instead
@@ -77,9 +78,13 @@ class PerAgentTeam(Searcher):
         entry_cls = None
         self.units = self._units(ctx)
         self.members: list[Searcher] = []
-        # Each member draws from streams of its own, so no member's draws depend on what the
-        # others do (the streams of its actions, spawned below, do depend on the team size).
+        # Each member draws from streams of its own, spawned from the k-th child of the team's
+        # stream only: spawn keys depend on the index, not on how many children there are, so
+        # no member's draws depend on the team's size or on what the others draw.
+        self._rngs: list[np.random.Generator] = []
         for (agents, g), child in zip(self.units, rng.spawn(len(self.units)), strict=True):
+            # the action stream is spawned before the reset, which may spawn from `child` too
+            self._rngs.append(child.spawn(1)[0])
             m = ref.build("searcher", field="searcher.member")
             entry_cls = type(m)
             if entry_cls.max_agents is not None and len(agents) > entry_cls.max_agents:
@@ -98,7 +103,6 @@ class PerAgentTeam(Searcher):
                 )
             m.reset(ctx.subset(agents), child)
             self.members.append(m)
-        self._rngs = rng.spawn(len(self.units))
         self._rows = [[ctx.index(a) for a in agents] for agents, _ in self.units]
         self._declared: list[Declaration | None] = [None] * len(self.units)
         self._team_declared = False

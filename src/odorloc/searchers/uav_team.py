@@ -30,14 +30,21 @@ value.
 The four algorithms of the paper are compositions of these parts, registered as team presets
 (each UAV a member with those parameters; every parameter of the member can be set on the preset):
 
-=========  ===============  =======================
-name       estimator        planner
-=========  ===============  =======================
-muc-osl    col-pf           adap-pp
-col-inf    standard-pf      fixed-step-infotaxis
-col-pf     col-pf           fixed-step-infotaxis
-adap-pp    standard-pf      adap-pp
-=========  ===============  =======================
+===============  ===================================  =======================
+name             estimator                            planner
+===============  ===================================  =======================
+muc-osl          col-pf (reversible PUGL moves)       adap-pp
+col-inf          standard-pf                          fixed-step-infotaxis
+col-pf           col-pf (reversible PUGL moves)       fixed-step-infotaxis
+adap-pp          standard-pf                          adap-pp
+muc-osl-printed  col-pf, ``pugl_move: printed``       adap-pp
+col-pf-printed   col-pf, ``pugl_move: printed``       fixed-step-infotaxis
+===============  ===================================  =======================
+
+``muc-osl`` and ``col-pf`` judge PUGL's particle moves (eqs. 16-17) by the measurement history as
+reversible Metropolis-Hastings moves, which keeps the filter's posterior; the ``-printed`` presets
+move the particles as the paper prints it (unjudged, weights kept), which drifts the belief
+upwind (:mod:`odorloc.inference.particles.pugl` says why).
 
 ``{type: col-pf, planner: {type: adap-pp}}`` is therefore MUC-OSL again, and
 ``{type: per-agent, member: {type: uav-pf, estimator: {type: col-pf}}}`` the same team written
@@ -61,6 +68,7 @@ from odorloc.core.params import Params, Positive
 from odorloc.core.registry import ComponentRef, Ref, register
 from odorloc.core.types import Action, Command, Declaration, Observation, SearchContext
 from odorloc.inference.particles.team_estimators import Measurement, TeamEstimator
+from odorloc.planning.base import Pose
 from odorloc.planning.steps import StepPlanner
 from odorloc.searchers.base import Searcher
 from odorloc.searchers.team import PerAgentTeam, TeamParams
@@ -167,13 +175,11 @@ class UAVPlannerMember(Searcher):
         )
         self.planner: StepPlanner = p.planner.build("step_planner", field="searcher.planner")
         self.estimator.reset(ctx, self.model, rng)
-        self.planner.reset(ctx)
+        self.planner.reset(ctx, self.model)
         self.k = 0
         self._inbox: dict[int, Mapping[str, np.ndarray]] = {}
-        # measurement points, (K, d) in a buffer that doubles when full (the planner reads all)
-        self._points = np.empty((64, ctx.dim))
-        self._n_points = 0
         self._cues: list[np.ndarray] = []
+        self._l_max = 1
         self._wind_sum = np.zeros(ctx.dim)
         self._wind_n = 0
         self._declared = False
@@ -207,10 +213,7 @@ class UAVPlannerMember(Searcher):
         est = self.estimator
         est.update(m, self._inbox, rng)
         self._inbox = {}
-        if self._n_points == len(self._points):
-            self._points = np.concatenate([self._points, np.empty_like(self._points)])
-        self._points[self._n_points] = pos
-        self._n_points += 1
+        self.planner.record(pos)
         if count > 0:
             self._cues.append(pos)
         self._counts.append(est.pf.n)
@@ -221,7 +224,7 @@ class UAVPlannerMember(Searcher):
             self._numbers_sent += payload.numbers
         declaration = None
         estimate = est.estimate()
-        self.planner.processed = 0.0
+        work = 0
         if est.spread() <= self.params.declare_spread:
             if not self._declared:
                 declaration = Declaration(estimate[None, :], agent=o.agent)
@@ -230,18 +233,15 @@ class UAVPlannerMember(Searcher):
             command = self._approach(pos, estimate)
         else:
             self._approaching = False
-            cond: dict[str, Any] = {"dt": self.ctx.dt}
-            if direction is not None:
-                cond["direction"] = direction
-            plan = self.planner.plan(
-                est.belief(), pos, self.model.bind(**cond), self._points[: self._n_points], rng
-            )
+            plan = self.planner.plan(est.belief(), Pose(pos, conditions=m.conditions()), rng)
+            work = plan.work
+            self._l_max = int((plan.extra or {}).get("l_max", 1))
             if plan.target is None:
                 command = Command.move(np.zeros(self.ctx.dim))
             else:
                 command = Command.move(plan.target - pos)
-                self._lengths.append(plan.length)
-        bits = BITS_PER_NUMBER * (est.processed + self.planner.processed)
+                self._lengths.append(int((plan.extra or {}).get("length", 1)))
+        bits = BITS_PER_NUMBER * (est.processed + work)
         self._bits += bits
         return Action(
             [command],
@@ -271,20 +271,23 @@ class UAVPlannerMember(Searcher):
         return UAVBelief(self.estimator, cues)
 
     def diagnostics(self) -> dict[str, float]:
-        """``spread`` (m), ``n_particles``, ``ess``, ``entropy`` (weights, nats), ``iteration``."""
+        """``spread`` (m), ``n_particles``, ``ess``, ``entropy`` (weights, nats), ``iteration``
+        and the estimate (the particles' weighted mean) ``estimate_x``, ``_y`` (, ``_z``), m."""
         b = self.estimator.belief()
-        return {
+        out = {
             "spread": self.estimator.spread(),
             "n_particles": float(self.estimator.pf.n),
             "ess": b.ess,
             "entropy": b.entropy,
             "iteration": float(self.k),
         }
+        for axis, v in zip("xyz", b.mean.tolist(), strict=False):
+            out[f"estimate_{axis}"] = v
+        return out
 
     def final_metrics(self) -> dict[str, Any]:
         """Per-UAV columns: iterations, cues, particle counts, messages, steps, computation."""
         est = self.estimator
-        l_max = getattr(self.planner, "l_max", None)
         return {
             "iterations": self.k,
             "cues": len(self._cues),
@@ -294,10 +297,11 @@ class UAVPlannerMember(Searcher):
             "messages_sent": self._sent,
             "numbers_per_message": self._numbers_sent / self._sent if self._sent else 0.0,
             "step_mean": float(np.mean(self._lengths)) if self._lengths else math.nan,
-            "l_max": int(l_max) if l_max is not None else 1,
+            "l_max": self._l_max,
             "compute_bits": self._bits,
             "declared_uav": self._declared,
             "final_spread": est.spread(),
+            **{f"accept_{k}": v for k, v in est.acceptance().items()},
         }
 
 
@@ -319,6 +323,22 @@ class ColPFSearchParams(UAVSearchParams):
     planner: Ref("step_planner") = Field(
         default_factory=lambda: ComponentRef(type="fixed-step-infotaxis")
     )
+
+
+def _printed_colpf() -> ComponentRef:
+    return ComponentRef(type="col-pf", pugl_move="printed")
+
+
+class MucOslPrintedParams(UAVSearchParams):
+    """MUC-OSL with PUGL's moves as printed (unjudged)."""
+
+    estimator: Ref("team_estimator") = Field(default_factory=_printed_colpf)
+
+
+class ColPFPrintedParams(ColPFSearchParams):
+    """Col-PF with PUGL's moves as printed (unjudged) and fixed-step infotaxis."""
+
+    estimator: Ref("team_estimator") = Field(default_factory=_printed_colpf)
 
 
 class AdapPPParams(UAVSearchParams):
@@ -367,3 +387,19 @@ class AdapPPTeam(_UAVTeam):
     """Adap-PP baseline: standard filter sharing particles, adaptive path planning."""
 
     Params = AdapPPParams
+
+
+@register(
+    "searcher", "muc-osl-printed", MucOslPrintedParams, "MUC-OSL with PUGL's moves as printed"
+)
+class MucOslPrintedTeam(_UAVTeam):
+    """MUC-OSL with the paper's PUGL moves as printed: unjudged, the weights kept."""
+
+    Params = MucOslPrintedParams
+
+
+@register("searcher", "col-pf-printed", ColPFPrintedParams, "Col-PF with PUGL's moves as printed")
+class ColPFPrintedTeam(_UAVTeam):
+    """Col-PF baseline with the paper's PUGL moves as printed."""
+
+    Params = ColPFPrintedParams

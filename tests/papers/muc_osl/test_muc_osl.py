@@ -16,11 +16,17 @@ from odorloc.engine.episode import Episode, run_episode
 from odorloc.experiments.sweep import load_sweep
 from odorloc.inference.particles.regularised import RegularisedResampler, silverman_bandwidth
 from odorloc.models.vergassola import correlation_length
-from odorloc.papers.muc_osl.placement import PAPER_STARTS, uav_starts
-from odorloc.papers.muc_osl.reproduction import NO_ENV_PU_PARAMS, add_uav_search_time
-from odorloc.papers.muc_osl.sweeps import NO_ENV_PU
+from odorloc.papers.muc_osl.reproduction import uav_rows
+from odorloc.papers.muc_osl.sweeps import (
+    NO_ENV_PU,
+    NO_ENV_PU_PARAMS,
+    PAPER_STARTS,
+    ROWS,
+    uav_starts,
+)
 from odorloc.scenarios import Scenario, get_scenario
 from odorloc.scenarios.build import build
+from odorloc.scenarios.placement import edge_starts
 from odorloc.searchers.uav_team import SENSOR_RADIUS, UAVPlannerMember, default_model
 
 ALGORITHMS = ("muc-osl", "col-inf", "col-pf", "adap-pp")
@@ -97,10 +103,10 @@ def test_uav_placement_rule() -> None:
     assert all(p[1:] == [10.0, 5.0] for p in eight)
     for n in range(1, 9):
         assert uav_starts(n) == eight[:n]
-    with pytest.raises(ConfigError, match="n_uavs"):
+    with pytest.raises(ConfigError, match="n_agents"):
         uav_starts(0)
-    with pytest.raises(ConfigError, match="n_uavs"):
-        uav_starts(20, width=60.0)
+    with pytest.raises(ConfigError, match="n_agents"):
+        uav_starts(20, (60.0, 60.0, 30.0))
 
 
 @pytest.mark.parametrize(
@@ -119,20 +125,22 @@ def test_uav_placement_rule() -> None:
         ({"height": -5.0}, "height"),
     ],
 )
-def test_uav_placement_refuses_starts_outside_the_arena(kwargs: dict, field: str) -> None:
-    with pytest.raises(ConfigError, match=f"^{field}: "):
-        uav_starts(1, **kwargs)
+def test_edge_starts_refuse_starts_outside_the_arena(kwargs: dict, field: str) -> None:
+    with pytest.raises(ConfigError, match=rf"^{field}: "):
+        edge_starts(1, (10.0, 30.0, 60.0), **kwargs)
 
 
-def test_uav_placement_inside_a_small_or_deep_arena() -> None:
+def test_edge_starts_inside_a_small_or_deep_arena() -> None:
     # the smallest width with an inner start: the first UAV is inside, the walls come last
-    assert [p[0] for p in uav_starts(3, width=15.0)] == [10.0, 0.0, 15.0]
-    assert uav_starts(2, width=100.0, y=150.0, z=40.0, depth=200.0, height=50.0) == [
+    first = (10.0, 30.0, 60.0)
+    assert [p[0] for p in edge_starts(3, first, width=15.0)] == [10.0, 0.0, 15.0]
+    assert edge_starts(2, first, y=150.0, z=40.0, depth=200.0, height=50.0) == [
         [10.0, 150.0, 40.0],
         [30.0, 150.0, 40.0],
     ]
-    with pytest.raises(ConfigError, match=r"^n_uavs: "):
-        uav_starts(2.0)  # type: ignore[arg-type]
+    assert [p[0] for p in edge_starts(4, (), spacing=5.0, width=12.0)] == [5.0, 10.0, 0.0, 12.0]
+    with pytest.raises(ConfigError, match=r"^n_agents: "):
+        edge_starts(2.0, first)  # type: ignore[arg-type]
 
 
 def test_presets_are_compositions_of_the_same_member() -> None:
@@ -184,7 +192,7 @@ def test_each_preset_names_its_parts(name: str) -> None:
 
 
 def test_bytes_counted_equal_payload_sizes_times_recipients() -> None:
-    for name, per_message in (("muc-osl", 17 * 8), ("col-inf", 4 * 100 * 8)):
+    for name, per_message in (("muc-osl", 21 * 8), ("col-inf", 4 * 100 * 8)):
         sc = _scenario({"type": name}, **{"limits.time": 80.0, "agents.comm_radius": 25.0})
         ep = Episode(sc, record=False)
         obs = ep.reset(3, 4)
@@ -235,22 +243,28 @@ def test_a_seeded_episode_of_each_algorithm_finds_the_source(name: str) -> None:
     assert m["reach_agent"] == reached[0].agent
 
 
-def test_search_time_is_the_busy_time_of_the_first_uav_to_reach() -> None:
+def test_the_papers_search_time_and_movement_energy_have_their_own_columns() -> None:
+    """``search_time`` is the simulated time at reach; the paper's search time (fly + hover +
+    turn of the first UAV to reach) is ``reach_fly_hover_turn_time``; the movement energy
+    ``team_movement_energy`` (J) leaves radio and computation apart."""
     sc = _scenario({"type": "muc-osl"}, **{"agents.starts": IN_PLUME, "limits.time": 400.0})
     res = run_episode(sc, *episode_seeds(0, "muc-osl-3d", 1))
     m = res.metrics
     assert m["termination"] == "reached" and m["success"]
     busy = m["reach_fly_time"] + m["reach_hover_time"] + m["reach_turn_time"]
+    assert m["reach_fly_hover_turn_time"] == pytest.approx(busy)
     assert 0 < busy <= m["search_time"] + 1e-9
     assert m["search_time"] - busy == pytest.approx(m["reach_idle_time"], abs=1e-6)
     assert m["team_hover_time"] >= m["reach_hover_time"]
-    row = add_uav_search_time(__import__("pandas").DataFrame([m]))
-    assert row["uav_search_time"].iloc[0] == pytest.approx(busy)
-    move = (m["energy_fly"] + m["energy_hover"] + m["energy_turn"]) / 1e3
-    assert row["movement_kj"].iloc[0] == pytest.approx(move)
+    move = m["energy_fly"] + m["energy_hover"] + m["energy_turn"]
+    assert m["team_movement_energy"] == pytest.approx(move)
+    assert m["energy"] == pytest.approx(move + m["energy_comm"] + m["energy_compute"])
     # eqs. 4-6 with the paper's powers: E_M from the team's time totals
-    expected = 0.663 * m["team_fly_time"] + 0.47 * m["team_hover_time"] + 3.415 * m["team_n_turns"]
+    expected = 663 * m["team_fly_time"] + 470 * m["team_hover_time"] + 3415 * m["team_n_turns"]
     assert move == pytest.approx(expected, rel=1e-9)
+    # the reproduction reads these columns; an episode nobody reached counts the limit
+    rows = uav_rows(__import__("pandas").DataFrame([m, {**m, "success": False}]), 1200.0)
+    assert rows["reach_fly_hover_turn_time"].tolist() == pytest.approx([busy, 1200.0])
 
 
 def test_a_uav_team_episode_is_deterministic_per_seed() -> None:
@@ -314,5 +328,6 @@ def test_the_sensor_radius_example_prints_col_inf_beside_table_2() -> None:
 def test_the_default_point_sweep_file_runs_the_four_and_the_ablation() -> None:
     spec = load_sweep(EXAMPLES / "sweep-muc-osl-default.yaml")
     assert [s.name for s in spec.scenarios] == ["muc-osl-3d"]
-    assert [s.display for s in spec.searchers] == [*ALGORITHMS, NO_ENV_PU]
+    assert [s.display for s in spec.searchers] == [*ROWS, NO_ENV_PU]
+    assert spec.episodes == 200  # the paper's count
     assert spec.searchers[-1].params == NO_ENV_PU_PARAMS

@@ -41,7 +41,9 @@ def test_sweeps_of_the_reproduction() -> None:
     assert {s["name"] for s in full["rate"]["scenarios"]} == {"muc-osl-3d"}
     assert {s["name"] for s in full["filament"]["scenarios"]} == {"muc-osl-filament-3d"}
     labels = [s["label"] for s in full["rate-particles"]["searchers"]]
-    assert len(labels) == 41 and "muc-osl-no-env-pu" in labels
+    # ten other particle counts x the four and the two printed presets, and the ablation
+    assert len(labels) == 61 and "muc-osl-no-env-pu" in labels
+    assert "muc-osl-printed[N=20]" in labels
     assert MucOslReproduction().sweeps(200, 1)["filament-particles"]["episodes"] == 200
 
 
@@ -52,8 +54,8 @@ def test_small_run_stores_resumes_and_runs_only_some_sweeps(tmp_path) -> None:
     assert set(df["sweep"]) == set(SWEEPS)
     assert (df["status"] == "ok").all(), df.loc[df["status"] != "ok", "error"].tolist()
     assert sorted(first.stores) == sorted(SWEEPS)
-    # 2 worlds x 4 algorithms, + 4 particle cells and the ablation, in each world
-    sizes = {"rate": 8, "rate-particles": 5, "filament": 8, "filament-particles": 5}
+    # 2 worlds x 6 algorithms, + 6 particle cells and the ablation, in each world
+    sizes = {"rate": 12, "rate-particles": 7, "filament": 12, "filament-particles": 7}
     assert df.groupby("sweep").size().to_dict() == sizes
     assert df.loc[df["sweep"].str.startswith("filament"), "replay"].all()
     assert not first.failed_figures
@@ -66,6 +68,7 @@ def test_small_run_stores_resumes_and_runs_only_some_sweeps(tmp_path) -> None:
         "fig5_uavs.png",
         "fig9_filament.png",
         "comparison.png",
+        "mechanism_eq16.png",
         "fig3_team_3d.png",
         "report.html",
     ):
@@ -109,7 +112,7 @@ def test_dask_cluster_gives_the_local_pools_rows(tmp_path) -> None:
             progress=False,
         )
     a, b = _rows(local.results), _rows(dask.results)
-    assert len(a) == 2 * (4 + 5) * 2 and (a["status"] == "ok").all()
+    assert len(a) == 2 * (6 + 7) * 2 and (a["status"] == "ok").all()
     pd.testing.assert_frame_equal(a, b)
     assert np.isfinite(a["energy"]).all()
 
@@ -135,7 +138,8 @@ def test_cli_names_an_unknown_sweep(tmp_path) -> None:
 
 
 def test_least_favourable_comparison_is_the_largest_shortfall() -> None:
-    from odorloc.papers.muc_osl import claims
+    from odorloc.experiments.claims import best_everywhere
+    from odorloc.papers.muc_osl.claims import LABELS, READINGS
     from odorloc.papers.muc_osl.sweeps import DEFAULT
 
     class Fake:
@@ -144,13 +148,16 @@ def test_least_favourable_comparison_is_the_largest_shortfall() -> None:
         def paired(self, setting, algorithms, column):
             rng = np.random.default_rng(0)
             base = np.array(
-                [900.0, 500.0, 1000.0, 600.0] if column == "search_time" else [0.5, 0.9, 0.4, 0.8]
+                [900.0, 500.0, 1000.0, 600.0] if column == "time" else [0.5, 0.9, 0.4, 0.8]
             )
             return base + rng.normal(0.0, 1e-3, (40, 4))
 
-    ours, v = claims._best_everywhere(Fake(), [DEFAULT], "search_time", np.random.default_rng(1))
+    rng, base = np.random.default_rng(1), READINGS["muc-osl"]
+    ours, v = best_everywhere(Fake(), [DEFAULT], "muc-osl", base, "time", rng, LABELS,
+                              higher=False, unit=" s")  # fmt: skip
     assert "least favourable: Col-Inf" in ours and "+400 s" in ours and v == "not held"
-    ours, _ = claims._best_everywhere(Fake(), [DEFAULT], "success", np.random.default_rng(1))
+    ours, _ = best_everywhere(Fake(), [DEFAULT], "muc-osl", base, "success", rng, LABELS,
+                              scale=100.0, unit=" pts")  # fmt: skip
     assert "least favourable: Col-Inf" in ours and "-40 pts" in ours
 
 
@@ -168,8 +175,7 @@ def test_a_later_sweeps_foreign_store_stops_the_run_before_any_episode(tmp_path)
 def _default_point_rows(n: int = 6) -> pd.DataFrame:
     """Made-up episodes at the default point of both worlds: Col-Inf never succeeds (0 %), the
     others always do (100 %)."""
-    from odorloc.papers.muc_osl.reference import ALGORITHMS
-    from odorloc.papers.muc_osl.sweeps import DEFAULT, cell_of
+    from odorloc.papers.muc_osl.sweeps import ALGORITHMS, DEFAULT, cell_of
 
     frames = []
     for scenario in ("muc-osl-3d", "muc-osl-filament-3d"):
@@ -187,14 +193,13 @@ def _default_point_rows(n: int = 6) -> pd.DataFrame:
                         "time": [100.0 if s else 300.0 for s in ok],
                         "declared": ok,
                         "loc_error": 1.0,
-                        "reach_fly_time": 50.0,
-                        "reach_hover_time": 30.0,
-                        "reach_turn_time": 20.0,
+                        "reach_fly_hover_turn_time": 100.0,
                         "energy_fly": 1e5,
                         "energy_hover": 1e5,
                         "energy_turn": 1e4,
                         "energy_comm": 1e-3,
                         "energy_compute": 1.0,
+                        "team_movement_energy": 2.1e5,
                         "team_hover_time": 10.0,
                         "team_turn_time": 10.0,
                         "path_length": 100.0,
@@ -209,23 +214,21 @@ def test_notes_give_the_episode_limit_in_force() -> None:
     """Failures count the limit the episodes ran with, not always 20 minutes."""
     rep = MucOslReproduction(time_limit=300.0, values={"uavs": [3]}, fig3=False)
     tables = {t.name: t for t in rep.tables(_default_point_rows(), 0)}
-    for name in ("rate_uavs_mst", "rate_default", "filament_default", "filament_sr_mst"):
+    for name in ("rate_uavs_mst", "rate_default", "filament_default"):
         assert "300 s" in tables[name].note and "1200" not in tables[name].note, name
-    assert tables["filament_sr_mst"].title.endswith("at 5 min")
+    assert "by 5 min" in tables["filament_sr8"].title
     # without a shorter limit, the scenario's own
     assert MucOslReproduction().limit == get_scenario("muc-osl-3d").limits.time == 1200.0
 
 
 def test_success_axes_leave_room_for_0_and_100_percent(tmp_path, monkeypatch) -> None:
     """The comparison and the sweep figures show 0 % and 100 % the same way, inside the frame."""
-    from dataclasses import replace
-
     import matplotlib.figure
 
-    from odorloc.papers.muc_osl import figures as F
-    from odorloc.papers.muc_osl.analysis import Cells, add_uav_search_time
-    from odorloc.papers.muc_osl.reproduction import LABELS
-    from odorloc.papers.muc_osl.sweeps import SWEEPS
+    from odorloc.experiments import figures as F
+    from odorloc.experiments.claims import Cells, Points
+    from odorloc.papers.muc_osl.reproduction import COLORS, COLUMNS, uav_rows
+    from odorloc.papers.muc_osl.sweeps import ALGORITHMS, DEFAULT, Setting, cell_of
 
     limits: dict[str, list[tuple[float, float]]] = {}
 
@@ -235,12 +238,12 @@ def test_success_axes_leave_room_for_0_and_100_percent(tmp_path, monkeypatch) ->
         ]
 
     monkeypatch.setattr(matplotlib.figure.Figure, "savefig", keep_limits)
-    cells = Cells(add_uav_search_time(_default_point_rows(), 300.0))
-    F.comparison_figure(
-        cells, [("rate", "muc-osl-3d")], dict(LABELS), tmp_path / "comparison.png", 0, limit=300.0
-    )
-    uavs = replace(next(s for s in SWEEPS if s.key == "uavs"), values=(3,))
-    F.sweep_figure(cells, "muc-osl-3d", uavs, tmp_path / "sweep.png", 0, "uavs", limit=300.0)
+    cells = Cells(uav_rows(_default_point_rows(), 300.0), COLUMNS)
+    data = Points(cells, lambda s, a: cell_of("muc-osl-3d", s, a))
+    entries = [(a, a, COLORS[a]) for a in ALGORITHMS]
+    F.comparison_figure([("rate", data, DEFAULT)], entries, tmp_path / "comparison.png", 0, "t")
+    F.sweep_figure(data, [3], lambda v: Setting(n_uavs=v), ALGORITHMS, tmp_path / "sweep.png", 0,
+                   "uavs", "UAVs", {}, COLORS, limit=300.0)  # fmt: skip
     assert limits["comparison"] == limits["sweep"] == [F.SUCCESS_YLIM]
     low, high = F.SUCCESS_YLIM
     assert low < 0.0 and high > 100.0
@@ -301,39 +304,36 @@ def test_eight_minute_mark_follows_the_limit_in_force(tmp_path, monkeypatch) -> 
     then has no 8-minute mark (it would lie beyond the time axis)."""
     short = MucOslReproduction(time_limit=300.0, values={"uavs": [3]}, fig3=False)
     tables = {t.name: t for t in short.tables(_default_point_rows(), 0)}
-    assert tables["filament_sr8"].title.startswith(
-        "Filament world: success rate % [95 %] within 5 min"
-    )
-    assert "episode limit, 5 min" in tables["filament_sr8"].note
-    assert tables["points"].headers[-1] == "SR 5 min %"
+    assert "success % by 5 min" in tables["filament_sr8"].title
+    assert tables["points"].headers[-1] == "SR by 300 s %"
     title, marks = _fig9_marks(short, monkeypatch, tmp_path)
     assert marks == [] and "dotted" not in title and "8 min" not in title
 
     full = MucOslReproduction(values={"uavs": [3]}, fig3=False)
     tables = {t.name: t for t in full.tables(_default_point_rows(), 0)}
-    assert "within 8 min" in tables["filament_sr8"].title
-    assert "episode limit" not in tables["filament_sr8"].note
-    assert tables["points"].headers[-1] == "SR 8 min %"
+    assert "success % by 8 min" in tables["filament_sr8"].title
+    assert tables["points"].headers[-1] == "SR by 480 s %"
     title, marks = _fig9_marks(full, monkeypatch, tmp_path)
     assert marks and set(marks) == {8.0} and "dotted: 8 min" in title
 
 
 def test_filament_statements_read_before_8_minutes_are_not_refuted() -> None:
     """Read at a shorter limit, a low success rate bounds the paper's from below only."""
-    from odorloc.papers.muc_osl.analysis import Cells, add_uav_search_time
+    from odorloc.experiments.claims import Cells, Points
     from odorloc.papers.muc_osl.claims import evaluate_claims
-    from odorloc.papers.muc_osl.sweeps import SWEEPS, fig9_settings
+    from odorloc.papers.muc_osl.reproduction import COLUMNS, uav_rows
+    from odorloc.papers.muc_osl.sweeps import SWEEPS, cell_of, fig9_settings
 
     rows = _default_point_rows()
     rows["success"] = False  # MUC-OSL (and all) never succeed
-    cells = Cells(add_uav_search_time(rows, 300.0))
+    cells = Cells(uav_rows(rows, 300.0), COLUMNS)
+    rate = Points(cells, lambda s, a: cell_of("muc-osl-3d", s, a))
+    fil = Points(cells, lambda s, a: cell_of("muc-osl-filament-3d", s, a))
     uavs = [s for s in SWEEPS if s.key == "uavs"]
-    fil = [s for s in fig9_settings() if s.key == "uavs"]
+    fil_uavs = [s for s in fig9_settings() if s.key == "uavs"]
 
     def verdicts(at: float) -> dict[str, str]:
-        claims = evaluate_claims(
-            cells, "muc-osl-3d", uavs, "muc-osl-filament-3d", fil, at=at, seed=0
-        )
+        claims = evaluate_claims(rate, uavs, fil, fil_uavs, at=at, seed=0)
         return {c.statement: c.verdict for c in claims if "about 90 %" in c.statement}
 
     assert verdicts(480.0) == {"MUC-OSL succeeds in about 90 % by 8 min (100x60x30 m)": "not held"}

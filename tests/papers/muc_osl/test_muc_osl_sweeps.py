@@ -11,20 +11,13 @@ import pytest
 
 from odorloc.core.errors import ConfigError
 from odorloc.core.seeds import episode_seeds
+from odorloc.experiments.claims import Cells, Points
 from odorloc.experiments.runner import cell_scenario
-from odorloc.experiments.stats import wilson_interval
 from odorloc.experiments.sweep import expand_cells, load_sweep, make_task
-from odorloc.papers.muc_osl.analysis import (
-    Cells,
-    bootstrap,
-    combine,
-    slope,
-    summarize_point,
-    verdict,
-)
 from odorloc.papers.muc_osl.claims import evaluate_claims
-from odorloc.papers.muc_osl.reference import ALGORITHMS
+from odorloc.papers.muc_osl.reproduction import COLUMNS
 from odorloc.papers.muc_osl.sweeps import (
+    ALGORITHMS,
     DEFAULT,
     FIG9_VALUES,
     NO_ENV_PU,
@@ -64,7 +57,7 @@ def test_every_setting_gives_a_valid_world() -> None:
     """Area, source, starts and radius land in the scenario; starts and source are inside."""
     for sw in SWEEPS:
         for s in sw.settings():
-            sc = cell_scenario({"scenario": "muc-osl-3d", "scenario_params": s.scenario_params()})
+            sc = cell_scenario({"scenario": "muc-osl-3d", "scenario_params": s.world().params})
             hi = np.asarray(sc.world.arena.upper)
             src = np.asarray(sc.world.sources[0].position)
             starts = np.asarray(sc.agents.starts)
@@ -86,24 +79,29 @@ def test_world_keys_and_common_random_numbers() -> None:
     files = sweep_files("muc-osl-3d", SWEEPS, 3, 2024)
     main, parts = load_sweep(files[""]), load_sweep(files["particles"])
     cells = expand_cells(main) + expand_cells(parts)
-    assert len(expand_cells(main)) == 17 * 4 and len(expand_cells(parts)) == 10 * 4
+    # every point's world x the four and the two printed presets; the particle counts on the
+    # default world
+    assert len(expand_cells(main)) == 17 * 6 and len(expand_cells(parts)) == 10 * 6
     assert len({c.cell_id for c in cells}) == len(cells)
     seeds = {
         c.cell_id: make_task(main if c in expand_cells(main) else parts, c, 2).world_seed
         for c in cells
         if c.world_key == "muc-osl-3d"
     }
-    assert len(seeds) == 4 + 40 and len(set(seeds.values())) == 1
+    assert len(seeds) == 6 + 60 and len(set(seeds.values())) == 1
     assert set(seeds.values()) == {episode_seeds(2024, "muc-osl-3d", 2)[0]}
     # the radius-30 point of Fig. 6 is the 4-UAV point of Fig. 5
     worlds = [c.world_key for c in expand_cells(main)]
-    assert worlds.count("muc-osl-3d[uavs=4]") == 4
+    assert worlds.count("muc-osl-3d[uavs=4]") == 6
 
 
 def test_particle_counts_are_searcher_parameters() -> None:
     files = sweep_files("muc-osl-3d", SWEEPS, 1, 0)
     se = {s["label"]: s for s in files["particles"]["searchers"]}
     assert se["muc-osl[N=20]"]["params"] == {"estimator": {"type": "col-pf", "n_particles": 20}}
+    # a preset's own estimator settings are kept: the printed reading stays printed
+    printed = se["muc-osl-printed[N=20]"]["params"]["estimator"]
+    assert printed == {"type": "col-pf", "pugl_move": "printed", "n_particles": 20}
     assert se["col-inf[N=220]"]["params"]["estimator"]["type"] == "standard-pf"
     assert "muc-osl[N=100]" not in se
     sc = cell_scenario(
@@ -222,53 +220,6 @@ def test_pid_noise_is_seeded_and_bad_settings_are_named() -> None:
 # ----------------------------------------------------------------------------- statistics
 
 
-def test_slope_of_exact_lines_and_verdicts() -> None:
-    x = [1.0, 2.0, 4.0]
-    means = np.array([[1.0, 3.0, 7.0], [5.0, 5.0, 5.0]])
-    np.testing.assert_allclose(slope(x, means, [3, 3, 3]), [2.0, 0.0])
-    assert np.isnan(slope([2.0], means[:, :1], [4])[0])
-    assert verdict(0.1, 0.5, +1) == "held"
-    assert verdict(-0.5, -0.1, +1) == "not held"
-    assert verdict(-0.1, 0.5, +1) == "undecided"
-    assert verdict(-0.5, -0.1, -1) == "held"
-    assert verdict(0.8, 0.9, +1, 0.75) == "held" and verdict(0.5, 0.7, +1, 0.75) == "not held"
-    assert verdict(math.nan, 1.0, +1) == "undecided"
-    assert combine(["held", "held"]) == "held"
-    assert combine(["held", "undecided"]) == "undecided"
-    assert combine(["held", "not held", "undecided"]) == "not held"
-
-
-def test_bootstrap_interval_covers_a_known_mean() -> None:
-    rng = np.random.default_rng(1)
-    x = rng.normal(10.0, 2.0, 400)
-    v, lo, hi = bootstrap(lambda a: a[0].mean(axis=1), [x], np.random.default_rng(2))
-    assert v == pytest.approx(x.mean())
-    half = 1.96 * 2.0 / math.sqrt(400)
-    assert lo == pytest.approx(x.mean() - half, abs=0.05) and hi == pytest.approx(
-        x.mean() + half, abs=0.05
-    )
-    assert math.isnan(bootstrap(lambda a: a[0].mean(axis=1), [np.zeros(0)], rng)[0])
-    # coverage: over 300 samples of 40 from N(10, 2^2) the 95 % interval holds the true mean
-    # in about 94 % of them (the percentile interval of a mean runs slightly short at n = 40);
-    # the binomial standard error of the fraction is 1.3 %, so [0.90, 0.98] allows 3 of them
-    hits = 0
-    for _ in range(300):
-        sample = rng.normal(10.0, 2.0, 40)
-        _, lo, hi = bootstrap(lambda a: a[0].mean(axis=1), [sample], rng, n_boot=1000)
-        hits += lo <= 10.0 <= hi
-    assert 0.90 <= hits / 300 <= 0.98
-
-
-def test_point_summary() -> None:
-    g = pd.DataFrame({"success": [True, True, False, False], "time": [100.0, 300.0, 1200, 1200]})
-    p = summarize_point(g, np.random.default_rng(0))
-    assert (p.n, p.k, p.sr) == (4, 2, 0.5)
-    assert p.mst == pytest.approx(700.0) and p.mst_success == pytest.approx(200.0)
-    assert p.mst_lo <= 700.0 <= p.mst_hi
-    # the success rate's interval is Wilson's for 2 of 4
-    assert (p.sr_lo, p.sr_hi) == pytest.approx(wilson_interval(2, 4))
-
-
 def _rows(world: str, label: str, success: list[bool], time: list[float]) -> pd.DataFrame:
     n = len(success)
     return pd.DataFrame(
@@ -278,8 +229,8 @@ def _rows(world: str, label: str, success: list[bool], time: list[float]) -> pd.
             "episode": np.arange(n),
             "status": "ok",
             "success": success,
-            "uav_search_time": time,
-            "movement_kj": np.full(n, 1000.0 if label != "muc-osl" else 900.0),
+            "reach_fly_hover_turn_time": time,
+            "team_movement_energy": np.full(n, 1000.0 if label != "muc-osl" else 900.0),
             "team_hover_time": np.full(n, 100.0 if label != "muc-osl" else 80.0),
             "team_turn_time": np.full(n, 100.0 if label != "muc-osl" else 80.0),
             "path_length": np.full(n, 500.0),
@@ -303,20 +254,24 @@ def _world(good: str, n: int = 30) -> pd.DataFrame:
     return pd.concat(frames, ignore_index=True)
 
 
+def _points(df: pd.DataFrame) -> Points:
+    return Points(Cells(df, COLUMNS), lambda s, a: cell_of("muc-osl-3d", s, a))
+
+
 def test_claims_held_and_not_held_on_made_up_episodes() -> None:
     uavs = [s for s in SWEEPS if s.key == "uavs"]
-    held = {c.statement: c for c in evaluate_claims(Cells(_world("muc-osl")), "muc-osl-3d", uavs)}
-    assert held["MUC-OSL has the highest SR at every point"].verdict == "held"
-    assert held["MUC-OSL has the lowest MST at every point"].verdict == "held"
+    held = {c.statement: c for c in evaluate_claims(_points(_world("muc-osl")), uavs)}
+    assert held["MUC-OSL: the highest SR at every point"].verdict == "held"
+    assert held["MUC-OSL: the lowest MST at every point"].verdict == "held"
     assert held["MUC-OSL: movement energy E_M below Col-Inf's"].verdict == "held"
     assert "-10.0 [-10.0, -10.0] %" in held["MUC-OSL: movement energy E_M below Col-Inf's"].ours
     # no ablation episodes: no ablation statements
     assert not any(k.startswith("MUC-OSL without eq. 16") for k in held)
     # the baselines' success does not change with the team size: not a rise for all four
-    assert held["SR rises with more UAVs (all four)"].verdict == "undecided"
-    lost = {c.statement: c for c in evaluate_claims(Cells(_world("col-inf")), "muc-osl-3d", uavs)}
-    assert lost["MUC-OSL has the highest SR at every point"].verdict == "not held"
-    assert lost["MUC-OSL has the lowest MST at every point"].verdict == "not held"
+    assert held["SR rises with more UAVs (all 4)"].verdict == "undecided"
+    lost = {c.statement: c for c in evaluate_claims(_points(_world("col-inf")), uavs)}
+    assert lost["MUC-OSL: the highest SR at every point"].verdict == "not held"
+    assert lost["MUC-OSL: the lowest MST at every point"].verdict == "not held"
 
 
 def test_claims_of_the_ablation_at_the_default_point() -> None:
@@ -325,11 +280,11 @@ def test_claims_of_the_ablation_at_the_default_point() -> None:
     world, label = cell_of("muc-osl-3d", DEFAULT, NO_ENV_PU)
     assert label == NO_ENV_PU
     ablation = _rows(world, label, [True] * 30, [300.0] * 30)
-    ablation["movement_kj"] = 800.0
+    ablation["team_movement_energy"] = 800.0
     ablation["team_hover_time"] = ablation["team_turn_time"] = 60.0
     # the baselines succeed in a third of the episodes (MUC-OSL always: it does not matter)
-    cells = Cells(pd.concat([_world("muc-osl"), ablation], ignore_index=True))
-    c = {c.statement: c for c in evaluate_claims(cells, "muc-osl-3d", uavs)}
+    cells = _points(pd.concat([_world("muc-osl"), ablation], ignore_index=True))
+    c = {c.statement: c for c in evaluate_claims(cells, uavs)}
     assert c["MUC-OSL without eq. 16: the highest SR (default point)"].verdict == "held"
     assert c["MUC-OSL without eq. 16: the lowest MST (default point)"].verdict == "held"
     energy = c["MUC-OSL without eq. 16: movement energy E_M below Col-Inf's"]

@@ -15,16 +15,18 @@ Multi-UAV paper (MUC-OSL), Sect. III.3 and IV.1-2:
 
 The neighbour's likelihood ``p(d_j | o_n)`` needs its measurement ``d_j`` and where it was taken;
 :class:`FitMessage` (built by :func:`fit_payload`) is the message that carries both beside the
-fit. The baselines' filters send :class:`ParticleSetMessage` (collaborative infotaxis shares the
-particle set) or :class:`MeasurementMessage`. Every one is a frozen payload of float64 numbers
-whose size is declared: ``nbytes = 8 x numbers``, with ``numbers`` counted as the paper counts
-them.
+fit, with the conditions (exposure, wind direction) that reading's likelihood needs. The
+baselines' filters send :class:`ParticleSetMessage` (collaborative infotaxis shares the particle
+set) or :class:`MeasurementMessage`. Every one is a frozen payload of float64 numbers whose size
+is declared: ``nbytes = 8 x numbers``, with ``numbers`` counted as the paper counts them (plus
+the reading's conditions, which the paper does not count).
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -43,6 +45,8 @@ __all__ = [
     "confidence_factors",
     "fit_payload",
     "read_fit_payload",
+    "read_measurement_payload",
+    "reading_conditions",
 ]
 
 
@@ -141,6 +145,10 @@ class NeighbourFit:
         Where it took that measurement.
     cue_captured : bool
         Whether it has captured any cue so far (col-pu, eq. 17).
+    dt : float, seconds
+        The exposure of that measurement.
+    direction : (d,) ndarray or None
+        The wind direction its likelihood was evaluated with (``None``: the model's own).
     """
 
     sender: int
@@ -149,6 +157,21 @@ class NeighbourFit:
     count: float
     position: np.ndarray
     cue_captured: bool
+    dt: float = 1.0
+    direction: np.ndarray | None = None
+
+    def conditions(self) -> dict[str, Any]:
+        """The measurement-model conditions of the neighbour's measurement."""
+        return reading_conditions(self.dt, self.direction)
+
+
+def reading_conditions(dt: float, direction: np.ndarray | None) -> dict[str, Any]:
+    """The measurement-model conditions of a reading: its exposure ``dt`` (s) and, when it
+    has one, the wind ``direction`` its likelihood uses."""
+    out: dict[str, Any] = {"dt": dt}
+    if direction is not None:
+        out["direction"] = direction
+    return out
 
 
 class TeamMessage(Payload):
@@ -166,29 +189,55 @@ class TeamMessage(Payload):
 
 @dataclass(frozen=True, eq=False)
 class MeasurementMessage(TeamMessage):
-    """One measurement: the count ``d_j`` (encounters), where it was taken (``(d,)``, metres)
-    and whether the sender has captured a cue so far: ``d + 2`` numbers."""
+    """One measurement as a neighbour's likelihood needs it: the count ``d_j`` (encounters),
+    where it was taken (``(d,)``, metres), whether the sender has captured a cue so far (``d +
+    2`` numbers), and the reading's conditions: its exposure ``dt`` (s) and the wind
+    ``direction`` (``(d,)``) its likelihood uses, or ``None`` when the sender's model used its
+    own wind (``1 + d`` or 1 numbers).
+
+    The conditions travel with the reading because a likelihood is only right under the
+    conditions of its own reading: each UAV measures its own wind.
+    """
 
     count: float
     position: np.ndarray
     cue_captured: bool
+    dt: float
+    direction: np.ndarray | None = None
 
     def __post_init__(self) -> None:
+        pos = frozen_array(np.ravel(self.position))
         object.__setattr__(self, "count", float(self.count))
-        object.__setattr__(self, "position", frozen_array(np.ravel(self.position)))
+        object.__setattr__(self, "position", pos)
         object.__setattr__(self, "cue_captured", bool(self.cue_captured))
+        object.__setattr__(self, "dt", float(self.dt))
+        if not (math.isfinite(self.dt) and self.dt > 0):
+            raise ConfigError("message", f"exposure {self.dt} is not > 0")
+        if self.direction is not None:
+            direction = frozen_array(np.ravel(self.direction))
+            if direction.size != pos.size:
+                raise ConfigError(
+                    "message", f"wind direction in {direction.size}-D, position in {pos.size}-D"
+                )
+            object.__setattr__(self, "direction", direction)
 
     @property
     def numbers(self) -> int:
-        return int(self.position.size) + 2
+        d = int(self.position.size)
+        return d + 2 + 1 + (d if self.direction is not None else 0)
+
+    def conditions(self) -> dict[str, Any]:
+        """The measurement-model conditions of this reading (:func:`reading_conditions`)."""
+        return reading_conditions(self.dt, self.direction)
 
 
 @dataclass(frozen=True, eq=False)
 class FitMessage(TeamMessage):
     """The Col-PF message: the Gaussian fit of the sender's particles (mean ``(d,)`` m,
     covariance ``(d, d)`` m^2; eqs. 19-20: ``d + d^2`` numbers, 12 in 3-D, as the paper counts
-    it) and the measurement the neighbour's likelihood needs (``d + 2``). A 3-D message is 17
-    numbers = 136 bytes."""
+    it) and the measurement the neighbour's likelihood needs with its conditions
+    (:class:`MeasurementMessage`: ``2d + 3`` numbers, ``d + 3`` without a wind direction). A 3-D
+    message is 21 numbers = 168 bytes."""
 
     mean: np.ndarray
     cov: np.ndarray
@@ -223,10 +272,29 @@ class ParticleSetMessage(TeamMessage):
 
 
 def fit_payload(
-    mean: np.ndarray, cov: np.ndarray, count: float, position: np.ndarray, cue_captured: bool
+    mean: np.ndarray,
+    cov: np.ndarray,
+    count: float,
+    position: np.ndarray,
+    cue_captured: bool,
+    dt: float,
+    direction: np.ndarray | None = None,
 ) -> FitMessage:
-    """The Col-PF message (:class:`FitMessage`) of a fit and the last measurement."""
-    return FitMessage(mean, cov, MeasurementMessage(count, position, cue_captured))
+    """The Col-PF message (:class:`FitMessage`) of a fit and the last measurement with its
+    conditions."""
+    return FitMessage(mean, cov, MeasurementMessage(count, position, cue_captured, dt, direction))
+
+
+def read_measurement_payload(sender: int, payload: Payload, d: int) -> MeasurementMessage:
+    """The :class:`MeasurementMessage` a neighbour sent, checked to be ``d``-dimensional;
+    :class:`ConfigError` naming ``message`` for another payload."""
+    if not isinstance(payload, MeasurementMessage):
+        raise ConfigError("message", f"agent {sender} sent no measurement")
+    if payload.position.size != d:
+        raise ConfigError(
+            "message", f"agent {sender}: position in {payload.position.size}-D, expected {d}-D"
+        )
+    return payload
 
 
 def read_fit_payload(sender: int, payload: Payload) -> NeighbourFit:
@@ -234,11 +302,8 @@ def read_fit_payload(sender: int, payload: Payload) -> NeighbourFit:
     or one whose parts do not fit together."""
     if not isinstance(payload, FitMessage):
         raise ConfigError("message", f"agent {sender} sent no Gaussian fit")
-    d, meas = payload.mean.size, payload.measurement
-    if meas.position.size != d:
-        raise ConfigError(
-            "message", f"agent {sender}: fit in {d}-D, position in {meas.position.size}-D"
-        )
+    d = payload.mean.size
+    meas = read_measurement_payload(sender, payload.measurement, d)
     return NeighbourFit(
         sender=int(sender),
         mean=payload.mean.copy(),
@@ -246,4 +311,6 @@ def read_fit_payload(sender: int, payload: Payload) -> NeighbourFit:
         count=meas.count,
         position=meas.position.copy(),
         cue_captured=meas.cue_captured,
+        dt=meas.dt,
+        direction=None if meas.direction is None else meas.direction.copy(),
     )

@@ -8,7 +8,12 @@ the episode delivers it within the communication radius and counts its bytes).
 - :class:`ColPFEstimator` (``col-pf``): the collaborative particle filter of the multi-UAV paper
   (MUC-OSL, Algorithm 1): Col-PF weights with confidence factors (eqs. 10-14), low-variance
   resampling, PUGL position update (eqs. 15-17), adaptive particle count (eq. 18), Gaussian fit
-  (eqs. 19-20). Its message is the fit plus the measurement the neighbours' likelihood needs.
+  (eqs. 19-20). Its message is the fit plus the measurement the neighbours' likelihood needs,
+  with that measurement's conditions. It keeps a measurement history
+  (:class:`~odorloc.inference.particles.history.MeasurementHistory`: its own readings and the
+  neighbours', each with its exponent), against which PUGL's moves are judged when they are
+  reversible (``pugl_move: reversible``, the default; ``printed`` moves as the paper prints it,
+  see :mod:`~odorloc.inference.particles.pugl`).
 - :class:`StandardPFEstimator` (``standard-pf``): the same filter without Col-PF weighting, PUGL
   or adaptive count, the estimator of the paper's baselines Col-Inf and Adap-PP. By default it
   collaborates as in collaborative infotaxis with shared particles: it broadcasts its whole
@@ -45,19 +50,25 @@ from odorloc.inference.particles.collaborative import (
     NeighbourFit,
     ParticleSetMessage,
     TeamMessage,
-    collaborative_log_likelihood,
     confidence_factors,
     fit_payload,
     read_fit_payload,
+    read_measurement_payload,
+    reading_conditions,
 )
 from odorloc.inference.particles.constraints import ArenaConstraint
 from odorloc.inference.particles.filter import ParticleFilter
+from odorloc.inference.particles.history import MeasurementHistory
 from odorloc.inference.particles.init import sample_free_uniform
 from odorloc.inference.particles.pugl import (
+    PriorSupport,
     col_position_update,
     env_position_update,
     gbest,
+    gbest_gaussian,
     moved_count,
+    reversible_col_move,
+    reversible_env_move,
 )
 from odorloc.inference.particles.resampling import Resampler
 from odorloc.inference.weights import normalise_log_weights
@@ -98,10 +109,7 @@ class Measurement:
 
     def conditions(self) -> dict[str, Any]:
         """The measurement-model conditions of this measurement."""
-        out: dict[str, Any] = {"dt": self.dt}
-        if self.direction is not None:
-            out["direction"] = self.direction
-        return out
+        return reading_conditions(self.dt, self.direction)
 
 
 class TeamEstimator(ABC):
@@ -159,6 +167,10 @@ class TeamEstimator(ABC):
         """The payload to broadcast after the last update (``None``: say nothing)."""
 
     # ----------------------------------------------------------------- reading
+    def acceptance(self) -> dict[str, float]:
+        """Share of the Markov moves accepted so far, per kind (none by default)."""
+        return {}
+
     @property
     def cue_captured(self) -> bool:
         """``True`` once any measurement was non-zero."""
@@ -267,6 +279,19 @@ class ColPFParams(_FilterParams):
         Reading of eq. 18 (see :mod:`~odorloc.inference.particles.adaptive_count`).
     delta_c : int
         ``Delta_c`` of the cue-capture frequency (not given in the paper).
+    pugl_move : {"reversible", "printed"}
+        PUGL's moves as Metropolis-Hastings moves judged by the measurement history
+        (``reversible``: eq. 16's step upwind or downwind, eq. 17 as an independence proposal
+        around ``gbest``), or as printed (moved particles keep their weights, unjudged, and are
+        projected back into the arena); see :mod:`~odorloc.inference.particles.pugl`.
+        ``reversible`` takes eq. 16's invariant reading (``env_pu: literal`` has no reversible
+        form).
+    history : int or None
+        Readings (own and received) the measurement history keeps, the latest; ``None`` keeps
+        the whole episode. The reversible moves are judged by what it holds.
+    col_floor : float, metres
+        Standard deviation added on every axis of the reversible col-pu proposal
+        (:func:`~odorloc.inference.particles.pugl.gbest_gaussian`).
     """
 
     n_min: int | None = Field(20, ge=1, le=10_000_000)
@@ -282,11 +307,19 @@ class ColPFParams(_FilterParams):
     adaptive_count: bool = True
     count_reading: Literal["proportional", "literal"] = "proportional"
     delta_c: int = Field(3, ge=1, le=1_000_000)
+    pugl_move: Literal["reversible", "printed"] = "reversible"
+    history: int | None = Field(None, ge=1, le=100_000_000)
+    col_floor: NonNegative = 1.0
 
     @model_validator(mode="after")
     def _bounds(self) -> ColPFParams:
         if self.n_min is not None and self.n_min > self.n_max:
             raise ValueError("n_min must not exceed n_max")
+        if self.pugl_move == "reversible" and self.env_pu == "literal":
+            raise ValueError(
+                "env_pu: literal has no reversible form (its step scales with the coordinates); "
+                "use pugl_move: printed with it"
+            )
         return self
 
 
@@ -334,6 +367,10 @@ class ColPFEstimator(TeamEstimator):
         self.fit = self.pf.gaussian()
         self.betas: dict[int, float] = {}
         self.n_moved = 0
+        self.history = MeasurementHistory(ctx.dim, p.history)
+        self.support = PriorSupport(ctx.arena, ctx.search_region)
+        #: proposals and acceptances of the reversible moves so far, per kind
+        self.moves = {"env": [0, 0], "col": [0, 0]}
 
     def update(
         self, m: Measurement, inbox: Mapping[int, Payload], rng: np.random.Generator
@@ -354,21 +391,34 @@ class ColPFEstimator(TeamEstimator):
         else:
             betas = np.ones(len(fits))
         self.betas = {f.sender: float(b) for f, b in zip(fits, betas, strict=True)}
-        # the own reading and every neighbour's, each against every particle: (1 + H, N)
-        counts = [m.count, *(f.count for f in fits)]
-        where = np.array([m.position, *(f.position for f in fits)])
-        rows = self.model.log_likelihood_rows(counts, where, pf.positions, **m.conditions())
-        pf.update(collaborative_log_likelihood(rows[0], rows[1:], betas))
-        evaluated = pf.n * (1 + len(fits))
+        # this iteration's readings, each under its own conditions and with its exponent (1 for
+        # the own reading, beta for a neighbour's): eq. 13 in log space
+        readings = [
+            (m.count, m.position, m.dt, m.direction, 1.0),
+            *(
+                (f.count, f.position, f.dt, f.direction, float(b))
+                for f, b in zip(fits, betas, strict=True)
+            ),
+        ]
+        ll = _readings_log_likelihood(self.model, readings, pf.positions)
+        pf.update(ll)
+        for reading in readings:
+            self.history.append(*reading)
+        evaluated = pf.n * len(readings)
         pf.resample_if_needed(rng, n=self.target_n)
-        self.n_moved = self._pugl(m, fits, betas, rng)
+        if p.pugl_move == "reversible":
+            self.n_moved, judged = self._pugl_reversible(m, fits, betas, rng)
+        else:
+            self.n_moved, judged = self._pugl(m, fits, betas, rng), 0
         d = pf.positions.shape[1]
         if p.adaptive_count:
             dist = float(np.linalg.norm(m.position - pf.estimate()))
             self.target_n = self.counter.next(pf.n, self.cue_iterations, m.k, dist)
         self.fit = pf.gaussian()
         received = sum(f.mean.size + f.cov.size + f.position.size + 2 for f in fits)
-        self.processed = float(evaluated * (d + 1) + self.n_moved * d + received)
+        self.processed = float(
+            (evaluated + judged * len(self.history)) * (d + 1) + self.n_moved * d + received
+        )
 
     def _pugl(
         self,
@@ -377,7 +427,7 @@ class ColPFEstimator(TeamEstimator):
         betas: np.ndarray,
         rng: np.random.Generator,
     ) -> int:
-        """PUGL (eqs. 15-17) on ``N_s`` random particles; returns ``N_s``."""
+        """PUGL (eqs. 15-17) as printed on ``N_s`` random particles; returns ``N_s``."""
         p = self.params
         pf = self.pf
         n_s = moved_count(pf.n, m.k, p.k_max, p.gamma1, p.gamma2)
@@ -385,8 +435,7 @@ class ColPFEstimator(TeamEstimator):
             return 0
         sel = rng.choice(pf.n, size=n_s, replace=False)
         x = pf.positions
-        env = p.env_pu != "off" and (p.env_pu_from == "start" or self.cue_captured)
-        if env and m.direction is not None:
+        if self._env_applies(m):
             x = env_position_update(
                 x,
                 sel,
@@ -405,12 +454,79 @@ class ColPFEstimator(TeamEstimator):
         pf.replace(x, pf.log_weights)
         return n_s
 
+    def _env_applies(self, m: Measurement) -> bool:
+        p = self.params
+        env = p.env_pu != "off" and (p.env_pu_from == "start" or self.cue_captured)
+        # env-pu needs the wind it moves against: the UAV's measured direction
+        return env and m.direction is not None
+
+    def _pugl_reversible(
+        self,
+        m: Measurement,
+        fits: list[NeighbourFit],
+        betas: np.ndarray,
+        rng: np.random.Generator,
+    ) -> tuple[int, int]:
+        """PUGL (eqs. 15-17) as reversible Metropolis-Hastings moves of ``N_s`` random
+        particles, judged by the measurement history; returns ``N_s`` and the number of
+        history evaluations."""
+        p = self.params
+        pf = self.pf
+        n_s = moved_count(pf.n, m.k, p.k_max, p.gamma1, p.gamma2)
+        if n_s == 0:
+            return 0, 0
+        sel = rng.choice(pf.n, size=n_s, replace=False)
+        env = self._env_applies(m)
+        proposal = None
+        if p.col_pu and not self.cue_captured:
+            cued = [(f, b) for f, b in zip(fits, betas, strict=True) if f.cue_captured]
+            if cued:
+                proposal = gbest_gaussian(
+                    np.array([f.mean for f, _ in cued]),
+                    np.array([f.cov for f, _ in cued]),
+                    np.array([b for _, b in cued]),
+                    p.col_floor,
+                )
+        if not env and proposal is None:
+            return n_s, 0
+
+        def target(points: np.ndarray) -> np.ndarray:
+            return self.history.log_likelihood(self.model, points)
+
+        x = pf.positions.copy()
+        xs = x[sel]
+        ll = target(xs)
+        judged = n_s
+        if env:
+            res = reversible_env_move(
+                xs, ll, -np.asarray(m.direction, float), p.env_step, rng, target, self.support
+            )
+            xs, ll, judged = res.positions, res.log_likelihood, judged + res.evaluated
+            self.moves["env"][0] += n_s
+            self.moves["env"][1] += int(res.accepted.sum())
+        if proposal is not None:
+            res = reversible_col_move(xs, ll, *proposal, rng, target, self.support)
+            xs, judged = res.positions, judged + res.evaluated
+            self.moves["col"][0] += n_s
+            self.moves["col"][1] += int(res.accepted.sum())
+        x[sel] = xs
+        pf.replace(x, pf.log_weights)
+        return n_s, judged
+
+    def acceptance(self) -> dict[str, float]:
+        """Share of the reversible moves accepted so far, per kind (NaN before any)."""
+        return {k: (a / n if n else math.nan) for k, (n, a) in self.moves.items()}
+
     def message(self) -> TeamMessage | None:
-        """The fit (eqs. 19-20) and the last measurement with its position and the cue flag."""
+        """The fit (eqs. 19-20) and the last measurement with its position, the cue flag and
+        its conditions (exposure, wind direction)."""
         if self.last is None:
             return None
         mean, cov = self.fit
-        return fit_payload(mean, cov, self.last.count, self.last.position, self.cue_captured)
+        last = self.last
+        return fit_payload(
+            mean, cov, last.count, last.position, self.cue_captured, last.dt, last.direction
+        )
 
 
 class StandardPFParams(_FilterParams):
@@ -451,17 +567,19 @@ class StandardPFEstimator(TeamEstimator):
                 lw = [pf.log_weights + share, *(s[1] + share for s in sets)]
                 pf.replace(np.concatenate(pos), np.concatenate(lw))
                 received = sum(s[0].size + s[1].size for s in sets)
-        ll = self._own_log_likelihood(m, pf.positions)
-        evaluated = pf.n
         if p.share == "measurements":
-            cond = m.conditions()
+            # the own reading and every neighbour's, each under its own conditions, unweighted
+            # (eq. 11 with beta = 1)
+            readings = [(m.count, m.position, m.dt, m.direction, 1.0)]
             for s in sorted(inbox):
-                got = inbox[s]
-                if not isinstance(got, MeasurementMessage) or got.position.size != d:
-                    raise ConfigError("message", f"agent {s} sent no measurement")
-                ll = ll + self.model.log_likelihood(got.count, got.position, pf.positions, **cond)
-                evaluated += pf.n
-                received += got.position.size + 2
+                got = read_measurement_payload(s, inbox[s], d)
+                readings.append((got.count, got.position, got.dt, got.direction, 1.0))
+                received += got.numbers
+            ll = _readings_log_likelihood(self.model, readings, pf.positions)
+            evaluated = pf.n * len(readings)
+        else:
+            ll = self._own_log_likelihood(m, pf.positions)
+            evaluated = pf.n
         pf.update(ll)
         pf.resample_if_needed(rng, n=p.n_particles)
         self.processed = float(evaluated * (d + 1) + received)
@@ -473,16 +591,42 @@ class StandardPFEstimator(TeamEstimator):
             return ParticleSetMessage(self.pf.positions, self.pf.weights)
         if p.share == "measurements" and self.last is not None:
             last = self.last
-            return MeasurementMessage(last.count, last.position, self.cue_captured)
+            return MeasurementMessage(
+                last.count, last.position, self.cue_captured, last.dt, last.direction
+            )
         return None
+
+
+Reading = tuple[float, np.ndarray, float, "np.ndarray | None", float]
+"""``(count, position, dt, direction, exponent)`` of one reading."""
+
+
+def _readings_log_likelihood(
+    model: MeasurementModel, readings: list[Reading], positions: np.ndarray
+) -> np.ndarray:
+    """``sum_k e_k log p(z_k | x_n)`` of readings each under its own conditions, ``(N,)``."""
+    d = positions.shape[1]
+    counts = np.array([r[0] for r in readings], float)
+    where = np.array([r[1] for r in readings], float).reshape(len(readings), d)
+    dts = np.array([r[2] for r in readings], float)
+    exps = np.array([r[4] for r in readings], float)
+    record: dict[str, np.ndarray] = {"dt": dts}
+    if any(r[3] is not None for r in readings):
+        record["direction"] = np.array(
+            [np.full(d, np.nan) if r[3] is None else r[3] for r in readings], float
+        )
+    return model.weighted_log_likelihood(counts, where, positions, exps, record)
 
 
 def _read_particles(sender: int, payload: Payload, d: int) -> tuple[np.ndarray, np.ndarray]:
     """A neighbour's particle set: positions ``(N, d)`` and normalised log-weights ``(N,)``."""
     if not isinstance(payload, ParticleSetMessage):
         raise ConfigError("message", f"agent {sender} sent no particle set")
-    x = np.asarray(payload.positions, float).reshape(-1, d)
+    x = np.asarray(payload.positions, float)
     w = np.asarray(payload.weights, float).reshape(-1)
+    if x.size % d:
+        raise ConfigError("message", f"agent {sender}: {x.size} coordinates for {d}-D particles")
+    x = x.reshape(-1, d)
     if len(w) != len(x) or len(w) == 0:
         raise ConfigError("message", f"agent {sender}: {len(x)} positions, {len(w)} weights")
     with np.errstate(divide="ignore"):

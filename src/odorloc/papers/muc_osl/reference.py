@@ -4,21 +4,6 @@ from __future__ import annotations
 
 from odorloc.experiments.reproduction import Citation
 
-#: Table 1: algorithm and rate-plume parameters.
-TABLE1 = {
-    "gamma1": 1.8,
-    "gamma2": 4.0,
-    "n_uavs": 3,
-    "n_particles": 100,
-    "n_max": 160,
-    "n_min": 20,
-    "k_max": 800,
-    "Q": 5.0,
-    "V": 1.0,
-    "D": 1.0,
-    "tau": 100.0,
-}
-
 #: Table 2: movement of the team over 200 runs (hover time s, turn time s, distance m, E_M kJ).
 #: E_M = 0.663 kJ/m * distance + 0.47 kJ/s * hover + 3.415 kJ * turns reproduces both rows, so
 #: these are team totals (the three UAVs' times add up to more than the 20-minute limit).
@@ -35,12 +20,6 @@ TABLE3 = {
 
 #: Movement energy saving of MUC-OSL over Col-Inf (Sect. VI.4.1).
 ENERGY_SAVING = 0.0844
-
-#: Paper's default number of Monte Carlo runs per setting.
-RUNS = 200
-
-#: Names of the four algorithms in the paper's order.
-ALGORITHMS = ("muc-osl", "col-inf", "col-pf", "adap-pp")
 
 #: Success rates at 100 x 200 x 50 m with 3 UAVs (Sect. VI.2.1, Fig. 4): MUC-OSL "only 24 %",
 #: Col-Inf "could not accomplish localization task under the energy constraint".

@@ -1,83 +1,54 @@
-"""The four sweeps of the multi-UAV paper (Sect. VI.2, Figs. 4-7), as settings and sweep files.
+"""The four sweeps of the multi-UAV paper (Sect. VI.2, Figs. 4-7) as settings and sweep files.
 
-A :class:`Setting` is one point of the paper's parameter space: the search area, the number of
-UAVs, the communication radius and the initial particle count. The default setting is the
-paper's (Table 1, Sect. VI.2): 100 x 60 x 30 m, source [10, 30, 25], 3 UAVs, N = 100, and the
-scenario's 30 m radius (the largest of Fig. 6, where the paper's results have levelled off).
-Each sweep changes one of them:
-
-====== ========= ===================================== ===========================
-sweep  figure    values                                other settings
-====== ========= ===================================== ===========================
-area   Fig. 4    60x60x30, 100x60x30, 100x100x50,      3 UAVs
-                 100x200x50 m
-uavs   Fig. 5    1 .. 8                                100 x 60 x 30 m
-radius Fig. 6    0, 5, .., 30 m                        4 UAVs in 100 x 60 x 30 m
-N      Fig. 7    20, 40, .., 220                       3 UAVs in 100 x 60 x 30 m
-====== ========= ===================================== ===========================
-
-Placement (a choice; the paper gives only the default source and the first three starts):
-
-- the source keeps the default's position *relative to the area*: ``[10, 30, 25] / [100, 60,
-  30]`` of each side, i.e. ``(0.1 L_x, 0.5 L_y, 0.833 L_z)``, half-way up the wind and near the
-  ceiling, so the 100 x 60 x 30 m point of the area sweep is the default point of the others;
-  in 100 x 200 x 50 m it is at [10, 100, 41.7], 98 m from the nearest UAV start;
-- the UAVs start on the lower downwind edge (:func:`~odorloc.papers.muc_osl.placement.uav_starts`,
-  ``y = 10``, ``z = 5``).
-
-Settings that share the world (everything but the particle count) share the world key, so the
-same episode index gives the same world and agent seeds to every algorithm and every particle
-count there (common random numbers). The default setting's world key is the scenario name
-itself, so ``odorloc run muc-osl-3d --seed S --episode I`` is episode ``I`` of the default point.
-
-:func:`sweep_files` turns settings into sweep files: one of every world (areas, team sizes,
-radii) x the four algorithms, and one of the particle counts (searcher parameters) on the
-default world, which would otherwise cross every world.
+A :class:`Setting` is one point; the default is the paper's (Table 1): 100 x 60 x 30 m, source
+[10, 30, 25], 3 UAVs, N = 100, and a 30 m radius (Fig. 6's largest, where results level off).
+Each sweep changes one: the area (Fig. 4), 1-8 UAVs (Fig. 5), the radius 0-30 m with 4 UAVs
+(Fig. 6), the particle count 20-220 (Fig. 7). The source keeps the default's place relative to
+the area, ``(0.1 L_x, 0.5 L_y, 0.833 L_z)``; the UAVs start on the lower downwind edge
+(:func:`uav_starts`). A setting's world is a
+:class:`~odorloc.experiments.variants.WorldVariant` of ``muc-osl-3d``; particle counts are
+searcher parameters on the default world only (:func:`sweep_files`).
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from typing import Any
 
-from odorloc.core.errors import ConfigError
 from odorloc.core.registry import make_params
-from odorloc.papers.muc_osl.placement import uav_starts
-from odorloc.papers.muc_osl.reference import ALGORITHMS
-
-__all__ = [
-    "AREAS",
-    "DEFAULT",
-    "FIG9_VALUES",
-    "NO_ENV_PU",
-    "SWEEPS",
-    "Setting",
-    "SweepDef",
-    "cell_of",
-    "fig9_settings",
-    "searcher_label",
-    "source_position",
-    "sweep_files",
-]
+from odorloc.experiments.variants import Sweep, WorldVariant, variant_sweeps
+from odorloc.scenarios.placement import edge_starts
 
 Area = tuple[float, float, float]
-
-#: The default area, source and UAV start height of the paper (Sect. VI.2).
 DEFAULT_AREA: Area = (100.0, 60.0, 30.0)
 DEFAULT_SOURCE = (10.0, 30.0, 25.0)
-#: Fig. 4's areas, metres.
 AREAS: tuple[Area, ...] = (
     (60.0, 60.0, 30.0),
     (100.0, 60.0, 30.0),
     (100.0, 100.0, 50.0),
     (100.0, 200.0, 50.0),
 )
-#: Fig. 6 runs 4 UAVs.
-RADIUS_UAVS = 4
-#: Label of MUC-OSL without the upwind particle moves of eq. 16 (an ablation run beside the four
-#: at the default setting of each world).
+#: The paper's four algorithms (reversible PUGL moves where Col-PF is used).
+ALGORITHMS = ("muc-osl", "col-inf", "col-pf", "adap-pp")
+#: Col-PF's PUGL moves as printed, run at every point beside the four.
+PRINTED = ("muc-osl-printed", "col-pf-printed")
+ROWS = (*ALGORITHMS, *PRINTED)
+#: MUC-OSL without eq. 16 (an ablation at the default point of each world).
 NO_ENV_PU = "muc-osl-no-env-pu"
+NO_ENV_PU_PARAMS = {"estimator": {"type": "col-pf", "env_pu": "off"}}
+
+
+#: The paper's three starts (Sect. VI.2, Fig. 3), metres; more UAVs continue along that edge.
+PAPER_STARTS = ((10.0, 10.0, 5.0), (30.0, 10.0, 5.0), (60.0, 10.0, 5.0))
+
+
+def uav_starts(n: int, area: Sequence[float] = DEFAULT_AREA) -> list[list[float]]:
+    """Starts of ``n`` UAVs in ``area``: the paper's three, then every 10 m along their edge
+    (:func:`~odorloc.scenarios.placement.edge_starts`)."""
+    return edge_starts(
+        n, [p[0] for p in PAPER_STARTS], 10.0, area[0], 10.0, 5.0, depth=area[1], height=area[2]
+    )
 
 
 def source_position(area: Sequence[float]) -> tuple[float, float, float]:
@@ -93,105 +64,63 @@ def _area_text(area: Sequence[float]) -> str:
 
 @dataclass(frozen=True)
 class Setting:
-    """One point of the paper's parameter space.
-
-    Attributes
-    ----------
-    area : (3,) tuple of float, metres
-    n_uavs : int
-    radius : float, metres
-        Communication radius.
-    n_particles : int
-        Initial particle count of every UAV's filter (``N``; Col-PF then adapts it within
-        ``[20, 160]``, Table 1).
-    """
+    """One point: ``area`` (m), ``n_uavs``, communication ``radius`` (m), ``n_particles``."""
 
     area: Area = DEFAULT_AREA
     n_uavs: int = 3
     radius: float = 30.0
     n_particles: int = 100
 
+    def _changes(self) -> list[tuple[str, str]]:
+        """What differs from the default, as (suffix part, short name)."""
+        d, out = DEFAULT, []
+        if self.area != d.area:
+            out.append((f"area={_area_text(self.area)}", _area_text(self.area)))
+        if self.radius != d.radius:
+            out.append((f"radius={self.radius:g}", f"r={self.radius:g}"))
+        if self.n_uavs != d.n_uavs:
+            out.append((f"uavs={self.n_uavs}", f"{self.n_uavs} UAVs"))
+        return out
+
     def world_suffix(self) -> str:
         """What sets the world apart from the default, ``""`` or e.g. ``"[radius=0,uavs=4]"``."""
-        parts = []
-        if self.area != DEFAULT_AREA:
-            parts.append(f"area={_area_text(self.area)}")
-        if self.radius != DEFAULT.radius:
-            parts.append(f"radius={self.radius:g}")
-        if self.n_uavs != DEFAULT.n_uavs:
-            parts.append(f"uavs={self.n_uavs}")
+        parts = [a for a, _ in self._changes()]
         return f"[{','.join(parts)}]" if parts else ""
 
-    def world(self) -> Setting:
-        """The setting with the default particle count (what decides the world)."""
-        return replace(self, n_particles=DEFAULT.n_particles)
-
-    def scenario_params(self) -> dict[str, Any]:
-        """Dotted scenario overrides giving this setting's world (empty for the default)."""
+    def world(self) -> WorldVariant:
+        """The world of this setting (dotted overrides of ``muc-osl-3d``)."""
         out: dict[str, Any] = {}
         if self.area != DEFAULT_AREA:
             out["world.arena.upper"] = list(self.area)
             out["world.sources.0.position"] = list(source_position(self.area))
         if self.area != DEFAULT_AREA or self.n_uavs != DEFAULT.n_uavs:
-            out["agents.starts"] = uav_starts(
-                self.n_uavs, width=self.area[0], depth=self.area[1], height=self.area[2]
-            )
+            out["agents.starts"] = uav_starts(self.n_uavs, self.area)
         if self.radius != DEFAULT.radius:
             out["agents.comm_radius"] = float(self.radius)
-        return out
+        return WorldVariant(self.world_suffix(), out)
+
+    def where(self) -> str:
+        """A short name: ``"default"`` or what differs, e.g. ``"4 UAVs, r=0"``."""
+        parts = [b for _, b in self._changes()]
+        parts += [f"N={self.n_particles}"] if self.n_particles != DEFAULT.n_particles else []
+        return ", ".join(parts) or "default"
 
 
 DEFAULT = Setting()
 
 
-@dataclass(frozen=True)
-class SweepDef:
-    """One of the paper's sweeps: the swept values and how to show them.
-
-    Attributes
-    ----------
-    key : str
-        ``area``, ``uavs``, ``radius`` or ``particles``.
-    figure : str
-        The paper's figure.
-    xlabel : str
-    values : tuple
-        The swept values (areas as tuples).
-    base : Setting
-        The other settings.
-    """
-
-    key: str
-    figure: str
-    xlabel: str
-    values: tuple[Any, ...]
-    base: Setting = DEFAULT
-
-    def setting(self, value: Any) -> Setting:
-        """The setting of one swept value."""
-        field = {"area": "area", "uavs": "n_uavs", "radius": "radius", "particles": "n_particles"}
-        return replace(self.base, **{field[self.key]: value})
-
-    def settings(self) -> list[Setting]:
-        """Every swept setting, in order."""
-        return [self.setting(v) for v in self.values]
-
-    def tick(self, value: Any) -> str:
-        """The x tick of a value."""
-        return _area_text(value) if self.key == "area" else f"{value:g}"
-
-
-SWEEPS: tuple[SweepDef, ...] = (
-    SweepDef("area", "Fig. 4", "search area (m)", AREAS),
-    SweepDef("uavs", "Fig. 5", "number of UAVs", tuple(range(1, 9))),
-    SweepDef(
+SWEEPS: tuple[Sweep, ...] = (
+    Sweep("area", "Fig. 4", "search area (m)", AREAS, DEFAULT, "area"),
+    Sweep("uavs", "Fig. 5", "number of UAVs", tuple(range(1, 9)), DEFAULT, "n_uavs"),
+    Sweep(
         "radius",
         "Fig. 6",
         "communication radius (m)",
         tuple(float(r) for r in range(0, 31, 5)),
-        Setting(n_uavs=RADIUS_UAVS),
+        Setting(n_uavs=4),
+        "radius",
     ),
-    SweepDef("particles", "Fig. 7", "particles N", tuple(range(20, 221, 20))),
+    Sweep("particles", "Fig. 7", "particles N", tuple(range(20, 221, 20)), DEFAULT, "n_particles"),
 )
 
 #: Fig. 9's settings in the filament world: the ends, the default and a middle value of each.
@@ -203,14 +132,9 @@ FIG9_VALUES: dict[str, tuple[Any, ...]] = {
 }
 
 
-def fig9_settings() -> tuple[SweepDef, ...]:
+def fig9_settings() -> tuple[Sweep, ...]:
     """The four sweeps restricted to :data:`FIG9_VALUES`."""
     return tuple(replace(s, values=FIG9_VALUES[s.key]) for s in SWEEPS)
-
-
-def _estimator_type(algorithm: str) -> str:
-    """The estimator a preset composes (``col-pf`` or ``standard-pf``)."""
-    return str(make_params("searcher", algorithm, {}).estimator.type)  # type: ignore[attr-defined]
 
 
 def searcher_label(algorithm: str, n_particles: int) -> str:
@@ -223,83 +147,54 @@ def cell_of(scenario: str, setting: Setting, algorithm: str) -> tuple[str, str]:
     return f"{scenario}{setting.world_suffix()}", searcher_label(algorithm, setting.n_particles)
 
 
-def _unique(settings: Iterable[Setting]) -> list[Setting]:
-    seen: list[Setting] = []
-    for s in settings:
-        if s not in seen:
-            seen.append(s)
-    return seen
+def _with_count(algorithm: str, n: int) -> dict[str, Any]:
+    """The preset's own estimator (its type and every setting) with ``n`` particles."""
+    ref = make_params("searcher", algorithm, {}).estimator  # type: ignore[attr-defined]
+    return {"estimator": {"type": ref.type, **ref.values, "n_particles": n}}
 
 
 def sweep_files(
     scenario: str,
-    sweeps: Sequence[SweepDef],
+    sweeps: Sequence[Sweep],
     episodes: int,
     seed: int,
     *,
-    algorithms: Sequence[str] = ALGORITHMS,
+    algorithms: Sequence[str] = ROWS,
     replay: bool = False,
     extra_searchers: Sequence[dict[str, Any]] = (),
     scenario_params: dict[str, Any] | None = None,
     name: str = "muc-osl",
 ) -> dict[str, dict[str, Any]]:
-    """Sweep files covering every setting of ``sweeps`` with every algorithm.
+    """Sweep files covering every setting of ``sweeps`` with every algorithm:
+    ``{"": worlds x algorithms, "particles": the default world x the other particle counts,
+    plus extra_searchers}``.
 
-    Returns ``{"": worlds x algorithms, "particles": the default world x algorithms x the
-    other particle counts, plus extra_searchers}`` (the second only when needed).
-
-    Parameters
-    ----------
-    scenario : str
-        The base scenario (``muc-osl-3d`` or ``muc-osl-filament-3d``).
-    sweeps : sequence of SweepDef
-    episodes, seed : int
-    algorithms : sequence of str
-    replay : bool
-        Record each world's flow once per episode and replay it to every searcher.
-    extra_searchers : sequence of dict
-        More searcher entries (e.g. an ablation) run on the default world only.
-    scenario_params : dict, optional
-        Overrides applied to every world (e.g. a shorter time limit in tests).
-    name : str
-        Name of the sweeps.
+    Raises :class:`~odorloc.core.errors.ConfigError` for a particle count off the default
+    world (it would cross every world).
     """
-    settings = _unique(s for sw in sweeps for s in sw.settings())
-    worlds = _unique(s.world() for s in settings)
+    from odorloc.core.errors import ConfigError
+
+    settings = list(dict.fromkeys(s for sw in sweeps for s in sw.settings()))
     counts = sorted({s.n_particles for s in settings} - {DEFAULT.n_particles})
-    off_default = [s for s in settings if s.n_particles in counts and s.world() != DEFAULT]
-    if off_default:
+    off = [s for s in settings if s.n_particles in counts and s.world() != DEFAULT.world()]
+    if off:
         raise ConfigError(
-            "sweeps", f"particle counts are swept on the default world only, not {off_default[0]}"
+            "sweeps", f"particle counts are swept on the default world only, not {off[0]}"
         )
-    common = dict(scenario_params or {})
-
-    def entry(w: Setting) -> dict[str, Any]:
-        e: dict[str, Any] = {"name": scenario, "params": {**w.scenario_params(), **common}}
-        if w.world_suffix():
-            e["label"] = f"{scenario}{w.world_suffix()}"
-        return e
-
-    def base(tag: str) -> dict[str, Any]:
-        return {"name": f"{name} {tag}", "seed": seed, "episodes": episodes, "replay": replay}
-
-    out = {
-        "": {
-            **base("worlds"),
-            "scenarios": [entry(w) for w in worlds],
-            "searchers": [{"name": a} for a in algorithms],
-        }
-    }
     extra = [
-        {
-            "name": a,
-            "label": searcher_label(a, n),
-            "params": {"estimator": {"type": _estimator_type(a), "n_particles": n}},
-        }
+        {"name": a, "label": searcher_label(a, n), "params": _with_count(a, n)}
         for n in counts
         for a in algorithms
     ]
-    extra += list(extra_searchers)
-    if extra:
-        out["particles"] = {**base("particles"), "scenarios": [entry(DEFAULT)], "searchers": extra}
-    return out
+    return variant_sweeps(
+        scenario,
+        [s.world() for s in settings],
+        [{"name": a} for a in algorithms],
+        episodes,
+        seed,
+        base_searchers=[*extra, *extra_searchers],
+        base_part="particles",
+        replay=replay,
+        common=scenario_params,
+        name=name,
+    )
