@@ -1,0 +1,176 @@
+"""Gas maps scored against the simulated truth, and the readings of a recording.
+
+The truth of a gas map is the plume's *time-averaged* concentration over the same cells, as the
+rest of odorloc averages a plume: the recorder samples the concentration on a grid of cells
+every ``recording.plume_stride`` steps (:class:`~odorloc.engine.recorder.Recorder`; the
+trajectory figure shows the mean of these frames), and :func:`time_averaged_truth` averages the
+frames of a recording over the episode. :func:`frame_grid` gives those cells as a
+:class:`~odorloc.geometry.grid.CellGrid`, so a map built on it is scored cell by cell (set
+``recording.plume_grid`` to ``1 / cell size`` and ``recording.plume_stride`` to the averaging
+step; the recorder keeps at least 20 cells per axis).
+
+:func:`score_map` gives, over the cells of a mask (a search region, the free cells):
+
+* ``rmse``: root mean square of ``mean - truth``, in reading units (the concentration sensor's
+  readings are concentrations when its gain is 1 and its offset 0);
+* ``kl``: the Kullback-Leibler divergence ``sum_k P_k log(P_k / Q_k)`` of the map normalised
+  into a distribution ``Q`` from the normalised truth ``P`` (nats; the map is clipped at 0 and
+  every cell raised by ``floor`` times the map's average, so that a cell the map calls empty
+  costs a large but finite amount);
+* ``nlpd``: the NLPD of held-out readings under the map's predicted mean and variance
+  (Lilienthal et al. 2009, eq. 8);
+* ``peak_distance_i``: the distance from source ``i`` to the nearest of the map's ``K``
+  highest separated maxima (``K`` the number of sources), and ``max_distance_i`` from the map's
+  single highest cell; ``peak_distance`` is their mean over the sources.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from odorloc.core.errors import ConfigError
+from odorloc.engine.recorder import Recording
+from odorloc.geometry.grid import CellGrid
+from odorloc.inference.gas_map.base import GasMap, map_maxima
+from odorloc.inference.gas_map.readings import Readings, as_readings
+
+__all__ = [
+    "frame_grid",
+    "kl_divergence",
+    "readings_from_recording",
+    "rmse",
+    "score_map",
+    "source_distances",
+    "time_averaged_truth",
+]
+
+FloatArray = NDArray[np.float64]
+BoolArray = NDArray[np.bool_]
+
+
+def frame_grid(rec: Recording) -> CellGrid:
+    """The cells of a recording's plume frames (a horizontal slice in 3-D)."""
+    if rec.plume_frames.ndim != 3 or len(rec.plume_frames) == 0:
+        raise ConfigError("recording", "has no plume frames (recording.plume_stride)")
+    nx, ny = rec.plume_frames.shape[1:]
+    x0, x1, y0, y1 = (float(v) for v in rec.plume_extent)
+    return CellGrid((x0, y0), ((x1 - x0) / nx, (y1 - y0) / ny), (nx, ny))
+
+
+def time_averaged_truth(rec: Recording) -> tuple[CellGrid, FloatArray]:
+    """``(cells, concentration)``: the recording's plume frames averaged over time, on
+    :func:`frame_grid`."""
+    grid = frame_grid(rec)
+    return grid, np.asarray(rec.plume_frames, float).mean(axis=0)
+
+
+def readings_from_recording(rec: Recording, agents: list[int] | None = None) -> Readings:
+    """Every reading of a recording (the chosen agents', default all), in time order.
+
+    Positions, readings and winds of a 3-D recording stay 3-D.
+    """
+    n_agents = rec.positions.shape[1]
+    chosen = list(range(n_agents)) if agents is None else [int(a) for a in agents]
+    for a in chosen:
+        if not 0 <= a < n_agents:
+            raise ConfigError("agent", f"{a} is not an agent of the recording (0..{n_agents - 1})")
+    pos = rec.positions[:, chosen, :].reshape(-1, rec.positions.shape[2])
+    gas = rec.gas[:, chosen].reshape(-1)
+    wind = rec.wind[:, chosen, :].reshape(-1, rec.wind.shape[2])
+    t = np.repeat(np.asarray(rec.t, float), len(chosen))
+    if len(gas) == 0:
+        raise ConfigError("recording", "holds no readings")
+    return as_readings(pos, gas, wind, t)
+
+
+def rmse(mean: FloatArray, truth: FloatArray, mask: BoolArray | None = None) -> float:
+    """Root mean square error of a mean map against the truth over the masked cells."""
+    m = np.ones(truth.shape, bool) if mask is None else mask
+    if mean.shape != truth.shape:
+        raise ConfigError("mean", f"shape {mean.shape} differs from the truth's {truth.shape}")
+    if not m.any():
+        return math.nan
+    return float(np.sqrt(np.mean((mean[m] - truth[m]) ** 2)))
+
+
+def kl_divergence(
+    truth: FloatArray, mean: FloatArray, mask: BoolArray | None = None, floor: float = 1e-3
+) -> float:
+    """``KL(P || Q)`` of the normalised truth ``P`` and the normalised map ``Q`` over the
+    masked cells, nats (see the module docstring; NaN when the truth is 0 everywhere)."""
+    m = np.ones(truth.shape, bool) if mask is None else mask
+    p = np.clip(truth[m], 0.0, None)
+    if not p.sum() > 0:
+        return math.nan
+    p = p / p.sum()
+    q = np.clip(mean[m], 0.0, None)
+    q = q + floor * (q.mean() if q.sum() > 0 else 1.0)
+    q = q / q.sum()
+    keep = p > 0
+    return float(np.sum(p[keep] * np.log(p[keep] / q[keep])))
+
+
+def source_distances(
+    grid: CellGrid,
+    mean: FloatArray,
+    allowed: BoolArray,
+    sources: FloatArray,
+    separation: float = 1.0,
+) -> dict[str, float]:
+    """``peak_distance_i``, ``max_distance_i`` and ``peak_distance`` (see the module
+    docstring), metres; horizontal distances for a 2-D map of 3-D sources."""
+    src = np.atleast_2d(np.asarray(sources, float))[:, : grid.dim]
+    out: dict[str, float] = {}
+    peaks = map_maxima(grid, mean, allowed, max(len(src), 1), separation)
+    top = map_maxima(grid, mean, allowed, 1, separation)
+    near = []
+    for i, s in enumerate(src):
+        d = float(np.min(np.linalg.norm(peaks - s, axis=1))) if len(peaks) else math.nan
+        out[f"peak_distance_{i}"] = d
+        out[f"max_distance_{i}"] = float(np.linalg.norm(top[0] - s)) if len(top) else math.nan
+        near.append(d)
+    out["peak_distance"] = float(np.mean(near)) if near else math.nan
+    return out
+
+
+def score_map(
+    gas_map: GasMap,
+    truth: FloatArray,
+    sources: FloatArray,
+    held_out: Readings | None = None,
+    mask: BoolArray | None = None,
+    separation: float = 1.0,
+) -> dict[str, Any]:
+    """Every score of :mod:`this module <odorloc.experiments.gas_maps>` for a built map.
+
+    Parameters
+    ----------
+    gas_map : GasMap
+        With readings; its grid must be the truth's cells.
+    truth : (nx, ny[, nz]) ndarray
+        Time-averaged concentration per cell.
+    sources : (S, d) ndarray, metres
+    held_out : Readings, optional
+        Readings left out of the map (``nlpd`` is NaN without).
+    mask : bool ndarray, optional
+        Cells scored (default all); blocked cells are never scored.
+    separation : float, metres
+        Least distance between the map maxima compared with the sources.
+    """
+    if truth.shape != gas_map.grid.shape:
+        raise ConfigError("truth", f"shape {truth.shape} is not the map's {gas_map.grid.shape}")
+    m = ~gas_map.blocked if mask is None else mask & ~gas_map.blocked
+    mean = gas_map.mean()
+    out: dict[str, Any] = {
+        "rmse": rmse(mean, truth, m),
+        "kl": kl_divergence(truth, mean, m),
+        "nlpd": gas_map.score_nlpd(held_out)
+        if held_out is not None and len(held_out)
+        else math.nan,
+    }
+    out.update(source_distances(gas_map.grid, mean, m, sources, separation))
+    return out
