@@ -92,6 +92,11 @@ def test_every_searcher(name: str) -> None:
     assert dims and report == f"searcher {name}: {runs}"
 
 
+@pytest.mark.parametrize("name", registry.names("gas_map"))
+def test_every_gas_map(name: str) -> None:
+    assert checks.check_gas_map(name) == f"gas map {name}: 2D, 3D"
+
+
 @pytest.mark.parametrize("name", registry.names("searcher"))
 def test_every_searcher_rejects_unknown_parameters(name: str) -> None:
     with pytest.raises(ConfigError) as ei:
