@@ -27,6 +27,8 @@ step; the recorder keeps at least 20 cells per axis).
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -34,13 +36,20 @@ from numpy.typing import NDArray
 
 from odorloc.core.errors import ConfigError
 from odorloc.engine.recorder import Recording
+from odorloc.geometry.arena import Arena
 from odorloc.geometry.grid import CellGrid
-from odorloc.inference.gas_map.base import GasMap, map_maxima
+from odorloc.inference.gas_map.base import GasMap, build_gas_map, map_grid, map_maxima
 from odorloc.inference.gas_map.readings import Readings, as_readings
+from odorloc.inference.gas_map.selection import Selection, select_parameters
 
 __all__ = [
+    "MappedLog",
+    "arena_of",
     "frame_grid",
     "kl_divergence",
+    "map_readings",
+    "map_recording",
+    "readings_from_observations",
     "readings_from_recording",
     "rmse",
     "score_map",
@@ -173,4 +182,125 @@ def score_map(
         else math.nan,
     }
     out.update(source_distances(gas_map.grid, mean, m, sources, separation))
+    return out
+
+
+def readings_from_observations(observations: Iterable[Any], dim: int) -> Readings:
+    """The readings of a stream of observations (e.g. a bag's), in order."""
+    pos, gas, wind, t = [], [], [], []
+    for o in observations:
+        pos.append(np.asarray(o.position, float))
+        gas.append(float(o.gas))
+        wind.append(np.asarray(o.wind, float))
+        t.append(float(o.t))
+    if not gas:
+        raise ConfigError("log", "no observations (not one full period of data)")
+    return as_readings(np.array(pos), gas, np.array(wind), t, dim=dim)
+
+
+def arena_of(rec: Recording) -> Arena:
+    """The arena of a recording: its bounds and, for a 2-D recording, its obstacles."""
+    lo, hi = (tuple(float(v) for v in row) for row in rec.arena_bounds)
+    occ = rec.occupancy
+    if occ is None or len(lo) != 2 or np.asarray(occ).ndim != 2:
+        return Arena.box(lo, hi, float(min(np.subtract(hi, lo)) / 100.0))
+    occ = np.asarray(occ, bool)
+    res = (hi[0] - lo[0]) / occ.shape[0]
+    return Arena(lo, hi, res, occ)
+
+
+@dataclass
+class MappedLog:
+    """A gas map built offline and what it was built from.
+
+    Attributes
+    ----------
+    gas_map : GasMap
+    readings : Readings
+    params : dict
+        The member's parameters used (the selected ones included).
+    selection : Selection or None
+        The cross-validation, when parameters were selected.
+    truth : ndarray or None
+        The time-averaged concentration on the map's cells, when the recording holds plume
+        frames on those cells.
+    """
+
+    gas_map: GasMap
+    readings: Readings
+    params: dict[str, Any]
+    selection: Selection | None = None
+    truth: FloatArray | None = None
+
+
+def map_readings(
+    readings: Readings,
+    grid: CellGrid,
+    method: str,
+    params: Mapping[str, Any] | None = None,
+    arena: Arena | None = None,
+    select: Mapping[str, Sequence[Any]] | None = None,
+    folds: int = 5,
+    block: float = 10.0,
+) -> MappedLog:
+    """Build the map ``method`` of ``readings`` on ``grid``; with ``select``, first choose
+    those parameters by cross-validated NLPD
+    (:func:`~odorloc.inference.gas_map.selection.select_parameters`). A ``cell_size`` among
+    the candidates builds grids of the same extent."""
+    settings = dict(params or {})
+    selection = None
+    if select:
+        lo, hi = grid.lower, grid.upper
+
+        def grid_for(cell: float) -> CellGrid:
+            return grid if "cell_size" not in select else map_grid(lo, hi, cell)
+
+        selection = select_parameters(
+            method, readings, grid_for, select, settings, folds, block, arena
+        )
+        settings.update(selection.best)
+        if "cell_size" in selection.best:
+            grid = map_grid(lo, hi, float(selection.best["cell_size"]))
+    gm = build_gas_map(method, **settings)
+    gm.start(grid, arena)
+    gm.update(
+        readings.positions,
+        readings.values,
+        wind=readings.wind,
+        t=readings.t if readings.has_times else None,
+    )
+    return MappedLog(gm, readings, settings, selection)
+
+
+def map_recording(
+    rec: Recording,
+    method: str,
+    params: Mapping[str, Any] | None = None,
+    cell_size: float | None = None,
+    select: Mapping[str, Sequence[Any]] | None = None,
+    agents: list[int] | None = None,
+) -> MappedLog:
+    """Map a recording's readings offline.
+
+    The map covers the arena. Without ``cell_size`` (and without ``cell_size`` among the
+    ``select`` candidates) a recording with plume frames is mapped on the frames' cells and the
+    result carries the time-averaged truth on them; otherwise the cells are ``cell_size``
+    (default 0.25 m) from the arena's lower corner.
+    """
+    readings = readings_from_recording(rec, agents)
+    arena = arena_of(rec)
+    truth = None
+    use_frames = (
+        cell_size is None
+        and not (select and "cell_size" in select)
+        and rec.plume_frames.ndim == 3
+        and len(rec.plume_frames) > 0
+        and arena.dim == 2
+    )
+    if use_frames:
+        grid, truth = time_averaged_truth(rec)
+    else:
+        grid = map_grid(arena.lower, arena.upper, 0.25 if cell_size is None else cell_size)
+    out = map_readings(readings, grid, method, params, arena, select)
+    out.truth = truth
     return out
