@@ -233,6 +233,13 @@ def test_gmrf_solution_and_variance_match_the_dense_system():
     np.testing.assert_allclose(
         gm.variance()[free], (s * s * np.diag(cov)).reshape(grid.shape)[free], rtol=1e-9
     )
+    # a few cells' predictions (held-out readings) solve for those cells only: the same values
+    pts = rd.positions[:5]
+    fresh = _feed("gmrf", pos[::7], r[::7], grid, arena=arena, information_loss=0.05)
+    few_m, few_v = fresh.predict(pts)  # before any variance map exists
+    own = tuple(grid.index(pts).T)
+    np.testing.assert_allclose(few_v, gm.predictive_variance()[own], rtol=1e-9)
+    np.testing.assert_allclose(few_m, gm.mean()[own], rtol=0, atol=0)
     # no prior factor crosses the wall: cells x < 4.9 and x > 5.1 are not neighbours in H
     xs = grid.flat_centers()[:, 0]
     cross = dense[np.ix_(xs < 4.9, xs > 5.1)]

@@ -23,7 +23,8 @@ With ``H`` the sum of the factors' information and ``g`` that of their informati
 values, the mean is ``H^-1 g`` (one sparse solve, SciPy's SuperLU) and the variance of cell ``k``
 is ``(H^-1)_kk``, taken from a banded Cholesky factor of ``H`` by the Takahashi recursion over
 the band (exact; the cells are ordered with the longest axis outermost so that the band is as
-narrow as the grid allows).
+narrow as the grid allows). Predictions at a few cells (held-out readings) solve ``H x = e_k``
+for those cells only.
 
 Units. As in the paper's implementation, which maps readings normalised to [0, 1], the
 information parameters are in units of ``reading_scale^-2``: readings are divided by
@@ -46,7 +47,7 @@ from typing import ClassVar
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from odorloc.core.params import Finite, NonNegative, Positive
 from odorloc.core.registry import register
@@ -327,8 +328,35 @@ class GMRFGasMap(GasMap):
     def _compute_mean(self, readings: Readings) -> FloatArray:
         h, g, s = self._system(readings)
         self._h = h
-        x = spla.spsolve(h, g, permc_spec="MMD_AT_PLUS_A")
+        self._lu = spla.splu(h, permc_spec="MMD_AT_PLUS_A")
+        x = self._lu.solve(g)
         return (s * np.asarray(x, float)).reshape(self.grid.shape)
+
+    def predict(self, points: ArrayLike) -> tuple[FloatArray, FloatArray]:
+        """Predicted mean and variance of a reading at each point (the cell holding it).
+
+        When the points fall in few cells (held-out readings), only those cells' variances
+        ``(H^-1)_kk`` are computed, by solving ``H x = e_k`` with the mean's factorisation;
+        otherwise the whole variance map is.
+        """
+        p = np.atleast_2d(np.asarray(points, float))
+        idx = self.grid.index(p)
+        flat = np.ravel_multi_index(tuple(idx.T), self.grid.shape)
+        cells, inverse = np.unique(flat, return_inverse=True)
+        if self._spread is not None or 20 * len(cells) > self.grid.n_cells:
+            return super().predict(p)
+        mean = self._mean_map().ravel()
+        rd = self.readings
+        s = self._scale(rd)
+        unit = np.zeros((self.grid.n_cells, len(cells)))
+        unit[cells, np.arange(len(cells))] = 1.0
+        diag = self._lu.solve(unit)[cells, np.arange(len(cells))]
+        pvar = s * s * (diag + 1.0 / self.params.observation_information)
+        blocked = self._blocked.ravel()[cells]
+        if blocked.any():
+            _, v0 = self._prior(rd)
+            pvar = np.where(blocked, v0, pvar)
+        return mean[flat], pvar[inverse]
 
     def _compute_spread(
         self, readings: Readings, mean: FloatArray

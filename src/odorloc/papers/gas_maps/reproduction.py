@@ -11,10 +11,11 @@ in the Farrell world) and scored against the plume's concentration averaged over
 
 * the readings are split into 10 s stretches of the path; every fifth stretch is held out for the
   NLPD and never enters a map;
-* each member's smoothing parameter is chosen by cross-validated NLPD on the remaining readings
-  (4 folds of 10 s stretches): the kernel width among 1, 2 and 4 cells for the kernel methods,
-  the neighbour information among 0.5, 5, 50 and 500 for the GMRF; the other parameters are the
-  members' defaults; the cell size is fixed by the truth's cells;
+* each member's free parameters are chosen by cross-validated NLPD on the remaining readings
+  (4 folds of 10 s stretches): the kernel width among 1, 2 and 4 cells for the kernel methods;
+  the neighbour information among 0.5, 5, 50 and 500 and a fresh reading's information among 1,
+  10 and 100 for the GMRF (both in units of the largest reading^-2); the other parameters are
+  the members' defaults; the cell size is fixed by the truth's cells;
 * RMSE and the KL divergence of the normalised maps are taken over the free cells of the task's
   search region (the whole room indoors); the peak distance is the mean over the sources of the
   distance to the nearest of the map's K separated maxima (K sources, separated by the
@@ -66,13 +67,19 @@ WORLDS: dict[str, dict[str, Any]] = {
 }
 PATHS = ("lawn-mower", "random-walk", "ds-route")
 
-#: map label -> registry name and the candidates of its cross-validated parameter (kernel widths
-#: in cells)
+#: map label -> registry name and the candidates of its cross-validated parameters (kernel
+#: widths in cells)
 METHODS: dict[str, tuple[str, dict[str, tuple[float, ...]]]] = {
     "kernel-dmv": ("kernel-dmv", {"kernel_width": (1.0, 2.0, 4.0)}),
     "kernel-dmvw": ("kernel-dmvw", {"kernel_width": (1.0, 2.0, 4.0)}),
     "td-kernel-dmv": ("td-kernel-dmv", {"kernel_width": (1.0, 2.0, 4.0)}),
-    "gmrf": ("gmrf", {"prior_information": (0.5, 5.0, 50.0, 500.0)}),
+    "gmrf": (
+        "gmrf",
+        {
+            "prior_information": (0.5, 5.0, 50.0, 500.0),
+            "observation_information": (1.0, 10.0, 100.0),
+        },
+    ),
 }
 SCORES = ("rmse", "kl", "nlpd", "peak_distance")
 HOLD_BLOCK = 10.0  # s, the stretches of path held out together
@@ -105,10 +112,10 @@ def _prepare(sc: Any, task: Any) -> Any:
 
 
 def map_episode(
-    rec: Any, sc: Any, cell: float, chosen: dict[str, float] | None = None
+    rec: Any, sc: Any, cell: float, chosen: dict[str, dict[str, float]] | None = None
 ) -> dict[str, Any]:
     """Every map of one recorded episode: the truth, the held-out readings and per map label
-    its built map, chosen parameter and scores (``chosen``: the parameter per map label, no
+    its built map, chosen parameters and scores (``chosen``: the parameters per map label, no
     cross-validation)."""
     from odorloc.experiments.gas_maps import (
         arena_of,
@@ -128,12 +135,14 @@ def map_episode(
     mask = grid.region_mask(region) if region is not None else np.ones(grid.shape, bool)
     out: dict[str, Any] = {"grid": grid, "truth": truth, "mask": mask, "readings": readings}
     for label, (name, cands) in METHODS.items():
-        key = next(iter(cands))
-        if chosen is not None and math.isfinite(chosen.get(label, math.nan)):
-            best = {key: chosen[label]}
+        given = (chosen or {}).get(label, {})
+        if given and all(math.isfinite(given.get(k, math.nan)) for k in cands):
+            best = {k: given[k] for k in cands}
         else:
-            scale = cell if key == "kernel_width" else 1.0
-            grid_cands = {key: [v * scale for v in cands[key]]}
+            grid_cands = {
+                k: [v * (cell if k == "kernel_width" else 1.0) for v in vs]
+                for k, vs in cands.items()
+            }
             best = select_parameters(
                 name, train, lambda _c: grid, grid_cands, {}, CV_FOLDS, HOLD_BLOCK, arena
             ).best
@@ -141,7 +150,7 @@ def map_episode(
         gm.start(grid, arena)
         gm.update(train.positions, train.values, wind=train.wind, t=train.t)
         scores = score_map(gm, truth, rec.sources, held, mask, separation=sc.task.success_radius)
-        out[label] = {"map": gm, "param": best[key], "scores": scores}
+        out[label] = {"map": gm, "params": best, "scores": scores}
     return out
 
 
@@ -154,7 +163,8 @@ def _extras(task: Any, res: Any, rows: dict[str, dict[str, Any]]) -> dict[str, A
     row: dict[str, Any] = {"n_readings": len(maps["readings"])}
     for label in METHODS:
         entry = maps[label]
-        row[col(label, "param")] = float(entry["param"])
+        for k, v in entry["params"].items():
+            row[col(label, k)] = float(v)
         for k, v in entry["scores"].items():
             row[col(label, k)] = float(v)
     row["mapping_cpu_time"] = time.process_time() - t0
@@ -199,7 +209,7 @@ class GasMapsReproduction(Reproduction):
     name = "gas-maps"
     paper = "Lilienthal 2009, Reggente 2009, Asadi 2017, Monroy 2016"
     summary = "gas maps (Kernel DM+V, DM+V/W, TD, GMRF) x 3 paths x 2 worlds vs the truth"
-    default_episodes = 8
+    default_episodes = 20
     paper_episodes = 30
     paper_episodes_note = "no paper runs this comparison; 30 episodes narrow the intervals"
     report_paired = False
@@ -253,11 +263,13 @@ class GasMapsReproduction(Reproduction):
                         means.setdefault(score, {})[label] = m
                         cells.append(_cell_text(m, lo, hi))
                     rows.append([path, label, *cells])
-                    chosen = np.asarray(g.get(col(label, "param"), []), float)
-                    chosen = chosen[np.isfinite(chosen)]
-                    values, counts = np.unique(chosen, return_counts=True)
-                    text = ", ".join(f"{v:g}: {c}" for v, c in zip(values, counts, strict=True))
-                    params.append([world, path, label, text])
+                    for key in METHODS[label][1]:
+                        chosen = np.asarray(g.get(col(label, key), []), float)
+                        chosen = chosen[np.isfinite(chosen)]
+                        values, counts = np.unique(chosen, return_counts=True)
+                        pairs = zip(values, counts, strict=True)
+                        text = ", ".join(f"{v:g}: {c}" for v, c in pairs)
+                        params.append([world, path, label, key, text])
                 best = []
                 for score in SCORES:
                     ok = {k: v for k, v in means.get(score, {}).items() if math.isfinite(v)}
@@ -287,10 +299,10 @@ class GasMapsReproduction(Reproduction):
         tables.append(
             Table(
                 "selected",
-                "Smoothing parameter chosen by cross-validated NLPD (value: episodes)",
-                ["world", "path", "map", "kernel width m / GMRF neighbour information"],
+                "Parameters chosen by cross-validated NLPD (value: episodes)",
+                ["world", "path", "map", "parameter", "chosen (value: episodes)"],
                 params,
-                left=4,
+                left=5,
                 console=False,
             )
         )
@@ -359,7 +371,9 @@ def _episode0(df: Any, store_path: Path, world: str) -> dict[str, Any]:
             sc = cell_scenario({"scenario": WORLDS[world]["scenario"]})
             row = g.iloc[0]
             # the parameters the episode's cross-validation chose (stored with its row)
-            chosen = {m: float(row.get(col(m, "param"), math.nan)) for m in METHODS}
+            chosen = {
+                m: {k: float(row.get(col(m, k), math.nan)) for k in METHODS[m][1]} for m in METHODS
+            }
             out[path] = {"rec": rec, **map_episode(rec, sc, WORLDS[world]["cell"], chosen)}
     return out
 
