@@ -760,7 +760,7 @@ def map_(
         float | None,
         typer.Option(
             help="Cell side, m (default: a recording's plume-frame cells, scored against the "
-            "time-averaged truth; else 0.25)."
+            "time-averaged truth; else 0.25, coarser in a large arena)."
         ),
     ] = None,
     set_: Annotated[
@@ -820,6 +820,7 @@ def map_(
         if not source.exists():
             raise ConfigError("source", f"{source} does not exist")
         from odorloc.experiments.gas_maps import (
+            default_cell_size,
             map_readings,
             map_recording,
             readings_from_observations,
@@ -852,8 +853,11 @@ def map_(
             log = BagLog(source, load_mapping(topics))
             ctx = log.context()
             readings = readings_from_observations(log.observations(), ctx.dim)
-            cell = float(checked.cell_size)  # type: ignore[attr-defined]
-            grid = map_grid(ctx.arena.lower, ctx.arena.upper, cell, "--cell-size")
+            lo, hi = ctx.arena.lower, ctx.arena.upper
+            cell = default_cell_size(lo, hi)
+            if "cell_size" in params:
+                cell = float(checked.cell_size)  # type: ignore[attr-defined]
+            grid = map_grid(lo, hi, cell, "--cell-size")
             result = map_readings(readings, grid, method, params, ctx.arena, candidates)
             sources = np.asarray(log.mapping.sources or np.zeros((0, ctx.dim)), float)
         gm = result.gas_map

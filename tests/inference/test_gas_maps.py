@@ -403,6 +403,23 @@ def test_bad_parameters_name_the_field(params, field):
     assert err.value.field == field
 
 
+def test_a_gmrf_variance_too_costly_is_refused_naming_the_cell_size():
+    grid = CellGrid((0.0, 0.0, 0.0), 0.1, (80, 60, 30))  # band 1800 over 144 000 cells
+    gm = build_gas_map("gmrf", information_loss=0.0)
+    gm.start(grid)
+    gm.update([[1.0, 1.0, 1.0]], [2.0])
+    with pytest.raises(ConfigError, match=r"^cell_size: the exact variance of 144000 cells"):
+        gm.variance()
+
+
+def test_default_cell_size_grows_in_large_arenas():
+    from odorloc.experiments.gas_maps import default_cell_size
+
+    assert default_cell_size((0, 0), (10, 5)) == 0.25
+    big = default_cell_size((0, 0, 0), (100, 60, 30))
+    assert big > 0.25 and 100 * 60 * 30 / big**3 == pytest.approx(200_000)
+
+
 def test_bad_readings_and_misuse_are_refused():
     gm = build_gas_map("kernel-dmvw")
     with pytest.raises(RuntimeError, match="reset"):

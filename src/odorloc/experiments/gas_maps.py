@@ -45,6 +45,7 @@ from odorloc.inference.gas_map.selection import Selection, select_parameters
 __all__ = [
     "MappedLog",
     "arena_of",
+    "default_cell_size",
     "frame_grid",
     "kl_divergence",
     "map_readings",
@@ -209,6 +210,19 @@ def arena_of(rec: Recording) -> Arena:
     return Arena(lo, hi, res, occ)
 
 
+MAX_DEFAULT_CELLS = 200_000
+"""Most cells of a map whose cell size the user left to the default."""
+
+
+def default_cell_size(lower: Sequence[float], upper: Sequence[float], cell: float = 0.25) -> float:
+    """``cell`` metres, or larger cells when ``cell`` would give more than
+    :data:`MAX_DEFAULT_CELLS` over the extent (a large 3-D arena)."""
+    size = np.asarray(upper, float) - np.asarray(lower, float)
+    volume = float(np.prod(size))
+    need = (volume / MAX_DEFAULT_CELLS) ** (1.0 / len(size))
+    return float(max(cell, need))
+
+
 @dataclass
 class MappedLog:
     """A gas map built offline and what it was built from.
@@ -285,7 +299,8 @@ def map_recording(
     The map covers the arena. Without ``cell_size`` (and without ``cell_size`` among the
     ``select`` candidates) a recording with plume frames is mapped on the frames' cells and the
     result carries the time-averaged truth on them; otherwise the cells are ``cell_size``
-    (default 0.25 m) from the arena's lower corner.
+    (default :func:`default_cell_size`: 0.25 m, coarser in a large arena) from the arena's lower
+    corner.
     """
     readings = readings_from_recording(rec, agents)
     arena = arena_of(rec)
@@ -300,7 +315,8 @@ def map_recording(
     if use_frames:
         grid, truth = time_averaged_truth(rec)
     else:
-        grid = map_grid(arena.lower, arena.upper, 0.25 if cell_size is None else cell_size)
+        cell = default_cell_size(arena.lower, arena.upper) if cell_size is None else cell_size
+        grid = map_grid(arena.lower, arena.upper, cell)
     out = map_readings(readings, grid, method, params, arena, select)
     out.truth = truth
     return out

@@ -385,8 +385,13 @@ class GasMap(Estimator):
             self._mean = self._check("mean", np.where(self._blocked, m0, raw))
         return self._mean
 
+    def _check_spread(self) -> None:
+        """Refuse (a :class:`ConfigError`) spread maps the member cannot afford on this grid,
+        before any work (default: none refused)."""
+
     def _spread_maps(self) -> tuple[FloatArray, FloatArray, FloatArray]:
         if self._spread is None:
+            self._check_spread()
             self._mean_map()
             rd = self.readings
             var, conf, pvar = self._compute_spread(rd, self._raw_mean)

@@ -49,6 +49,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from numpy.typing import ArrayLike, NDArray
 
+from odorloc.core.errors import ConfigError
 from odorloc.core.params import Finite, NonNegative, Positive
 from odorloc.core.registry import register
 from odorloc.geometry.grid import CellGrid
@@ -66,6 +67,11 @@ __all__ = [
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.intp]
+
+MAX_VARIANCE_WORK = 2e10
+"""Most ``cells x band^2`` operations the exact variance may take (minutes at most): a grid
+beyond it (a large 3-D grid of small cells) is refused, naming the cell size, rather than left
+running for hours."""
 
 
 class GMRFParams(GasMapParams):
@@ -357,6 +363,16 @@ class GMRFGasMap(GasMap):
             _, v0 = self._prior(rd)
             pvar = np.where(blocked, v0, pvar)
         return mean[flat], pvar[inverse]
+
+    def _check_spread(self) -> None:
+        _, width = _band_order(self.grid.shape)
+        work = float(self.grid.n_cells) * float(width) ** 2
+        if work > MAX_VARIANCE_WORK:
+            raise ConfigError(
+                "cell_size",
+                f"the exact variance of {self.grid.n_cells} cells (band {width}) needs about "
+                f"{work:.1e} operations; use larger cells or a smaller region",
+            )
 
     def _compute_spread(
         self, readings: Readings, mean: FloatArray
