@@ -412,6 +412,26 @@ def test_a_gmrf_variance_too_costly_is_refused_naming_the_cell_size():
         gm.variance()
 
 
+def test_reset_maps_the_task_region_or_the_arena():
+    from odorloc.core.types import SearchContext
+
+    arena = Arena.box((0.0, 0.0, 0.0), (10.0, 6.0, 3.0), 0.25)
+    ctx = SearchContext(
+        arena=arena,
+        dt=0.5,
+        agent_ids=(0,),
+        start=[[1.0, 1.0, 1.0]],
+        speed_limits=[1.0],
+        search_region=((2.0, 1.0), (6.1, 4.0)),  # horizontal: the arena's height is kept
+    )
+    gm = build_gas_map("kernel-dmv", cell_size=0.5)
+    gm.reset(ctx, None, np.random.default_rng(0))
+    assert gm.grid.lower == (2.0, 1.0, 0.0) and gm.grid.shape == (9, 6, 6)  # 4.1 m: 9 cells
+    own = build_gas_map("kernel-dmv", cell_size=1.0, region=((0.0, 0.0, 0.0), (10.0, 6.0, 3.0)))
+    own.reset(ctx, None, np.random.default_rng(0))
+    assert own.grid.shape == (10, 6, 3)
+
+
 def test_default_cell_size_grows_in_large_arenas():
     from odorloc.experiments.gas_maps import default_cell_size
 
