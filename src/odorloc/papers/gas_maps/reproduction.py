@@ -12,10 +12,11 @@ in the Farrell world) and scored against the plume's concentration averaged over
 * the readings are split into 10 s stretches of the path; every fifth stretch is held out for the
   NLPD and never enters a map;
 * each member's free parameters are chosen by cross-validated NLPD on the remaining readings
-  (4 folds of 10 s stretches): the kernel width among 1, 2 and 4 cells for the kernel methods;
+  (up to 4 folds of 10 s stretches): the kernel width among 1, 2 and 4 cells for the kernel methods;
   the neighbour information among 0.5, 5, 50 and 500 and a fresh reading's information among 1,
   10 and 100 for the GMRF (both in units of the largest reading^-2); the other parameters are
-  the members' defaults; the cell size is fixed by the truth's cells;
+  the members' defaults (all of them in an episode too short for two folds); the cell size is
+  fixed by the truth's cells;
 * RMSE and the KL divergence of the normalised maps are taken over the free cells of the task's
   search region (the whole room indoors); the peak distance is the mean over the sources of the
   distance to the nearest of the map's K separated maxima (K sources, separated by the
@@ -134,23 +135,29 @@ def map_episode(
     region = sc.task.region
     mask = grid.region_mask(region) if region is not None else np.ones(grid.shape, bool)
     out: dict[str, Any] = {"grid": grid, "truth": truth, "mask": mask, "readings": readings}
+    # as many folds as the training readings hold stretches, up to CV_FOLDS
+    stretches = np.unique(np.floor((train.t - train.t.min()) / HOLD_BLOCK)) if len(train) else []
+    folds = min(CV_FOLDS, len(stretches))
     for label, (name, cands) in METHODS.items():
         given = (chosen or {}).get(label, {})
         if given and all(math.isfinite(given.get(k, math.nan)) for k in cands):
             best = {k: given[k] for k in cands}
+        elif folds < 2:
+            best = {}  # too short an episode to cross-validate: the member's defaults
         else:
             grid_cands = {
                 k: [v * (cell if k == "kernel_width" else 1.0) for v in vs]
                 for k, vs in cands.items()
             }
             best = select_parameters(
-                name, train, lambda _c: grid, grid_cands, {}, CV_FOLDS, HOLD_BLOCK, arena
+                name, train, lambda _c: grid, grid_cands, {}, folds, HOLD_BLOCK, arena
             ).best
         gm = build_gas_map(name, **best)
         gm.start(grid, arena)
         gm.update(train.positions, train.values, wind=train.wind, t=train.t)
         scores = score_map(gm, truth, rec.sources, held, mask, separation=sc.task.success_radius)
-        out[label] = {"map": gm, "params": best, "scores": scores}
+        used = gm.params.model_dump()
+        out[label] = {"map": gm, "params": {k: used[k] for k in cands}, "scores": scores}
     return out
 
 
