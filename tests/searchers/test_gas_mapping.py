@@ -49,6 +49,19 @@ def test_the_map_is_recorded_beside_a_central_belief():
     assert "residual_uncertainty" in res.metrics and "gas_map_readings" in res.metrics
 
 
+def test_team_members_each_carry_their_own_map():
+    member = {"type": "gas-mapping", "searcher": {"type": "random-walk"}}
+    d = filament_scenario_dict()
+    d["searcher"] = {"type": "per-agent", "member": member}
+    d["agents"]["starts"] = [[8.0, 2.0], [8.0, 3.0]]
+    d["limits"]["time"] = 10.0
+    d["recording"]["belief_stride"] = 10
+    res = run_episode(Scenario.from_dict(d), 1, 2, record=True)
+    last = [snap for t, snap in res.recording.beliefs if t == res.recording.beliefs[-1][0]]
+    assert sorted(int(s["agent"]) for s in last) == [0, 1]
+    assert all("gas_mean" in s for s in last)
+
+
 def test_the_wrapped_searchers_limits_are_checked_when_the_scenario_is_built():
     ds = {"type": "gas-mapping", "searcher": {"type": "ds-mapping"}}
     d = filament_scenario_dict()

@@ -15,7 +15,8 @@ declares what the wrapped searcher supports (dimensions, agent counts), reports 
 diagnostics and final metrics with the map's added: the map's belief
 (:class:`~odorloc.inference.gas_map.base.GasMapBelief`) is recorded as the central belief
 (agent ``-1``), its arrays beside those of a central belief of the wrapped searcher in one
-snapshot; the final metrics gain ``gas_map_readings`` and the map's highest maximum
+snapshot (as a member of a team, each member's map is recorded under its agent); the final
+metrics gain ``gas_map_readings`` and the map's highest maximum
 (``gas_map_peak_x``, ...).
 """
 
@@ -142,6 +143,14 @@ class GasMappingSearcher(Searcher):
                 t=np.array([o.t for o in observations]),
             )
         return action
+
+    def belief(self) -> Belief | None:
+        """The wrapped searcher's belief with the map's beside it (a team member's belief)."""
+        inner = self.inner.belief()
+        gm = self.gas_map.belief()
+        if gm is None or inner is None:
+            return gm if inner is None else inner
+        return MergedBelief((inner, gm))
 
     def beliefs(self) -> Mapping[int, Belief]:
         out: dict[int, Any] = dict(self.inner.beliefs())
