@@ -782,12 +782,12 @@ def map_(
     ] = None,
     out: Annotated[Path, typer.Option(help="Output folder.")] = Path("odorloc-map"),
 ) -> None:
-    """Build a gas distribution map from a recording or a robot log; write its figure and
-    arrays.
+    """Build a gas distribution map from a recording or a robot log.
 
-    Writes ``gas-map.png`` (mean, standard deviation and confidence; the time-averaged truth
-    beside them when the recording holds plume frames on the map's cells) and ``gas-map.npz``
-    (``mean``, ``variance``, ``confidence``, ``lower``, ``upper``) into ``--out``.
+    Writes gas-map.png (mean, standard deviation, confidence; the
+    time-averaged truth beside them when the recording holds plume frames
+    on the map's cells) and gas-map.npz (mean, variance, confidence, lower,
+    upper) into --out.
     """
     import numpy as np
 
