@@ -94,7 +94,7 @@ def select_parameters(
     for combo in itertools.product(*(list(candidates[k]) for k in keys)):
         values = dict(zip(keys, combo, strict=True))
         settings = {**base, **values}
-        cell = float(settings.get("cell_size", 0.25))
+        cell = float(_build(name, settings).params.cell_size)  # given, or the member's default
         grid = grid_for(cell)
         means, variances, held = [], [], []
         for k in range(folds):
