@@ -12,11 +12,11 @@ in the Farrell world) and scored against the plume's concentration averaged over
 * the readings are split into 10 s stretches of the path; every fifth stretch is held out for the
   NLPD and never enters a map;
 * each member's free parameters are chosen by cross-validated NLPD on the remaining readings
-  (up to 4 folds of 10 s stretches): the kernel width among 1, 2 and 4 cells for the kernel methods;
-  the neighbour information among 0.5, 5, 50 and 500 and a fresh reading's information among 1,
-  10 and 100 for the GMRF (both in units of the largest reading^-2); the other parameters are
-  the members' defaults (all of them in an episode too short for two folds); the cell size is
-  fixed by the truth's cells;
+  (up to 4 folds of 10 s stretches): the kernel width among 1, 2, 4 and 8 cells for the kernel
+  methods; the neighbour information among 0.5, 5, 50 and 500 and a fresh reading's information
+  among 1, 10, 100 and 1000 for the GMRF (both in units of the largest reading^-2); the other
+  parameters are the members' defaults (all of them in an episode too short for two folds); the
+  cell size is fixed by the truth's cells;
 * RMSE and the KL divergence of the normalised maps are taken over the free cells of the task's
   search region (the whole room indoors); the peak distance is the mean over the sources of the
   distance to the nearest of the map's K separated maxima (K sources, separated by the
