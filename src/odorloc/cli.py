@@ -827,6 +827,11 @@ def map_(
         )
         from odorloc.inference.gas_map.base import map_grid
 
+        if source.is_file() and source.suffix not in (".npz", ".bag"):
+            raise ConfigError(
+                "source",
+                f"{source.name} is neither a recording (.npz) nor a ROS bag (.bag, or a folder)",
+            )
         if source.is_file() and source.suffix == ".npz":
             if topics is not None:
                 raise ConfigError("--topics", "is for bags; the source is a recording")
