@@ -186,9 +186,10 @@ def nlpd(
 class GasMap(Estimator):
     """Base class of the ``gas_map`` family (see the module docstring).
 
-    Subclasses implement :meth:`_compute`, returning the mean, the variance and the confidence
-    maps of the readings in :attr:`readings`; the base class keeps the readings, caches the
-    maps, masks the blocked cells and answers the estimator hooks.
+    Subclasses implement ``_compute_mean`` (the mean map of the readings in :attr:`readings`)
+    and ``_compute_spread`` (the variance, confidence and predictive variance maps, after the
+    mean); the base class keeps the readings, caches the maps until the next update, masks the
+    blocked cells, checks that every map is finite and answers the estimator hooks.
 
     Class attributes
     ----------------
