@@ -687,9 +687,13 @@ def check_estimator(
     params: Mapping[str, Any] | None = None,
     dims: Sequence[int] | None = None,
     model: Mapping[str, Any] | None = None,
+    family: str = "estimator",
 ) -> str:
     """Feed an estimator a recorded stream in 2-D and 3-D (where it declares them), twice per
     seed, and once more after a second :meth:`reset`.
+
+    ``family``: the registry family the estimator is registered in (``gas_map`` for a gas map:
+    its members are estimators too).
 
     Checked: ``reset`` refuses a missing model when the estimator needs one; ``update`` takes
     every observation; ``belief()`` is ``None`` or gives a snapshot of finite arrays;
@@ -698,7 +702,7 @@ def check_estimator(
     ``conditions()`` a dict; ``final_metrics`` keys are stable; the same seed and observations
     give the same beliefs and estimates, also after a reset.
     """
-    e = registry.entry("estimator", name)
+    e = registry.entry(family, name)
     cls = e.build
     done = []
     for dim in _dims_of(cls, dims):
@@ -707,7 +711,7 @@ def check_estimator(
         spec = model if model is not None else cls.default_model
         mdl = _model_of(spec, cls.needs_model, tag)
 
-        p = registry.make_params("estimator", name, dict(params or {}))
+        p = registry.make_params(family, name, dict(params or {}))
         if cls.needs_model:
             probe = cls(p)
             try:

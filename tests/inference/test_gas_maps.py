@@ -430,6 +430,13 @@ def test_reset_maps_the_task_region_or_the_arena():
     own = build_gas_map("kernel-dmv", cell_size=1.0, region=((0.0, 0.0, 0.0), (10.0, 6.0, 3.0)))
     own.reset(ctx, None, np.random.default_rng(0))
     assert own.grid.shape == (10, 6, 3)
+    # a region is narrowed to the arena; one outside it is refused, naming the field
+    wide = build_gas_map("kernel-dmv", cell_size=1.0, region=((-5.0, -5.0), (20.0, 3.0)))
+    wide.reset(ctx, None, np.random.default_rng(0))
+    assert wide.grid.lower == (0.0, 0.0, 0.0) and wide.grid.shape == (10, 3, 3)
+    away = build_gas_map("kernel-dmv", region=((20.0, 0.0), (30.0, 3.0)))
+    with pytest.raises(ConfigError, match=r"^region: does not overlap the arena"):
+        away.reset(ctx, None, np.random.default_rng(0))
 
 
 def test_default_cell_size_grows_in_large_arenas():

@@ -33,7 +33,9 @@ from odorloc.core.errors import ConfigError
 from odorloc.core.params import Params
 from odorloc.core.registry import ComponentRef, Ref, register
 from odorloc.core.types import Action, Observation, SearchContext
+from odorloc.inference.estimator import Estimator
 from odorloc.inference.gas_map.base import GasMap
+from odorloc.models.base import MeasurementModel
 from odorloc.searchers.base import Belief, Searcher
 
 __all__ = ["GasMappingParams", "GasMappingSearcher", "MergedBelief"]
@@ -159,8 +161,15 @@ class GasMappingSearcher(Searcher):
             out[-1] = gm if -1 not in out else MergedBelief((out[-1], gm))
         return out
 
-    def diagnostics(self) -> dict[str, float]:
+    def estimation(self) -> tuple[Estimator, MeasurementModel | None] | None:
+        """The wrapped searcher's estimator (an offline replay drives it, not the map)."""
+        return self.inner.estimation()
+
+    def diagnostics(self) -> dict[str, float | str]:
         return {**self.inner.diagnostics(), **self.gas_map.diagnostics()}
 
     def final_metrics(self) -> dict[str, Any]:
         return {**self.inner.final_metrics(), **self.gas_map.final_metrics()}
+
+    def agent_metrics(self) -> dict[int, dict[str, Any]]:
+        return self.inner.agent_metrics()

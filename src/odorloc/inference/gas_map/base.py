@@ -26,7 +26,8 @@ extensions know no obstacles, as in their papers.
 The hooks of the estimator seam:
 
 * :meth:`GasMap.reset` builds the grid from the context: ``region`` (default the task's search
-  region, else the arena bounds; a 2-component region of a 3-D arena spans the arena's height),
+  region, else the arena bounds), narrowed to the arena (a 2-component region of a 3-D arena
+  spans the arena's height),
   ``cell_size`` cells with the last cell of an axis reaching past the region's edge when it
   does not divide it;
 * :meth:`GasMap.belief` is a :class:`GasMapBelief` (``None`` before the first reading);
@@ -49,7 +50,7 @@ from odorloc.core.errors import ConfigError
 from odorloc.core.params import Params, Positive
 from odorloc.core.types import Observation, Region
 from odorloc.geometry.grid import CellGrid
-from odorloc.geometry.regions import check_region
+from odorloc.geometry.regions import check_region, narrow_box, task_region
 from odorloc.inference.estimator import Estimator
 from odorloc.inference.gas_map.readings import Readings, as_readings
 
@@ -82,7 +83,7 @@ class GasMapParams(Params):
         Side of a map cell (used by :meth:`GasMap.reset`; :meth:`GasMap.start` takes a grid).
     region : ((x0, y0[, z0]), (x1, y1[, z1])), optional
         Extent mapped by :meth:`GasMap.reset`; default the task's search region, else the
-        arena's bounds.
+        arena's bounds (either narrowed to the arena; one that misses it is refused).
     max_sources : int
         Map maxima :meth:`GasMap.estimate` reports.
     peak_separation : float, metres
@@ -218,17 +219,11 @@ class GasMap(Estimator):
         """Start a new episode on the grid the context and the parameters give (see the
         module docstring); ``model`` and ``rng`` are not used (the maps are deterministic)."""
         arena = ctx.arena
-        d = arena.dim
         if self.params.region is not None:
-            lo_r, hi_r = check_region(self.params.region, "region")
-        elif ctx.search_region is not None:
-            lo_r, hi_r = check_region(ctx.search_region, "task.region")
+            region, field = check_region(self.params.region, "region"), "region"
         else:
-            lo_r, hi_r = tuple(arena.lower), tuple(arena.upper)
-        lo = list(lo_r) + list(arena.lower[len(lo_r) : d])
-        hi = list(hi_r) + list(arena.upper[len(hi_r) : d])
-        if len(lo) != d:
-            raise ConfigError("region", f"has {len(lo_r)} components, the arena {d}")
+            region, field = task_region(ctx), "task.region"
+        lo, hi = narrow_box(arena.lower, arena.upper, region, field)
         self.start(map_grid(lo, hi, self.params.cell_size), arena)
 
     def start(self, grid: CellGrid, arena: Arena | None = None) -> None:
