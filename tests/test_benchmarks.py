@@ -540,3 +540,18 @@ def test_muc_osl_budget_result_carries_the_live_replay_check(
     last = capsys.readouterr().out.strip().splitlines()[-1]
     keys = dict(kv.split("=") for kv in last.split()[1:])
     assert keys["same_rows"] == result
+
+
+# ---------------------------------------------------------------------- gas_map_speed
+def test_gas_map_speed_quick_run_checks_both_references(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    gms = load("gas_map_speed")
+    gms.main(["--quick", "--repeats", "1"])
+    last = capsys.readouterr().out.strip().splitlines()[-1]
+    assert last.startswith("RESULT ")
+    fields = dict(kv.split("=") for kv in last.split()[1:])
+    assert fields["maps_equal"] == "yes"
+    for key in ("kernel_dmv_s", "kernel_dmv_loop_s", "gmrf_solve_s", "gmrf_loop_s"):
+        assert math.isfinite(float(fields[key])) and float(fields[key]) > 0
+    assert set(fields) >= {"kernel_dmv_ratio", "gmrf_ratio", "targets_met", "gmrf_variance_s"}

@@ -92,6 +92,15 @@ def test_every_searcher(name: str) -> None:
     assert dims and report == f"searcher {name}: {runs}"
 
 
+@pytest.mark.parametrize("name", registry.names("gas_map"))
+def test_every_gas_map(name: str) -> None:
+    assert checks.check_gas_map(name) == f"gas map {name}: 2D, 3D"
+    # a gas map is an estimator: the estimator contract holds for it too (on 1 m cells: the
+    # GMRF's exact variance at every snapshot is costly on fine grids)
+    report = checks.check_estimator(name, {"cell_size": 1.0}, family="gas_map")
+    assert "2D (" in report and "3D (" in report
+
+
 @pytest.mark.parametrize("name", registry.names("searcher"))
 def test_every_searcher_rejects_unknown_parameters(name: str) -> None:
     with pytest.raises(ConfigError) as ei:

@@ -1,8 +1,7 @@
 """Contract checkers for every component family, shipped as API.
 
 Anyone adding a wind, plume, sensor, platform, searcher, measurement model, resampler,
-single-agent estimator or planner can
-check it the way odorloc's own tests do::
+single-agent estimator, planner or gas map can check it the way odorloc's own tests do::
 
     from odorloc import checks
     checks.check_searcher("my-searcher")            # 2-D and 3-D, one and three agents
@@ -11,6 +10,7 @@ check it the way odorloc's own tests do::
     checks.check_resampler("my-resampler")
     checks.check_estimator("my-estimator")          # a recorded stream, twice per seed
     checks.check_planner("my-planner")              # on the belief of its own estimator
+    checks.check_gas_map("my-gas-map")              # 2-D and 3-D, with a wall
 
 Each checker builds the component by its registry name (with ``params``, default its defaults)
 in small worlds, exercises it and raises :class:`ContractError` naming what is wrong: shapes,
@@ -40,6 +40,7 @@ from odorloc.world.world import World
 __all__ = [
     "ContractError",
     "check_estimator",
+    "check_gas_map",
     "check_measurement_model",
     "check_planner",
     "check_platform",
@@ -695,9 +696,13 @@ def check_estimator(
     params: Mapping[str, Any] | None = None,
     dims: Sequence[int] | None = None,
     model: Mapping[str, Any] | None = None,
+    family: str = "estimator",
 ) -> str:
     """Feed an estimator a recorded stream in 2-D and 3-D (where it declares them), twice per
     seed, and once more after a second :meth:`reset`.
+
+    ``family``: the registry family the estimator is registered in (``gas_map`` for a gas map:
+    its members are estimators too).
 
     Checked: ``reset`` refuses a missing model when the estimator needs one; ``update`` takes
     every observation; ``belief()`` is ``None`` or gives a snapshot of finite arrays;
@@ -706,7 +711,7 @@ def check_estimator(
     ``conditions()`` a dict; ``final_metrics`` keys are stable; the same seed and observations
     give the same beliefs and estimates, also after a reset.
     """
-    e = registry.entry("estimator", name)
+    e = registry.entry(family, name)
     cls = e.build
     done = []
     for dim in _dims_of(cls, dims):
@@ -715,7 +720,7 @@ def check_estimator(
         spec = model if model is not None else cls.default_model
         mdl = _model_of(spec, cls.needs_model, tag)
 
-        p = registry.make_params("estimator", name, dict(params or {}))
+        p = registry.make_params(family, name, dict(params or {}))
         if cls.needs_model:
             probe = cls(p)
             try:
@@ -1017,3 +1022,119 @@ def check_step_planner(
         _require(plans[0][0].index is not None, f"{tag}: no direction feasible from the corner")
         done.append(f"{dim}D")
     return f"step planner {name}: {', '.join(done)}"
+# ---------------------------------------------------------------------- gas maps
+def check_gas_map(
+    name: str, params: Mapping[str, Any] | None = None, dims: Sequence[int] | None = None
+) -> str:
+    """A gas map (family ``gas_map``) in 2-D and 3-D, in a small arena with an obstacle.
+
+    Checked: no belief and no estimate before a reading; the mean, variance, predictive
+    variance and confidence maps have the grid's shape, are finite, variances are >= 0 and
+    confidences in [0, 1], 0 in blocked cells; the map maxima are ``(k, d)`` free points;
+    readings given at once, in batches or as observations give the same maps; readings all
+    equal to ``c`` give the mean ``c`` wherever the confidence is high; the belief records
+    arrays; ``final_metrics`` keys are stable; bad readings (NaN, wrong shapes, a missing wind
+    the member needs) are refused with a :class:`~odorloc.core.errors.ConfigError` naming the
+    field, leaving no reading behind.
+    """
+    e = registry.entry("gas_map", name)
+    p = registry.make_params("gas_map", name, {"cell_size": 0.5, **dict(params or {})})
+    done = []
+    for dim in _dims_of(e.build, dims):
+        _check_gas_map_in(e.build, p, dim, f"gas map {name} {dim}D")
+        done.append(f"{dim}D")
+    return f"gas map {name}: {', '.join(done)}"
+
+
+def _check_gas_map_in(build: Any, p: Any, dim: int, tag: str) -> None:
+    from odorloc.core.errors import ConfigError
+    from odorloc.core.types import Observation, SearchContext
+    from odorloc.inference.gas_map.base import GasMap
+
+    wall = ((4.0, 0.0, 0.0)[:dim], (4.5, 4.0, 4.0)[:dim])
+    arena = _arena(dim).with_boxes([wall])
+    ctx = SearchContext(
+        arena=arena, dt=0.5, agent_ids=(0,), start=arena.lo + 0.5, speed_limits=[0.5]
+    )
+    rng = np.random.default_rng(21)
+    pos = arena.lo + 0.05 + rng.random((120, dim)) * (arena.size - 0.1)
+    pos = pos[arena.is_free(pos)]
+    n = len(pos)
+    vals = 5.0 * np.exp(-np.sum((pos - pos[0]) ** 2, axis=1) / 4.0) + rng.normal(0.0, 0.2, n)
+    wind = np.tile(np.eye(dim)[0] * 0.6, (n, 1)) + rng.normal(0.0, 0.05, (n, dim))
+    t = 0.5 * np.arange(n)
+
+    def fresh() -> GasMap:
+        gm = build(p)
+        _require(isinstance(gm, GasMap), f"{tag}: not a GasMap")
+        gm.reset(ctx, None, np.random.default_rng(0))
+        return gm
+
+    gm = fresh()
+    _require(gm.belief() is None, f"{tag}: a belief before any reading")
+    _require(gm.estimate().shape == (0, dim), f"{tag}: an estimate before any reading")
+    gm.update(pos, vals, wind=wind, t=t)
+    shape = gm.grid.shape
+    maps = {
+        "mean": gm.mean(),
+        "variance": gm.variance(),
+        "predictive variance": gm.predictive_variance(),
+        "confidence": gm.confidence(),
+    }
+    for what, arr in maps.items():
+        _require(arr.shape == shape, f"{tag}: {what} shape {arr.shape}, grid {shape}")
+        _require(bool(np.all(np.isfinite(arr))), f"{tag}: non-finite {what}")
+    _require(bool(np.all(maps["variance"] >= 0)), f"{tag}: negative variance")
+    _require(bool(np.all(maps["predictive variance"] >= 0)), f"{tag}: negative variance")
+    conf = maps["confidence"]
+    _require(bool(np.all((conf >= 0) & (conf <= 1))), f"{tag}: confidence outside [0, 1]")
+    _require(bool(gm.blocked.any()), f"{tag}: the wall blocks no cell")
+    _require(bool(np.all(conf[gm.blocked] == 0)), f"{tag}: confidence in a blocked cell")
+    est = gm.estimate()
+    _require(est.ndim == 2 and est.shape[1] == dim and len(est) >= 1, f"{tag}: estimate")
+    _require(bool(np.all(arena.is_free(est))), f"{tag}: a map maximum in an obstacle")
+    belief = gm.belief()
+    _require(belief is not None, f"{tag}: no belief after readings")
+    snap = belief.snapshot()  # type: ignore[union-attr]
+    _require(all(isinstance(v, np.ndarray) for v in snap.values()), f"{tag}: snapshot non-arrays")
+    keys = sorted(gm.final_metrics())
+    # in batches, and one observation at a time: the same readings, the same maps
+    parts = fresh()
+    for sl in (slice(0, n // 3), slice(n // 3, n - 5)):
+        parts.update(pos[sl], vals[sl], wind=wind[sl], t=t[sl])
+    for k in range(n - 5, n):
+        parts.update(Observation(0, float(t[k]), pos[k], 0.0, float(vals[k]), False, wind[k]))
+    _require(np.array_equal(parts.mean(), maps["mean"]), f"{tag}: mean depends on batching")
+    _require(
+        np.array_equal(parts.variance(), maps["variance"]), f"{tag}: variance depends on batching"
+    )
+    _require(sorted(parts.final_metrics()) == keys, f"{tag}: final_metrics keys change")
+    # a constant field is a constant map where the map is confident
+    flat = fresh()
+    flat.update(pos, np.full(n, 3.0), wind=wind, t=t)
+    sure = flat.confidence() > 0.5
+    _require(bool(sure.any()), f"{tag}: no confident cell after {n} readings")
+    _require(
+        bool(np.allclose(flat.mean()[sure], 3.0, rtol=0.0, atol=1e-6)),
+        f"{tag}: a constant field is not recovered where the confidence is high",
+    )
+    # bad input is refused before it reaches the map
+    two = {"wind": wind[:2], "t": t[:2]}
+    bad: list[tuple[str, tuple[Any, ...], dict[str, Any]]] = [
+        ("reading", (pos[:2], [1.0, math.nan]), two),
+        ("position", (pos[:2, :1], vals[:2]), two),
+        ("reading", (pos[:2], vals[:3]), two),
+        ("wind", (pos[:2], vals[:2]), {"wind": wind[:1], "t": t[:2]}),
+        ("t", (pos[:2], vals[:2]), {"wind": wind[:2], "t": [0.0, math.inf]}),
+    ]
+    if type(gm).needs_wind:
+        bad.append(("wind", (pos[:2], vals[:2]), {"t": t[:2]}))
+    for field, args, kwargs in bad:
+        g = fresh()
+        try:
+            g.update(*args, **kwargs)
+        except ConfigError as exc:
+            _require(exc.field == field, f"{tag}: bad {field} refused as {exc.field!r}")
+        else:
+            raise ContractError(f"{tag}: bad {field} accepted")
+        _require(g.n_readings == 0, f"{tag}: a refused batch left readings behind")

@@ -939,6 +939,198 @@ def replay_log(
         console.print(f"wrote {p}")
 
 
+def _settings(items: list[str] | None, field: str) -> dict[str, Any]:
+    """``KEY=VALUE`` options as a dict (values read as YAML scalars or lists)."""
+    from odorloc.core.loading import parse_yaml
+
+    out: dict[str, Any] = {}
+    for item in items or []:
+        key, eq, text = item.partition("=")
+        key = key.strip()
+        if not eq or not key or not text.strip():
+            raise ConfigError(field, f"expected KEY=VALUE, got {item!r}")
+        if key in out:
+            raise ConfigError(field, f"{key} is given twice")
+        out[key] = parse_yaml(text, field, f"{field} {key}")
+    return out
+
+
+@app.command("map")
+def map_(
+    source: Annotated[
+        Path, typer.Argument(help="A recording (.npz, e.g. from `odorloc run`) or a ROS bag.")
+    ],
+    method: Annotated[
+        str, typer.Option(help="Gas map (kernel-dmv, kernel-dmvw, td-kernel-dmv, gmrf).")
+    ] = "kernel-dmv",
+    cell_size: Annotated[
+        float | None,
+        typer.Option(
+            help="Cell side, m (default: a recording's plume-frame cells, scored against the "
+            "time-averaged truth; else 0.25, coarser in a large arena)."
+        ),
+    ] = None,
+    set_: Annotated[
+        list[str] | None,
+        typer.Option("--set", help="A map parameter, KEY=VALUE (repeat for several)."),
+    ] = None,
+    select: Annotated[
+        list[str] | None,
+        typer.Option(
+            help="Choose a parameter by cross-validated NLPD among values, KEY=[V1, V2, ...] "
+            "(repeat for several; cell_size too)."
+        ),
+    ] = None,
+    topics: Annotated[
+        Path | None, typer.Option(help="For a bag: the YAML mapping its topics (see docs).")
+    ] = None,
+    agent: Annotated[
+        list[int] | None, typer.Option(help="Map only these agents' readings (repeat).")
+    ] = None,
+    out: Annotated[Path, typer.Option(help="Output folder.")] = Path("odorloc-map"),
+) -> None:
+    """Build a gas distribution map from a recording or a robot log.
+
+    Writes gas-map.png (mean, standard deviation, confidence; the
+    time-averaged truth beside them when the recording holds plume frames
+    on the map's cells) and gas-map.npz (mean, variance, confidence, lower,
+    upper) into --out.
+    """
+    import numpy as np
+
+    from odorloc.core import registry
+
+    try:
+        check_output_dir(out, "--out")
+        registry.entry("gas_map", method, field="--method")
+        params = _settings(set_, "--set")
+        candidates = _settings(select, "--select")
+        for key, values in candidates.items():
+            if not isinstance(values, list) or not values:
+                raise ConfigError(f"--select {key}", "needs a list of values, e.g. [0.1, 0.2]")
+            if key in params:
+                raise ConfigError(f"--select {key}", "is also given with --set")
+        if cell_size is not None:
+            if not (math.isfinite(cell_size) and cell_size > 0):
+                raise ConfigError("--cell-size", f"must be a finite number > 0, got {cell_size}")
+            if "cell_size" in params:
+                raise ConfigError("--set cell_size", "is also given with --cell-size")
+            params["cell_size"] = cell_size
+        # every value is checked against the method's parameters before any data is read
+        try:
+            checked = registry.make_params("gas_map", method, params)
+            for key, values in candidates.items():
+                for v in values:
+                    registry.make_params("gas_map", method, {**params, key: v})
+        except ConfigError as exc:
+            raise ConfigError(f"--set {exc.field}", exc.problem) from None
+        if not source.exists():
+            raise ConfigError("source", f"{source} does not exist")
+        from odorloc.experiments.gas_maps import (
+            default_cell_size,
+            map_readings,
+            map_recording,
+            readings_from_observations,
+        )
+        from odorloc.inference.gas_map.base import map_grid
+
+        if source.is_file() and source.suffix not in (".npz", ".bag"):
+            raise ConfigError(
+                "source",
+                f"{source.name} is neither a recording (.npz) nor a ROS bag (.bag, or a folder)",
+            )
+        if source.is_file() and source.suffix == ".npz":
+            if topics is not None:
+                raise ConfigError("--topics", "is for bags; the source is a recording")
+            from odorloc.engine.recorder import Recording
+
+            try:
+                rec = Recording.load(source)
+            except (OSError, ValueError, KeyError) as exc:
+                raise ConfigError("source", f"{source} is not a recording ({exc})") from None
+            cell = checked.cell_size if "cell_size" in params else None  # type: ignore[attr-defined]
+            result = map_recording(rec, method, params, cell, candidates, agent)
+            sources = np.asarray(rec.sources, float)
+        else:
+            if topics is None:
+                raise ConfigError("--topics", "a bag needs the YAML mapping its topics")
+            if agent:
+                raise ConfigError("--agent", "a bag holds one robot's readings")
+            try:
+                from odorloc.replay.bag import BagLog, load_mapping
+            except ImportError:
+                raise ConfigError(
+                    "bag", "reading bags needs the ros extra (pip install odorloc[ros])"
+                ) from None
+            log = BagLog(source, load_mapping(topics))
+            ctx = log.context()
+            readings = readings_from_observations(log.observations(), ctx.dim)
+            lo, hi = ctx.arena.lower, ctx.arena.upper
+            cell = default_cell_size(lo, hi)
+            if "cell_size" in params:
+                cell = float(checked.cell_size)  # type: ignore[attr-defined]
+            grid = map_grid(lo, hi, cell, "--cell-size")
+            result = map_readings(readings, grid, method, params, ctx.arena, candidates)
+            sources = np.asarray(log.mapping.sources or np.zeros((0, ctx.dim)), float)
+        gm = result.gas_map
+        mean, var, conf = gm.mean(), gm.variance(), gm.confidence()
+        maxima = gm.estimate()
+    except OdorlocError as exc:
+        _fail(str(exc))
+        return
+    from odorloc.experiments.gas_maps import score_map
+    from odorloc.viz.gas_map import plot_gas_map
+
+    grid = gm.grid
+    lines = [
+        f"{len(result.readings)} readings, {method} on {' x '.join(map(str, grid.shape))} cells "
+        f"of {' x '.join(f'{c:.3g}' for c in grid.cells)} m"
+    ]
+    if result.selection is not None:
+        chosen = ", ".join(f"{k}={v}" for k, v in result.selection.best.items())
+        lines.append(f"selected by cross-validated NLPD: {chosen}")
+    for k, p in enumerate(maxima):
+        lines.append(f"map maximum {k}: ({', '.join(f'{v:.2f}' for v in p)}) m")
+    if len(sources) and result.truth is not None:
+        sc = score_map(gm, result.truth, sources)
+        lines.append(f"against the time-averaged truth: RMSE {sc['rmse']:.3g}, KL {sc['kl']:.3g}")
+    for i, s in enumerate(sources):
+        if len(maxima):
+            d = float(np.min(np.linalg.norm(maxima[:, : len(s)] - s[: grid.dim], axis=1)))
+            lines.append(f"source {i}: {d:.2f} m from the nearest map maximum")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        png, npz = out / "gas-map.png", out / "gas-map.npz"
+        plot_gas_map(
+            grid,
+            mean,
+            var,
+            conf,
+            png,
+            blocked=gm.blocked,
+            positions=result.readings.positions,
+            sources=sources if len(sources) else None,
+            maxima=maxima,
+            truth=result.truth,
+            title=f"{source.name}: {method}",
+        )
+        np.savez_compressed(
+            npz,
+            mean=mean,
+            variance=var,
+            confidence=conf,
+            lower=np.asarray(grid.lower),
+            upper=np.asarray(grid.upper),
+        )
+    except OSError as exc:
+        _fail(f"--out: cannot write into {out}: {exc.strerror or exc}")
+        return
+    for line in lines:
+        console.print(line, highlight=False)
+    for p in (png, npz):
+        console.print(f"wrote {p}")
+
+
 @app.command()
 def components(
     name: Annotated[
