@@ -26,7 +26,13 @@ import numpy as np
 
 from odorloc.core.jit import HAVE_NUMBA, jit
 
-__all__ = ["HAVE_NUMBA", "gaussian_history", "log_ndtr", "vergassola_history"]
+__all__ = [
+    "HAVE_NUMBA",
+    "class_probabilities",
+    "gaussian_history",
+    "log_ndtr",
+    "vergassola_history",
+]
 
 _SQRT2 = math.sqrt(2.0)
 _LOG_SQRT_2PI = 0.5 * math.log(2.0 * math.pi)
@@ -87,7 +93,7 @@ def _law_logp(
     return dens
 
 
-def _gaussian_history(theta, rates, n_slots, dim, cols, z, pts, speeds, dirs, spread, law, c):  # type: ignore[no-untyped-def]  # noqa: E501
+def _gaussian_history(theta, rates, n_slots, dim, cols, z, pts, speeds, dirs, spread, law, c):  # type: ignore[no-untyped-def]
     n = theta.shape[0]
     n_read = z.shape[0]
     out = np.empty(n)
@@ -168,7 +174,7 @@ def _gaussian_history(theta, rates, n_slots, dim, cols, z, pts, speeds, dirs, sp
     return out
 
 
-def _vergassola_history(theta, n_slots, cols, k, lgk, pts, dirs, dts, c):  # type: ignore[no-untyped-def]  # noqa: E501
+def _vergassola_history(theta, n_slots, cols, k, lgk, pts, dirs, dts, c):  # type: ignore[no-untyped-def]
     n = theta.shape[0]
     n_read = k.shape[0]
     out = np.empty(n)
@@ -204,6 +210,55 @@ def _vergassola_history(theta, n_slots, cols, k, lgk, pts, dirs, dts, c):  # typ
                 acc -= mu
         out[i] = acc
     return out
+
+
+def _class_probabilities(m, sd, quiet, quiet_row, edges, miss, censored):  # type: ignore[no-untyped-def]
+    """Reading classes ``(M, B + 1, N)`` of readings of means ``m`` and deviations ``sd``
+    (``(M, N)``): below ``edges[0]``, then between edges, the last bin open above; a censored
+    law adds the chance ``miss`` of reading nothing to the first class. Entries marked
+    ``quiet`` take ``quiet_row`` (the law without signal). Edges more than 9 deviations from a
+    mean are 0 or 1 of the normal CDF to double precision and are not evaluated. The NumPy
+    reference is :meth:`~odorloc.models.source_term.ReadingLaw.class_row_reference`."""
+    n_m, n_n = m.shape
+    nb = edges.shape[0] - 1
+    out = np.empty((n_m, nb + 1, n_n))
+    keep = 1.0 - miss if censored else 1.0
+    first = miss if censored else 0.0
+    for a in range(n_m):
+        for k in range(n_n):
+            if quiet[a, k]:
+                for j in range(nb + 1):
+                    out[a, j, k] = quiet_row[j]
+                continue
+            mk, sk = m[a, k], sd[a, k]
+            prev = 0.0
+            for j in range(nb + 1):
+                z = (edges[j] - mk) / sk
+                if z < -9.0:
+                    cdf = 0.0
+                elif z > 9.0:
+                    cdf = 1.0
+                else:
+                    cdf = 0.5 * math.erfc(-z / _SQRT2)
+                if j == 0:
+                    out[a, 0, k] = first + keep * cdf
+                else:
+                    out[a, j, k] = keep * max(cdf - prev, 0.0)
+                prev = cdf
+            out[a, nb, k] += keep * (1.0 - prev)
+    return out
+
+
+def _warm_classes(kernel):  # type: ignore[no-untyped-def]
+    kernel(
+        np.zeros((1, 1)),
+        np.ones((1, 1)),
+        np.zeros((1, 1), np.bool_),
+        np.ones(3),
+        np.zeros(3),
+        0.0,
+        True,
+    )
 
 
 def _warm_gaussian(kernel):  # type: ignore[no-untyped-def]
@@ -245,6 +300,8 @@ if HAVE_NUMBA:
     _law_logp = jit(_law_logp)
     gaussian_history = jit(_gaussian_history, warmup=_warm_gaussian)
     vergassola_history = jit(_vergassola_history, warmup=_warm_vergassola)
+    class_probabilities = jit(_class_probabilities, warmup=_warm_classes)
 else:  # pragma: no cover - numba is a core dependency
     gaussian_history = _gaussian_history
     vergassola_history = _vergassola_history
+    class_probabilities = _class_probabilities

@@ -362,8 +362,7 @@ class SourceTermEstimator(Estimator):
         lay, th = self.layout, self.theta
         act = SourceTerms(th, lay).active
         blocks = [
-            th[act[:, k]][:, [*range(k * lay.block, (k + 1) * lay.block)]]
-            for k in range(lay.slots)
+            th[act[:, k]][:, [*range(k * lay.block, (k + 1) * lay.block)]] for k in range(lay.slots)
         ]
         pooled = np.vstack(blocks) if blocks else np.zeros((0, lay.block))
         if len(pooled) < 2:
@@ -551,9 +550,7 @@ class SourceTermEstimator(Estimator):
             return self.spread() < r
         s = self.sources()
         assert s is not None
-        return bool(
-            s.count > 0 and s.count_probability[s.count] >= 0.5 and np.all(s.spreads < r)
-        )
+        return bool(s.count > 0 and s.count_probability[s.count] >= 0.5 and np.all(s.spreads < r))
 
     def diagnostics(self) -> dict[str, float]:
         """ESS, spread (m), posterior rate and its log-sd, acceptance, tempered steps."""
