@@ -95,8 +95,14 @@ def test_console_tables_fit_100_columns(tmp_path) -> None:
 #: minutes (144 virtual-physics cells of 20 simulated minutes; every MUC-OSL sweep point in two
 #: worlds; D-S mapping flights of up to 5 000 s): the path from sweep to report is the same, and
 #: the searchers themselves are tested on their own (tests/test_virtual_physics.py,
-#: tests/test_muc_osl*.py, tests/test_ds_mapping.py).
-QUICK = {"virtual-physics": 120.0, "muc-osl": 300.0, "ds-multi-source": 1500.0}
+#: tests/test_muc_osl*.py, tests/test_ds_mapping.py); the source-term reproduction's D-S flights
+#: are cut the same way.
+QUICK = {
+    "virtual-physics": 120.0,
+    "muc-osl": 300.0,
+    "ds-multi-source": 1500.0,
+    "source-terms": 300.0,
+}
 
 
 @pytest.mark.slow

@@ -131,7 +131,7 @@ class SourceTermParams(Params):
     source_count: Literal["uniform", "poisson"] = "uniform"
     source_count_mean: Positive = 1.0
     resample_threshold: float = Field(0.5, gt=0.0, le=1.0)
-    mcmc_steps: int = Field(2, ge=0, le=100)
+    mcmc_steps: int = Field(6, ge=0, le=100)
     target_acceptance: float = Field(0.25, gt=0.0, lt=1.0)
     adapt_gain: Positive = 1.0
     tempering: bool = True
