@@ -14,7 +14,7 @@ from odorloc.geometry.point_sets import earth_movers_distance, match_sources
 def test_emd_of_equal_sets_is_the_mean_assignment_distance() -> None:
     a = np.array([[0.0, 0.0], [10.0, 0.0]])
     assert earth_movers_distance(a, a[::-1]) == 0.0
-    assert earth_movers_distance(a, a + [3.0, 4.0]) == pytest.approx(5.0)
+    assert earth_movers_distance(a, a + np.array([3.0, 4.0])) == pytest.approx(5.0)
     # the best assignment, not the given order
     b = np.array([[10.0, 1.0], [0.0, 1.0]])
     assert earth_movers_distance(a, b) == pytest.approx(1.0)

@@ -233,7 +233,7 @@ def test_two_sources_are_found_with_an_unknown_count() -> None:
 
 
 def test_bad_input_is_refused_naming_the_field() -> None:
-    model, pts, z, wind, _, _ = _linear_toy()
+    model, _, _, wind, _, _ = _linear_toy()
     est = SourceTermEstimator(SourceTermParams(n_particles=50))
     from odorloc.models.gaussian import GaussianPlumeModel
 
