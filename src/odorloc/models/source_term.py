@@ -450,6 +450,32 @@ class SourceTermModel(MeasurementModel):
             Exposure of each reading.
         """
 
+    @abstractmethod
+    def classes(
+        self, points: np.ndarray, terms: SourceTerms, winds: np.ndarray, conditions: dict[str, Any]
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Outcome classes of readings at ``(M, d)`` points with measured winds ``(M, d)``:
+        probabilities ``(M, Z, N)`` and the reading each class stands for ``(Z,)``."""
+
+    def outcome_probabilities(
+        self, sensor_positions: np.ndarray, hypotheses: Any, **conditions: Any
+    ) -> np.ndarray:
+        return self._classes(sensor_positions, hypotheses, conditions)[0]
+
+    def outcome_values(
+        self, sensor_positions: np.ndarray, hypotheses: Any, **conditions: Any
+    ) -> np.ndarray:
+        return self._classes(sensor_positions, hypotheses, conditions)[1]
+
+    def _classes(
+        self, sensor_positions: Any, hypotheses: Any, conditions: dict[str, Any]
+    ) -> tuple[np.ndarray, np.ndarray]:
+        terms = as_terms(hypotheses, self.default_rate)
+        d = terms.layout.dim
+        s = _points(sensor_positions, d)
+        w = np.broadcast_to(_wind(conditions, d), s.shape)
+        return self.classes(s, terms, w, conditions)
+
     def log_likelihood(
         self, z: Any, sensor_position: np.ndarray, hypotheses: Any, **conditions: Any
     ) -> np.ndarray:
@@ -682,24 +708,10 @@ class GaussianSourceTermModel(SourceTermModel):
             consts,
         )
 
-    def outcome_probabilities(
-        self, sensor_positions: np.ndarray, hypotheses: Any, **conditions: Any
-    ) -> np.ndarray:
-        return self._classes(sensor_positions, hypotheses, conditions)[0]
-
-    def outcome_values(
-        self, sensor_positions: np.ndarray, hypotheses: Any, **conditions: Any
-    ) -> np.ndarray:
-        return self._classes(sensor_positions, hypotheses, conditions)[1]
-
-    def _classes(
-        self, sensor_positions: Any, hypotheses: Any, conditions: dict[str, Any]
+    def classes(
+        self, points: np.ndarray, terms: SourceTerms, winds: np.ndarray, conditions: dict[str, Any]
     ) -> tuple[np.ndarray, np.ndarray]:
-        terms = as_terms(hypotheses, self.default_rate)
-        d = terms.layout.dim
-        s = _points(sensor_positions, d)
-        w = np.broadcast_to(_wind(conditions, d), s.shape)
-        sig = self.signal(s, terms, w)
+        sig = self.signal(points, terms, winds)
         p = self.params
         width = p.bin_width if p.bin_width is not None else p.noise_std
         return self.law.classes(sig, terms.background, width, p.max_classes)
@@ -826,24 +838,10 @@ class VergassolaSourceTermModel(SourceTermModel):
             consts,
         )
 
-    def outcome_probabilities(
-        self, sensor_positions: np.ndarray, hypotheses: Any, **conditions: Any
-    ) -> np.ndarray:
-        return self._classes(sensor_positions, hypotheses, conditions)[0]
-
-    def outcome_values(
-        self, sensor_positions: np.ndarray, hypotheses: Any, **conditions: Any
-    ) -> np.ndarray:
-        return self._classes(sensor_positions, hypotheses, conditions)[1]
-
-    def _classes(
-        self, sensor_positions: Any, hypotheses: Any, conditions: dict[str, Any]
+    def classes(
+        self, points: np.ndarray, terms: SourceTerms, winds: np.ndarray, conditions: dict[str, Any]
     ) -> tuple[np.ndarray, np.ndarray]:
-        terms = as_terms(hypotheses, self.default_rate)
-        d = terms.layout.dim
-        s = _points(sensor_positions, d)
-        w = np.broadcast_to(_wind(conditions, d), s.shape)
-        mu = self.rate(s, terms, w) * _dt(conditions)
+        mu = self.rate(points, terms, winds) * _dt(conditions)
         top = float(mu.max()) if mu.size else 0.0
         p = self.params
         z = p.max_classes
@@ -923,21 +921,13 @@ class AdapterSourceTermModel(SourceTermModel):
             )
         return out
 
-    def outcome_probabilities(
-        self, sensor_positions: np.ndarray, hypotheses: Any, **conditions: Any
-    ) -> np.ndarray:
-        terms = as_terms(hypotheses, self.default_rate)
+    def classes(
+        self, points: np.ndarray, terms: SourceTerms, winds: np.ndarray, conditions: dict[str, Any]
+    ) -> tuple[np.ndarray, np.ndarray]:
         self.check_layout(terms.layout)
-        cond = {"wind": _wind(conditions, terms.layout.dim), "dt": _dt(conditions), **conditions}
-        return self.inner.outcome_probabilities(
-            sensor_positions, terms.positions[:, 0], release=terms.rates[:, 0], **cond
-        )
-
-    def outcome_values(
-        self, sensor_positions: np.ndarray, hypotheses: Any, **conditions: Any
-    ) -> np.ndarray:
-        terms = as_terms(hypotheses, self.default_rate)
-        cond = {"wind": _wind(conditions, terms.layout.dim), "dt": _dt(conditions), **conditions}
-        return self.inner.outcome_values(
-            sensor_positions, terms.positions[:, 0], release=terms.rates[:, 0], **cond
+        cond = {"dt": _dt(conditions), **conditions, "wind": winds[0]}
+        pos, q = terms.positions[:, 0], terms.rates[:, 0]
+        return (
+            self.inner.outcome_probabilities(points, pos, release=q, **cond),
+            self.inner.outcome_values(points, pos, release=q, **cond),
         )

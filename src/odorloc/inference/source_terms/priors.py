@@ -42,32 +42,33 @@ __all__ = [
 ]
 
 
-class UniformPrior(Params):
+class _Interval(Params):
+    """A prior on ``[low, high]``, ``low < high``."""
+
+    low: float
+    high: float
+
+    @model_validator(mode="after")
+    def _order(self) -> _Interval:
+        if not self.high > self.low:
+            raise ValueError(f"high ({self.high}) must exceed low ({self.low})")
+        return self
+
+
+class UniformPrior(_Interval):
     """Uniform on ``[low, high]`` (degrees for a wind direction)."""
 
     type: Literal["uniform"] = "uniform"
     low: Finite
     high: Finite
 
-    @model_validator(mode="after")
-    def _order(self) -> UniformPrior:
-        if not self.high > self.low:
-            raise ValueError(f"high ({self.high}) must exceed low ({self.low})")
-        return self
 
-
-class LogUniformPrior(Params):
+class LogUniformPrior(_Interval):
     """Log-uniform on ``[low, high]``, ``0 < low < high``."""
 
     type: Literal["log-uniform"] = "log-uniform"
     low: Positive
     high: Positive
-
-    @model_validator(mode="after")
-    def _order(self) -> LogUniformPrior:
-        if not self.high > self.low:
-            raise ValueError(f"high ({self.high}) must exceed low ({self.low})")
-        return self
 
 
 class NormalPrior(Params):

@@ -448,11 +448,14 @@ class SourceTermsReproduction(Reproduction):
     docstring)."""
 
     name = "source-terms"
-    paper = "(issue 33; Park & Oh RA-L 2022, Hutchinson et al. 2018, Sensors 2023 23(10) 4799)"
+    paper = "Park & Oh RA-L 2022; Hutchinson et al. 2018; Sensors 2023 23(10) 4799"
     summary = "source-term searches, 95 % coverage, several sources beside the D-S map"
     default_episodes = 6
     paper_episodes = 200
-    paper_episodes_note = "200 is the calibration count; the searches have no paper count"
+    paper_episodes_note = (
+        "the calibration runs its 200 episodes by default; --episodes N sets every sweep to N "
+        "(--only calibration runs that one alone)"
+    )
     report_paired = False
     cell_summary = False
     success_label = "a declared position within the scenario's success radius"
