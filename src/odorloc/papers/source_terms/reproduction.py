@@ -453,8 +453,8 @@ class SourceTermsReproduction(Reproduction):
     default_episodes = 6
     paper_episodes = 200
     paper_episodes_note = (
-        "the calibration runs its 200 episodes by default; --episodes N sets every sweep to N "
-        "(--only calibration runs that one alone)"
+        "the calibration runs its 200 episodes by default; --episodes N sets every sweep to "
+        "N, and --only calibration runs that sweep alone"
     )
     report_paired = False
     cell_summary = False
@@ -464,6 +464,7 @@ class SourceTermsReproduction(Reproduction):
         super().__init__(params)
         self.time_limit = time_limit
         self._out: Path | None = None
+        self._cache: tuple[Any, Any] | None = None
 
     def sweeps(self, episodes: int | None, seed: int) -> dict[str, dict[str, Any]]:
         n = {"search": 6, "calibration": 200, "multi": 1}
@@ -513,11 +514,18 @@ class SourceTermsReproduction(Reproduction):
     def tables(self, df: Any, seed: int) -> list[Table]:
         if not len(df) or "scenario" not in df:
             return []
-        df = truth_columns(df, self._out)
+        df = self._scored(df, self._out)
         return [_search_table(df), _calibration_table(df), _multi_table(df)]
 
+    def _scored(self, df: Any, out: Path | None) -> Any:
+        """:func:`truth_columns` once per result frame (the tables and figures share it)."""
+        key = (id(df), len(df), str(out))
+        if self._cache is None or self._cache[0] != key:
+            self._cache = (key, truth_columns(df, out))
+        return self._cache[1]
+
     def figures(self, df: Any, store: Any, out: Path, seed: int) -> list[Figure]:
-        df = truth_columns(df, out) if len(df) and "scenario" in df else df
+        df = self._scored(df, out) if len(df) and "scenario" in df else df
         return [
             Figure(
                 "posterior_marginals.png",
