@@ -154,7 +154,8 @@ class SourceTermParams(Params):
 
 def _ess_fraction(log_w: np.ndarray) -> float:
     w = normalise_log_weights(log_w)[1]
-    return float(1.0 / (len(w) * np.dot(w, w)))
+    # an element-wise sum, not BLAS: a threaded dot product waits for cores on a busy machine
+    return float(1.0 / (len(w) * (w * w).sum()))
 
 
 @register("estimator", "ste-pf", SourceTermParams, "source-term particle filter, resample-move")
@@ -538,7 +539,12 @@ class SourceTermEstimator(Estimator):
     def spread(self) -> float:
         """``sqrt(trace Cov(position))``, metres (first slot; ``inf`` before a reading)."""
         b = self.belief()
-        return math.inf if b is None else float(math.sqrt(max(np.trace(b.cov), 0.0)))
+        if b is None:
+            return math.inf
+        # trace of the weighted covariance, element-wise (no BLAS call on every step)
+        w = b.weights[:, None]
+        m = (w * b.positions).sum(axis=0)
+        return float(math.sqrt(max(float((w * (b.positions - m) ** 2).sum()), 0.0)))
 
     def converged(self) -> bool:
         """The convergence test of the module docstring."""
