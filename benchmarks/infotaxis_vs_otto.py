@@ -123,21 +123,35 @@ def run_otto(python: str, src: str, work: Path, states: int, seed: int) -> dict 
 # ---------------------------------------------------------------------- our side
 def our_decisions(beliefs: np.ndarray, agents: np.ndarray, n: int) -> tuple[list[int], list[float]]:
     """Our infotaxis choices on OTTO's beliefs and their times (one pass)."""
+    from odorloc.core.types import SearchContext
+    from odorloc.geometry.arena import Arena
+    from odorloc.geometry.grid import CellGrid
+    from odorloc.inference.grid_estimator import LatticeBelief
     from odorloc.models.lattice import IsotropicHitModel, IsotropicHitParams, tabulate
-    from odorloc.planning.infotaxis import GridPolicyPlanner, neighbour_cells
+    from odorloc.planning.base import Pose
+    from odorloc.planning.infotaxis import LatticePlanner
 
     _, length, intensity = SETTINGS[n]
     model = IsotropicHitModel(IsotropicHitParams(length=length, intensity=intensity))
-    table = tabulate(model, 1.0, (n - 1, n - 1))
-    planner = GridPolicyPlanner("infotaxis")
+    tables = (tabulate(model, 1.0, (n - 1, n - 1)),)
+    grid = CellGrid((0.0, 0.0), 1.0, (n, n))
+    arena = Arena.box((0.0, 0.0), (float(n), float(n)), 1.0)
+    ctx = SearchContext(arena, 1.0, (0,), np.zeros((1, 2)), np.ones(1))
+    planner = LatticePlanner()
+    planner.reset(ctx, model)
+    rng = np.random.default_rng(0)
+
+    def decide(b: np.ndarray, a: np.ndarray) -> tuple[LatticeBelief, Pose]:
+        return LatticeBelief(grid, b, {}, b[None], tables, 0.5), Pose(grid.center(a)[0])
+
     # one untimed decision first: loading (or compiling) the kernels is a process's one-off cost,
     # not a decision's (OTTO's NumPy code has none)
-    planner.plan(beliefs[0][None], [table], neighbour_cells(agents[0]))
+    planner.plan(*decide(beliefs[0], agents[0]), rng)
     choices, times = [], []
     for b, a in zip(beliefs, agents, strict=True):
-        joint = b[None]
+        belief, pose = decide(b, a)
         t0 = time.perf_counter()
-        plan = planner.plan(joint, [table], neighbour_cells(a))
+        plan = planner.plan(belief, pose, rng)
         times.append(time.perf_counter() - t0)
         choices.append(-1 if plan.index is None else int(plan.index))
     return choices, times
@@ -160,8 +174,9 @@ def our_states(n: int, count: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
         s.reset(e.context, e.agent_rng)
         while not e.done and len(beliefs) < count:
             act = s.act(obs, e.agent_rng)
-            beliefs.append(s.filter.prob.copy())
-            agents.append(s.filter.grid.index(obs[0].position)[0])
+            b = s.belief()
+            beliefs.append(b.prob.copy())
+            agents.append(b.grid.index(obs[0].position)[0])
             obs = e.step(act, s).observations
         ep += 1
     return np.array(beliefs), np.array(agents)

@@ -84,7 +84,7 @@ TIMING = ("wall_time", "wall_per_step_ms", "world_fraction", "searcher_fraction"
 WARMUP_KEY = "muc-osl-3d warm-up"
 
 
-def _case(seed: int = 0) -> dict:
+def sample_case(seed: int = 0) -> dict:
     """A mid-search state: particles spread around the source, the UAV 8 m downwind."""
     rng = np.random.default_rng(seed)
     src = np.array([10.0, 30.0, 25.0])
@@ -117,7 +117,7 @@ def _case(seed: int = 0) -> dict:
     }
 
 
-def _ctx() -> SearchContext:
+def context() -> SearchContext:
     return SearchContext(
         arena=Arena.box((0.0, 0.0, 0.0), UPPER, 2.0),
         dt=1.0,
@@ -160,11 +160,13 @@ def _neighbours_loop(case: dict, fit: tuple[np.ndarray, np.ndarray]) -> list[tup
     taken, the cue flag and the sender's mean."""
     out = []
     for s in sorted(case["inbox"]):
-        f = case["inbox"][s]["fit"]
-        m = case["inbox"][s]["measurement"]
-        d = float(m[0])
-        beta = math.exp(-max(_kl(fit[0], fit[1], f[:3], f[3:].reshape(3, 3)), 0.0))
-        out.append((beta, d, math.lgamma(d + 1.0), m[1:4].tolist(), m[4] > 0.5, f[:3].tolist()))
+        msg = case["inbox"][s]
+        m = msg.measurement
+        d = float(m.count)
+        beta = math.exp(-max(_kl(fit[0], fit[1], msg.mean, msg.cov), 0.0))
+        out.append(
+            (beta, d, math.lgamma(d + 1.0), m.position.tolist(), m.cue_captured, msg.mean.tolist())
+        )
     return out
 
 
@@ -476,7 +478,7 @@ def colpf_update_agreement(
     return out
 
 
-def _episode_rows(
+def episode_rows(
     name: str, backend: str, episodes: int, estimator: dict | None = None
 ) -> tuple[list[float], list[dict]]:
     """Wall times (s) and metric rows of ``episodes`` episodes of one algorithm (``estimator``:
@@ -564,8 +566,8 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--episodes", type=int, default=6, help="episodes per algorithm")
     args = ap.parse_args(argv)
 
-    case = _case()
-    ctx = _ctx()
+    case = sample_case()
+    ctx = context()
     rng = np.random.default_rng(1)
     backends = ("numpy", "numba") if HAVE_NUMBA else ("numpy",)
     models = {
@@ -693,7 +695,7 @@ def main(argv: list[str] | None = None) -> None:
     ):
         rows = {}
         for b in backends:
-            walls, rows[b] = _episode_rows(name, b, args.episodes, estimator)
+            walls, rows[b] = episode_rows(name, b, args.episodes, estimator)
             means[label, b] = float(np.mean(walls))
             steps = sum(r["steps"] for r in rows[b])
             per_step[label, b] = 1e3 * sum(walls) / max(steps, 1)

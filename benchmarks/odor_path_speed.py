@@ -161,7 +161,7 @@ def time_ds(grid: CellGrid, repeats: int, seed: int) -> dict[str, float]:
         t1 = time.perf_counter()
         ds.update(patch, det)
         t2 = time.perf_counter()
-        planner.plan(ds, patch, pos, rng)
+        planner.route(ds, patch, pos, rng)
         t3 = time.perf_counter()
         dense_t.append(t1 - t0)
         patch_t.append(t2 - t1)

@@ -253,7 +253,7 @@ def test_muc_osl_speed_episodes_timed_after_a_warm_up(monkeypatch: pytest.Monkey
 
     monkeypatch.setattr(ms, "run_episode", fake_episode)
     monkeypatch.setattr(ms.time, "perf_counter", lambda: clock[0])
-    walls, rows = ms._episode_rows("col-inf", "numpy", 2)
+    walls, rows = ms.episode_rows("col-inf", "numpy", 2)
     timed = [episode_seeds(2024, "muc-osl-3d", e) for e in range(2)]
     assert calls[-2:] == timed
     assert len(calls) == 3 and calls[0] not in timed
@@ -266,7 +266,7 @@ def test_muc_osl_speed_loops_agree_with_the_vector_code() -> None:
     from odorloc.inference.particles.team_estimators import ColPFEstimator, ColPFParams
 
     ms = load("muc_osl_speed")
-    case, ctx, rng = ms._case(), ms._ctx(), np.random.default_rng(1)
+    case, ctx, rng = ms.sample_case(), ms.context(), np.random.default_rng(1)
     model = ms.VergassolaModel(ms.VergassolaModelParams(sensor_radius=ms.A, backend="numpy"))
     w0 = np.exp(case["lw"])
     mean0 = w0 @ case["x"]
@@ -307,7 +307,7 @@ def test_muc_osl_speed_colpf_loop_is_the_whole_update(count: float) -> None:
     from odorloc.inference.particles.team_estimators import ColPFEstimator, ColPFParams
 
     ms = load("muc_osl_speed")
-    case, ctx, rng = {**ms._case(), "count": count}, ms._ctx(), np.random.default_rng(1)
+    case, ctx, rng = {**ms.sample_case(), "count": count}, ms.context(), np.random.default_rng(1)
     model = ms.VergassolaModel(ms.VergassolaModelParams(sensor_radius=ms.A, backend="numpy"))
     w0 = np.exp(case["lw"])
     mean0 = w0 @ case["x"]

@@ -147,3 +147,72 @@ def test_components_by_import_path_must_belong_to_the_family() -> None:
         with pytest.raises(ConfigError, match=words) as ei:
             registry.entry(family, ref, field="x.type")
         assert ei.value.field == "x.type"
+
+
+# ----------------------------------------------------------------------------- measurement models
+#: Conditions the models' calls need (wind and windows in 3 components; cut for 2-D).
+MODEL_CONDITIONS: dict[str, dict] = {
+    "gaussian": {"wind": [0.5, 0.1, 0.0]},
+    "pang-farrell": {"wind_window": np.tile([0.4, 0.1, 0.0], (10, 1)), "dt": 0.5},
+    "vergassola": {"dt": 1.0},
+}
+
+
+@pytest.mark.parametrize("name", registry.names("model"))
+def test_every_measurement_model(name: str) -> None:
+    report = checks.check_measurement_model(name, conditions=MODEL_CONDITIONS.get(name))
+    assert report == f"model {name}: 2D, 3D"
+
+
+@pytest.mark.parametrize("name", registry.names("resampler"))
+def test_every_resampler(name: str) -> None:
+    assert checks.check_resampler(name) == f"resampler {name}: 2D, 3D"
+
+
+from odorloc.inference.particles.resampling import SystematicResampler  # noqa: E402
+from odorloc.models.lattice import IsotropicHitModel  # noqa: E402
+
+
+class LeakyModel(IsotropicHitModel):
+    """Its outcome classes lose a tenth of the probability."""
+
+    def outcome_probabilities(self, sensor_positions, hypotheses, **conditions):
+        return 0.9 * super().outcome_probabilities(sensor_positions, hypotheses, **conditions)
+
+
+class NaNModel(IsotropicHitModel):
+    """A hypothesis on the sensor gets a NaN log-likelihood."""
+
+    def log_likelihood(self, z, sensor_position, hypotheses, **conditions):
+        ll = super().log_likelihood(z, sensor_position, hypotheses, **conditions)
+        at = np.all(np.asarray(hypotheses) == np.asarray(sensor_position), axis=1)
+        return np.where(at, np.nan, ll)
+
+
+class BlindResampler(SystematicResampler):
+    """Ignores the weights: every particle is an equally likely ancestor."""
+
+    def _resample(self, positions, weights, rng, n, constraint):
+        return positions[rng.integers(0, len(positions), n)]
+
+
+class ScribblingResampler(SystematicResampler):
+    """Resamples correctly but scribbles on the caller's positions."""
+
+    def _resample(self, positions, weights, rng, n, constraint):
+        positions[0] = 0.0  # what a missing copy does to the caller's particles
+        return super()._resample(positions, weights, rng, n, constraint)
+
+
+@pytest.mark.parametrize(
+    ("check", "ref", "problem"),
+    [
+        (checks.check_measurement_model, "LeakyModel", "classes sum to 1 within 1.00e-01"),
+        (checks.check_measurement_model, "NaNModel", "NaN log-likelihood"),
+        (checks.check_resampler, "BlindResampler", "does not move the cloud towards"),
+        (checks.check_resampler, "ScribblingResampler", "inputs modified"),
+    ],
+)
+def test_the_model_and_resampler_checkers_catch_broken_members(check, ref, problem) -> None:
+    with pytest.raises(checks.ContractError, match=problem):
+        check(f"test_contracts:{ref}")

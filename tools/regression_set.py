@@ -48,7 +48,13 @@ WIDE = (
     "adap-pp",
 )
 ROOTS = (1, 2)
-_SKIP_COLUMNS = {"wall_time", "wall_per_step_ms", "searcher_fraction", "compute_ms"}
+_SKIP_COLUMNS = {
+    "wall_time",
+    "wall_per_step_ms",
+    "searcher_fraction",
+    "world_fraction",
+    "compute_ms",
+}
 
 
 def _digest(arrays: dict[str, np.ndarray]) -> str:
@@ -103,11 +109,31 @@ def run(only: list[str], time_limit: float | None, wide: bool = False) -> dict[s
                 res = run_episode(sc, ws, ag, record=True)
                 row = {k: _clean(v) for k, v in sorted(res.metrics.items())}
                 row = {k: v for k, v in row.items() if k not in _SKIP_COLUMNS}
+                agents = {
+                    str(a): {k: _clean(v) for k, v in sorted(vals.items())}
+                    for a, vals in sorted(res.metrics.agents.items())
+                }
                 arrays = res.recording.to_arrays() if res.recording is not None else {}
                 key = f"{name} | {searcher} | root={root}"
-                out[key] = {"metrics": row, "digest": _digest(arrays)}
+                out[key] = {"metrics": row, "agents": agents, "digest": _digest(arrays)}
                 print(f"{key}: {time.perf_counter() - t0:.1f} s", file=sys.stderr)
     return out
+
+
+def _columns(entry: dict[str, Any]) -> dict[str, Any]:
+    """An episode's metrics with its per-agent values as ``agent[<id>].<key>`` entries; a file
+    written before per-agent values were kept apart (``key_<agent>`` columns) is read through
+    the results store's reader of such rows."""
+    if "agents" in entry:
+        metrics, agents = dict(entry["metrics"]), entry["agents"]
+    else:
+        from odorloc.experiments.store import split_legacy_extra
+
+        metrics, agents = split_legacy_extra(entry["metrics"])
+    for a, vals in agents.items():
+        for k, v in vals.items():
+            metrics[f"agent[{a}].{k}"] = v
+    return metrics
 
 
 def compare(a: dict[str, Any], b: dict[str, Any]) -> int:
@@ -118,10 +144,11 @@ def compare(a: dict[str, Any], b: dict[str, Any]) -> int:
             changed += 1
             continue
         ra, rb = a[key], b[key]
+        ma, mb = _columns(ra), _columns(rb)
         diffs = [
-            f"{k}: {ra['metrics'].get(k)!r} -> {rb['metrics'].get(k)!r}"
-            for k in sorted(set(ra["metrics"]) | set(rb["metrics"]))
-            if ra["metrics"].get(k) != rb["metrics"].get(k)
+            f"{k}: {ma.get(k)!r} -> {mb.get(k)!r}"
+            for k in sorted(set(ma) | set(mb))
+            if k not in _SKIP_COLUMNS and ma.get(k) != mb.get(k)
         ]
         if ra["digest"] != rb["digest"]:
             diffs.append("recording differs")

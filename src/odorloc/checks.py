@@ -1,11 +1,16 @@
 """Contract checkers for every component family, shipped as API.
 
-Anyone adding a wind, plume, sensor, platform or searcher can check it the way odorloc's own
-tests do::
+Anyone adding a wind, plume, sensor, platform, searcher, measurement model, resampler,
+single-agent estimator or planner can
+check it the way odorloc's own tests do::
 
     from odorloc import checks
     checks.check_searcher("my-searcher")            # 2-D and 3-D, one and three agents
     checks.check_plume("my-plume", {"rate_scale": 2.0})
+    checks.check_measurement_model("my-model", conditions={"dt": 0.5})
+    checks.check_resampler("my-resampler")
+    checks.check_estimator("my-estimator")          # a recorded stream, twice per seed
+    checks.check_planner("my-planner")              # on the belief of its own estimator
 
 Each checker builds the component by its registry name (with ``params``, default its defaults)
 in small worlds, exercises it and raises :class:`ContractError` naming what is wrong: shapes,
@@ -17,12 +22,14 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
+from functools import lru_cache
 from typing import Any
 
 import numpy as np
 
 from odorloc.core import registry
-from odorloc.core.types import Command, SensorInfo
+from odorloc.core.errors import ConfigError
+from odorloc.core.types import Command, Observation, SearchContext, SensorInfo
 from odorloc.engine.episode import Episode, EpisodeResult, run_episode
 from odorloc.geometry.arena import Arena
 from odorloc.plume.sources import Source
@@ -31,12 +38,17 @@ from odorloc.world.world import World
 
 __all__ = [
     "ContractError",
+    "check_estimator",
+    "check_measurement_model",
+    "check_planner",
     "check_platform",
     "check_plume",
+    "check_resampler",
     "check_searcher",
     "check_sensor",
     "check_wind",
     "compare_runs",
+    "observation_stream",
     "small_scenario",
 ]
 
@@ -402,6 +414,184 @@ def check_searcher(
     return f"searcher {name}: {', '.join(done)}"
 
 
+# ---------------------------------------------------------------------- measurement models
+def check_measurement_model(
+    name: str,
+    params: Mapping[str, Any] | None = None,
+    conditions: Mapping[str, Any] | None = None,
+    dims: Sequence[int] = (2, 3),
+) -> str:
+    """The measurement-model contract (:class:`~odorloc.models.base.MeasurementModel`) in 2-D
+    and 3-D.
+
+    Checked: ``outcome_probabilities`` is ``(M, Z, N)``, finite, in ``[0, 1]`` and sums to one
+    over the ``Z`` classes; ``outcome_values`` names ``Z`` readings; ``log_likelihood`` of
+    each class's reading is ``(N,)`` and never NaN or ``+inf`` (``-inf``, an impossible
+    hypothesis, is allowed), also for a hypothesis on the sensor itself; both are deterministic
+    and leave their inputs and the model's parameters unchanged; ``log_likelihood_rows`` equals
+    one ``log_likelihood`` per reading; a bound model (``bind``) answers as the model does.
+
+    Parameters
+    ----------
+    name : str
+        Registry name (family ``model``).
+    params : mapping, optional
+        The model's parameters (default its defaults).
+    conditions : mapping, optional
+        The keyword conditions its calls need (a wind window, an exposure time), the same in
+        every dimension; ``wind`` and ``wind_window`` given in 3 components are cut to 2 for
+        2-D.
+    dims : sequence of int
+        Dimensions to check.
+    """
+    from odorloc.models.base import MeasurementModel
+
+    e = registry.entry("model", name)
+    p = registry.make_params("model", name, dict(params or {}))
+    model = e.build(p)
+    _require(isinstance(model, MeasurementModel), f"model {name}: not a MeasurementModel")
+    before = p.model_dump()
+    done = []
+    rng = np.random.default_rng(17)
+    for dim in dims:
+        tag = f"model {name} {dim}D"
+        cond = {
+            k: (np.asarray(v)[..., :dim] if k in ("wind", "wind_window") else v)
+            for k, v in (conditions or {}).items()
+        }
+        sensors = _probe_points(dim, 3)
+        hyp = np.vstack([_probe_points(dim, 40) + 0.01 * rng.random((40, dim)), sensors[:1]])
+        s0, h0 = sensors.copy(), hyp.copy()
+        try:
+            probs = np.asarray(model.outcome_probabilities(sensors, hyp, **cond))
+        except TypeError as exc:
+            raise ContractError(f"{tag}: needs other conditions ({exc})") from None
+        m, n = len(sensors), len(hyp)
+        _require(
+            probs.ndim == 3 and probs.shape[0] == m and probs.shape[2] == n,
+            f"{tag}: outcome_probabilities shape {probs.shape}, expected ({m}, Z, {n})",
+        )
+        _require(bool(np.all(np.isfinite(probs))), f"{tag}: non-finite outcome probabilities")
+        _require(
+            bool(np.all((probs >= -1e-12) & (probs <= 1 + 1e-12))),
+            f"{tag}: outcome probabilities outside [0, 1]",
+        )
+        total = np.abs(probs.sum(axis=1) - 1.0).max()
+        _require(total <= 1e-9, f"{tag}: classes sum to 1 within {total:.2e}, not 1e-9")
+        values = np.asarray(model.outcome_values(sensors, hyp, **cond))
+        _require(
+            values.shape == (probs.shape[1],),
+            f"{tag}: {values.shape} outcome values for {probs.shape[1]} classes",
+        )
+        for z in values[: min(len(values), 4)]:
+            ll = np.asarray(model.log_likelihood(z, sensors[0], hyp, **cond))
+            _require(ll.shape == (n,), f"{tag}: log_likelihood shape {ll.shape}, expected ({n},)")
+            _require(not bool(np.isnan(ll).any()), f"{tag}: NaN log-likelihood for z = {z}")
+            _require(not bool(np.isposinf(ll).any()), f"{tag}: +inf log-likelihood for z = {z}")
+            again = np.asarray(model.log_likelihood(z, sensors[0], hyp, **cond))
+            _require(np.array_equal(ll, again), f"{tag}: log_likelihood not deterministic")
+            bound = np.asarray(model.bind(**cond).log_likelihood(z, sensors[0], hyp))
+            _require(np.array_equal(ll, bound), f"{tag}: the bound model answers differently")
+        zs = values[: min(len(values), len(sensors))]
+        rows = np.asarray(model.log_likelihood_rows(zs, sensors[: len(zs)], hyp, **cond))
+        single = np.array(
+            [model.log_likelihood(z, s, hyp, **cond) for z, s in zip(zs, sensors, strict=False)]
+        )
+        # a vectorised rows method may sum in another order: equal up to round-off
+        _require(
+            rows.shape == single.shape and np.allclose(rows, single, rtol=1e-9, atol=1e-9),
+            f"{tag}: log_likelihood_rows differs from one log_likelihood per reading",
+        )
+        again = np.asarray(model.bind(**cond).outcome_probabilities(sensors, hyp))
+        _require(np.array_equal(probs, again), f"{tag}: outcome_probabilities not deterministic")
+        _require(
+            np.array_equal(sensors, s0) and np.array_equal(hyp, h0),
+            f"{tag}: the inputs were modified",
+        )
+        done.append(f"{dim}D")
+    _require(p.model_dump() == before, f"model {name}: parameters changed while running")
+    return f"model {name}: {', '.join(done)}"
+
+
+# ---------------------------------------------------------------------- resamplers
+def check_resampler(name: str, params: Mapping[str, Any] | None = None) -> str:
+    """The resampler contract (:class:`~odorloc.inference.particles.resampling.Resampler`).
+
+    Checked, in 2-D and 3-D: the output is a new finite ``(M, d)`` array with uniform
+    normalised log-weights ``-log M``; ``M`` is the input count by default and the target
+    count ``n`` when one is given (a resampler whose parameters bound the count instead may
+    stay within its bounds); the inputs and the parameters are unchanged; the same seed gives
+    the same particles; weights that all underflowed (every log-weight ``-inf``) give no NaN;
+    with an arena constraint every particle stays in free space; and resampling moves the
+    cloud towards its weight (the resampled mean is closer to the weighted mean than the
+    unweighted one is). Bad input (an empty set, mismatched shapes, a target count of 0) is a
+    :class:`~odorloc.core.errors.ConfigError`.
+    """
+    from odorloc.core.errors import ConfigError
+    from odorloc.inference.particles.constraints import ArenaConstraint
+    from odorloc.inference.particles.resampling import Resampler
+
+    e = registry.entry("resampler", name)
+    p = registry.make_params("resampler", name, dict(params or {}))
+    r = e.build(p)
+    _require(isinstance(r, Resampler), f"resampler {name}: not a Resampler")
+    before = p.model_dump()
+    bounded = getattr(p, "count", "keep") == "bounded"
+    done = []
+    for dim in (2, 3):
+        tag = f"resampler {name} {dim}D"
+        arena = _arena(dim)
+        rng = np.random.default_rng(dim)
+        pos = arena.lo + 0.5 * arena.size * (0.5 + rng.random((300, dim)))
+        peak = arena.lo + 0.8 * arena.size
+        lw = -0.5 * np.sum((pos - peak) ** 2, axis=1) / 0.5
+        pos0, lw0 = pos.copy(), lw.copy()
+        for n in (None, 150, 450):
+            out, olw = r.resample(pos, lw, np.random.default_rng(1), n=n)
+            m = len(out)
+            want = len(pos) if n is None else n
+            _require(
+                out.ndim == 2 and out.shape[1] == dim and m >= 1,
+                f"{tag}: output shape {out.shape}",
+            )
+            _require(bounded or m == want, f"{tag}: {m} particles for a target of {want}")
+            _require(bool(np.all(np.isfinite(out))), f"{tag}: non-finite particles")
+            _require(
+                olw.shape == (m,) and np.allclose(olw, -math.log(m)),
+                f"{tag}: log-weights not uniform -log M",
+            )
+            _require(out is not pos, f"{tag}: returned its input array")
+            again, _ = r.resample(pos, lw, np.random.default_rng(1), n=n)
+            _require(np.array_equal(out, again), f"{tag}: not deterministic per seed")
+        _require(np.array_equal(pos, pos0) and np.array_equal(lw, lw0), f"{tag}: inputs modified")
+        w = np.exp(lw - lw.max())
+        w /= w.sum()
+        target = w @ pos
+        out, _ = r.resample(pos, lw, np.random.default_rng(2))
+        moved = np.linalg.norm(out.mean(axis=0) - target)
+        _require(
+            moved < np.linalg.norm(pos.mean(axis=0) - target),
+            f"{tag}: resampling does not move the cloud towards its weight",
+        )
+        dead, dlw = r.resample(pos, np.full(len(pos), -np.inf), np.random.default_rng(3))
+        _require(
+            bool(np.all(np.isfinite(dead)) and np.all(np.isfinite(dlw))),
+            f"{tag}: all weights underflowed gives non-finite output",
+        )
+        walls = ArenaConstraint(arena)
+        inside, _ = r.resample(pos, lw, np.random.default_rng(4), constraint=walls)
+        _require(bool(np.all(walls.admissible(inside))), f"{tag}: a particle left free space")
+        for x, y, n in ((pos[:0], lw[:0], None), (pos, lw[:-1], None), (pos, lw, 0)):
+            try:
+                r.resample(x, y, np.random.default_rng(0), n=n)
+            except ConfigError:
+                continue
+            raise ContractError(f"{tag}: bad input accepted without a ConfigError")
+        done.append(f"{dim}D")
+    _require(p.model_dump() == before, f"resampler {name}: parameters changed while running")
+    return f"resampler {name}: {', '.join(done)}"
+
+
 def _final_keys(sc: Scenario) -> list[str]:
     ep = Episode(sc, record=False)
     obs = ep.reset(7, 8)
@@ -412,4 +602,203 @@ def _final_keys(sc: Scenario) -> list[str]:
             break
         res = ep.step(s.act(obs, ep.agent_rng), s)
         obs = res.observations
-    return sorted(s.final_metrics())
+    per_agent = {f"agent[{a}].{k}" for a, v in s.agent_metrics().items() for k in v}
+    return sorted(s.final_metrics()) + sorted(per_agent)
+
+
+# ---------------------------------------------------------------------- estimators and planners
+@lru_cache(maxsize=4)
+def observation_stream(
+    dim: int, time: float = 40.0, seed: int = 5
+) -> tuple[SearchContext, list[Observation]]:
+    """A recorded single-agent stream for estimator and planner checks: the observations of a
+    zigzag run of ``time`` seconds in the small contract world with a steady Gaussian plume (so
+    that some readings detect), and the context of that run (kept for the next call: do not
+    modify them)."""
+    sc = small_scenario({"type": "zigzag"}, dim, 1, time, plume="gaussian")
+    ep = Episode(sc, record=False)
+    obs = ep.reset(seed, seed + 1)
+    s = ep.built.searcher
+    s.reset(ep.context, ep.agent_rng)
+    out = [obs[0]]
+    while not ep.done:
+        res = ep.step(s.act(obs, ep.agent_rng), s)
+        obs = res.observations
+        if obs:
+            out.append(obs[0])
+    return ep.context, out
+
+
+def _model_of(spec: Mapping[str, Any] | None, needed: bool, tag: str) -> Any:
+    if spec is None:
+        _require(not needed, f"{tag}: needs a measurement model and names no default_model")
+        return None
+    return registry.ComponentRef(**dict(spec)).build("model", field="model")
+
+
+def _same(a: Any, b: Any) -> bool:
+    """Equal arrays (NaN equal to NaN) or equal values."""
+    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+        a, b = np.asarray(a), np.asarray(b)
+        return a.shape == b.shape and bool(np.array_equal(a, b, equal_nan=a.dtype.kind == "f"))
+    return bool(a == b or (a != a and b != b))
+
+
+def _check_snapshot(belief: Any, tag: str) -> dict[str, np.ndarray]:
+    snap = belief.snapshot()
+    _require(isinstance(snap, dict) and snap, f"{tag}: belief snapshot is not a dict of arrays")
+    for k, v in snap.items():
+        _require(isinstance(v, np.ndarray), f"{tag}: belief snapshot {k!r} is not an array")
+        if v.dtype.kind == "f":
+            _require(bool(np.all(np.isfinite(v))), f"{tag}: belief snapshot {k!r} not finite")
+    return snap
+
+
+def _roll_estimator(
+    est: Any, ctx: SearchContext, mdl: Any, stream: list[Observation], tag: str, est_dim: int
+) -> list[Any]:
+    """Reset ``est`` (seed 11), feed it ``stream`` and collect estimates and snapshots every
+    tenth step (and at the end), then the final_metrics keys."""
+    est.reset(ctx, mdl, np.random.default_rng(11))
+    out: list[Any] = []
+    for k, o in enumerate(stream):
+        est.update(o)
+        _require(isinstance(est.converged(), bool), f"{tag}: converged() not a bool")
+        _require(isinstance(est.conditions(), dict), f"{tag}: conditions() not a dict")
+        for key, v in est.diagnostics().items():
+            _require(isinstance(v, float | int), f"{tag}: diagnostic {key!r} not a float")
+        if k % 10 and k != len(stream) - 1:
+            continue
+        x = np.asarray(est.estimate())
+        _require(
+            x.ndim == 2 and x.shape[1] == est_dim,
+            f"{tag}: estimate shape {x.shape}, expected (k, {est_dim})",
+        )
+        _require(bool(np.all(np.isfinite(x))), f"{tag}: non-finite estimate")
+        b = est.belief()
+        out.append((x, None if b is None else _check_snapshot(b, tag)))
+    out.append(sorted(est.final_metrics()))
+    return out
+
+
+def check_estimator(
+    name: str,
+    params: Mapping[str, Any] | None = None,
+    dims: Sequence[int] | None = None,
+    model: Mapping[str, Any] | None = None,
+) -> str:
+    """Feed an estimator a recorded stream in 2-D and 3-D (where it declares them), twice per
+    seed, and once more after a second :meth:`reset`.
+
+    Checked: ``reset`` refuses a missing model when the estimator needs one; ``update`` takes
+    every observation; ``belief()`` is ``None`` or gives a snapshot of finite arrays;
+    ``estimate()`` is a finite ``(k, d)`` array in the world's dimension ``d`` (a horizontal
+    map declares ``dims = (2,)``); ``converged()`` is a bool; ``diagnostics()`` gives floats;
+    ``conditions()`` a dict; ``final_metrics`` keys are stable; the same seed and observations
+    give the same beliefs and estimates, also after a reset.
+    """
+    e = registry.entry("estimator", name)
+    cls = e.build
+    done = []
+    for dim in _dims_of(cls, dims):
+        ctx, stream = observation_stream(dim)
+        tag = f"estimator {name} {dim}D"
+        spec = model if model is not None else cls.default_model
+        mdl = _model_of(spec, cls.needs_model, tag)
+
+        p = registry.make_params("estimator", name, dict(params or {}))
+        if cls.needs_model:
+            probe = cls(p)
+            try:
+                probe.reset(ctx, None, np.random.default_rng(0))
+            except ConfigError:
+                pass
+            else:
+                raise ContractError(f"{tag}: reset accepts no model though it needs one")
+        first = cls(p)
+        a = _roll_estimator(first, ctx, mdl, stream, tag, dim)
+        b = _roll_estimator(cls(p), ctx, mdl, stream, tag, dim)
+        again = _roll_estimator(first, ctx, mdl, stream, tag, dim)
+        for run, what in ((b, "per seed"), (again, "after a reset")):
+            _require(run[-1] == a[-1], f"{tag}: final_metrics keys change {what}")
+            for (xa, sa), (xb, sb) in zip(a[:-1], run[:-1], strict=True):
+                _require(_same(xa, xb), f"{tag}: estimates differ {what}")
+                _require((sa is None) == (sb is None), f"{tag}: beliefs differ {what}")
+                if sa is not None:
+                    _require(
+                        sa.keys() == sb.keys() and all(_same(sa[k], sb[k]) for k in sa),
+                        f"{tag}: beliefs differ {what}",
+                    )
+        formed = sum(s is not None for _, s in a[:-1])
+        done.append(f"{dim}D ({formed}/{len(a) - 1} snapshots with a belief)")
+    return f"estimator {name}: {', '.join(done)}"
+
+
+def check_planner(
+    name: str, params: Mapping[str, Any] | None = None, dims: Sequence[int] | None = None
+) -> str:
+    """Plan on the belief of the planner's own estimator (``belief_estimator``) along a
+    recorded stream, in 2-D and 3-D where declared.
+
+    Checked: every :class:`~odorloc.planning.base.Plan` has ``(M, d)`` candidates, ``(M,)``
+    scores and feasibility, an index that is ``None`` or a feasible candidate with a finite
+    score, a target inside the arena, and a work count >= 0; a planner built anew with the
+    same seed plans the same.
+    """
+    from odorloc.planning.base import Pose
+
+    e = registry.entry("planner", name)
+    cls = e.build
+    p = registry.make_params("planner", name, dict(params or {}))
+    done = []
+    for dim in _dims_of(cls, dims):
+        ctx, stream = observation_stream(dim)
+        tag = f"planner {name} {dim}D"
+        spec = dict(cls.belief_estimator)
+        ecls = registry.entry("estimator", spec["type"]).build
+        mspec = cls.belief_model if cls.belief_model is not None else ecls.default_model
+        mdl = _model_of(mspec, cls.needs_model or ecls.needs_model, tag)
+        est = registry.ComponentRef(**spec).build("estimator", field="belief_estimator")
+        est.reset(ctx, mdl, np.random.default_rng(11))
+        planners = [cls(p), cls(p)]
+        for pl in planners:
+            pl.reset(ctx, mdl)
+        lo, hi = ctx.arena.lo, ctx.arena.hi
+        plans = 0
+        for k, o in enumerate(stream):
+            est.update(o)
+            belief = est.belief()
+            if belief is None or k % 5:
+                continue
+            pose = Pose(np.asarray(o.position, float), o.heading, o.wind, est.conditions())
+            a, b = (pl.plan(belief, pose, np.random.default_rng(k)) for pl in planners)
+            m = len(a.candidates)
+            d_out = a.candidates.shape[1] if a.candidates.ndim == 2 else -1
+            _require(
+                a.candidates.ndim == 2 and d_out in (2, dim),
+                f"{tag}: candidates shape {a.candidates.shape}",
+            )
+            _require(
+                a.scores.shape == (m,) and a.feasible.shape == (m,) and a.feasible.dtype == bool,
+                f"{tag}: scores or feasibility do not match {m} candidates",
+            )
+            _require(isinstance(a.work, int) and a.work >= 0, f"{tag}: work {a.work!r}")
+            if a.index is not None:
+                _require(0 <= a.index < m and bool(a.feasible[a.index]), f"{tag}: bad index")
+                _require(math.isfinite(a.score), f"{tag}: the chosen score is not finite")
+                t = a.target
+                assert t is not None
+                _require(
+                    bool(np.all(t >= lo[:d_out] - 1e-9) and np.all(t <= hi[:d_out] + 1e-9)),
+                    f"{tag}: target {t} outside the arena",
+                )
+            _require(
+                a.index == b.index
+                and _same(a.scores, b.scores)
+                and _same(a.candidates, b.candidates),
+                f"{tag}: not deterministic per seed",
+            )
+            plans += 1
+        _require(plans > 0, f"{tag}: the estimator {spec['type']} formed no belief to plan on")
+        done.append(f"{dim}D ({plans} plans)")
+    return f"planner {name}: {', '.join(done)}"

@@ -675,7 +675,8 @@ def replay_log(
     estimator: Annotated[
         str,
         typer.Option(
-            help="Searcher whose belief to replay (pf-entropy, ds-mapping, ...) or odor-path."
+            help="Estimator to replay (particle-filter, ds-map, odor-path, ...) or a "
+            "searcher composing one (pf-entropy, ds-mapping, ...)."
         ),
     ] = "pf-entropy",
     seed: Annotated[int, typer.Option(help="Seed of the estimator's random stream.")] = 0,
@@ -736,6 +737,9 @@ def replay_log(
 def components() -> None:
     """List every registered component (wind, plume, sensors, platforms, searchers)."""
     from odorloc.core import registry
+    from odorloc.experiments.reproduction import discover
+
+    discover()  # the papers' reproductions are listed too
 
     table = Table(title="components")
     table.add_column("family")

@@ -11,8 +11,7 @@ import pytest
 from odorloc.behaviours.escape import first_free, free_step
 from odorloc.behaviours.monitor import MaxTracker, PassiveMonitor
 from odorloc.behaviours.spiral import Spiral, SpiralParams, proximity_index
-from odorloc.behaviours.surge_cast import SurgeCast, SurgeCastParams
-from odorloc.behaviours.wind import WindAverage
+from odorloc.behaviours.surge_cast import CastParams, SurgeCast
 from odorloc.behaviours.zigzag import Zigzag
 from odorloc.core.errors import ConfigError
 from odorloc.core.types import Observation
@@ -72,8 +71,8 @@ def test_zigzag_mirrors_at_walls_and_turns_after_max_leg() -> None:
 
 
 def test_surge_then_widening_casts() -> None:
-    p = SurgeCastParams(surge_steps=2, cast_angle_deg=90.0, cast_amplitude=0.4, cast_growth=2.0)
-    sc = SurgeCast(p)
+    p = CastParams(angle_deg=90.0, amplitude=0.4, growth=2.0)
+    sc = SurgeCast(p, surge_steps=2)
     up = np.array([-1.0, 0.0])
     sc.start_surge()
     assert sc.surging
@@ -99,14 +98,6 @@ def test_monitors() -> None:
     assert t.best == 3.0 and t.pos.tolist() == [3.0, 0.0]
 
 
-def test_wind_average() -> None:
-    w = WindAverage(2)
-    w.add([1.0, 0.0])
-    np.testing.assert_allclose(w.add([3.0, 2.0]), [2.0, 1.0])
-    np.testing.assert_allclose(w.add([1.0, 0.0]), [2.0, 1.0])  # the oldest dropped
-    np.testing.assert_allclose(w.upwind(0.0), -np.array([2.0, 1.0]) / math.sqrt(5.0))
-
-
 def test_spiral_legs_grow_every_second_leg() -> None:
     s = Spiral(SpiralParams(initial_step=1.0, step_increment=0.5))
     legs = [s.next_offset() for _ in range(6)]
@@ -121,12 +112,13 @@ def test_spiral_legs_grow_every_second_leg() -> None:
 def test_proximity_index_and_restarts() -> None:
     c = np.array([0.0, 2.0, 1.0, 3.0])  # local maxima 2 and 3
     assert proximity_index(c, 0.5, kmu=0.5, kp=1.0) == pytest.approx(0.5 * 1.5 + 0.5 * 5.0)
-    s = Spiral(SpiralParams(patience=1, decay=0.5))
-    assert s.judge(4.0, 0.0) and s.best == 4.0 and s.leg == 0
+    s = Spiral(SpiralParams())
+    assert s.judge(4.0, 0.0, 1, 0.5) and s.best == 4.0 and s.leg == 0
     s.next_offset()
-    assert not s.judge(1.0, 0.0) and s.best == 4.0
-    assert not s.judge(1.0, 0.0) and s.best == 2.0  # patience exhausted: the best is halved
-    assert s.judge(2.5, 1.0) and s.heading == 1.0
+    assert not s.judge(1.0, 0.0, 1, 0.5) and s.best == 4.0
+    # patience exhausted: the best is halved
+    assert not s.judge(1.0, 0.0, 1, 0.5) and s.best == 2.0
+    assert s.judge(2.5, 1.0, 1, 0.5) and s.heading == 1.0
 
 
 # ---------------------------------------------------------------------- taxis rules
@@ -227,26 +219,15 @@ def test_taxis_rules_refuse_samples_that_do_not_pair_up() -> None:
         chemotaxis(np.zeros(3), HEX, np.arange(6.0))
 
 
-def test_wind_average_refuses_a_non_finite_reading() -> None:
-    from odorloc.core.errors import ConfigError
-
-    w = WindAverage(3)
-    w.add([1.0, 0.0])
-    with pytest.raises(ConfigError, match="wind"):
-        w.add([math.nan, 0.0])
-    # the refused reading left the average alone
-    np.testing.assert_allclose(w.upwind(0.3), [-1.0, 0.0])
-
-
 def test_losing_the_odor_restarts_narrow_casts_even_without_a_surge() -> None:
-    p = SurgeCastParams(surge_steps=0, cast_angle_deg=90.0, cast_amplitude=0.4, cast_growth=2.0)
+    p = CastParams(angle_deg=90.0, amplitude=0.4, growth=2.0)
     sc = SurgeCast(p)
     up = np.array([-1.0, 0.0])
     pos = np.array([5.0, 5.0])
-    for _ in range(20):  # casts widened up to cast_max
+    for _ in range(20):  # casts widened up to max_amplitude
         sc.direction(OPEN, pos, up, 0.2)
     sc.start_surge()
     assert not sc.surging
     ys = [round(float(sc.direction(OPEN, pos, up, 0.2)[1])) for _ in range(4)]
-    # a first leg of cast_amplitude (2 steps of 0.2 m), then the other side
+    # a first leg of amplitude (2 steps of 0.2 m), then the other side
     assert ys[:2] == [ys[0]] * 2 and ys[2] == -ys[0]

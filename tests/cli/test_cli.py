@@ -11,7 +11,7 @@ import pytest
 import yaml
 from typer.testing import CliRunner
 
-from helpers import filament_scenario_dict
+from helpers import filament_scenario_dict, small_scenario_dict
 from odorloc.cli import app
 
 runner = CliRunner()
@@ -124,13 +124,14 @@ def _failing_sweep(tmp_path, episodes: int, searchers: list[str]):
     """A short sweep file over the given searchers (``failmod`` importable), its output folder
     and the environment that finds ``failmod``."""
     (tmp_path / "failmod.py").write_text(_FAILING_SEARCHER)
+    room = small_scenario_dict("zigzag")
+    room["limits"]["time"] = 5.0
+    (tmp_path / "room.yaml").write_text(yaml.safe_dump(room))
     sweep = {
         "name": "t",
         "seed": 1,
         "episodes": episodes,
-        "scenarios": [
-            {"name": "indoor-ventilated", "params": {"limits.time": 5.0, "world.warmup": 1.0}}
-        ],
+        "scenarios": [{"name": "room.yaml"}],
         "searchers": [{"name": n} for n in searchers],
     }
     f = tmp_path / "sweep.yaml"

@@ -61,7 +61,7 @@ def test_every_integer_setting_has_an_upper_bound(name: str, model: type[BaseMod
 @pytest.mark.parametrize(
     ("family", "name", "values", "field"),
     [
-        ("searcher", "pf-entropy", {"n_particles": 1e11}, "n_particles"),
+        ("searcher", "pf-entropy", {"estimator": {"n_particles": 1e11}}, "estimator.n_particles"),
         ("plume", "filament", {"max_filaments": 10**12}, "max_filaments"),
         ("wind", "farrell", {"nodes": [10**6, 15]}, "nodes"),
         ("searcher", "ds-rectangular-wave", {"rounds": 10**9}, "rounds"),

@@ -75,8 +75,9 @@ def _slow_sweep(tmp_path: Path) -> Path:
 @pytest.mark.slow
 @pytest.mark.parametrize("backend", ["local", "dask"])
 def test_sigkill_of_a_batch_leaves_no_process_alive(tmp_path, backend) -> None:
-    """SIGKILL the batch while its workers run episodes: within 5 s every process it started
-    (pool workers, forkserver, resource tracker; Dask nanny workers) has exited."""
+    """SIGKILL the batch while its workers run episodes: every process it started
+    (pool workers, forkserver, resource tracker; Dask nanny workers) has exited (they are told
+    at once; the generous bound only keeps a hang from going unnoticed)."""
     if backend == "dask":
         pytest.importorskip("distributed")
     f = _slow_sweep(tmp_path)
@@ -100,7 +101,7 @@ def test_sigkill_of_a_batch_leaves_no_process_alive(tmp_path, backend) -> None:
         os.kill(proc.pid, signal.SIGKILL)
         proc.wait(timeout=10)
         t_kill = time.monotonic()
-        while time.monotonic() - t_kill < 5.0 and any(_alive(p) for p in family):
+        while time.monotonic() - t_kill < 60.0 and any(_alive(p) for p in family):
             time.sleep(0.1)
         left = sorted(p for p in family if _alive(p))
         assert not left, f"still alive {time.monotonic() - t_kill:.1f} s after the kill: {left}"
@@ -138,13 +139,9 @@ else:
     est.path_patch()
     cells = np.zeros((1, 2), np.int64)
     infotaxis.correlate(np.ones((2, 3, 3)), np.ones((1, 1)), cells, (1, 1), backend="numba")
-kernels = (
-    ("filament", filament._cell_kernel),
-    ("odor_path", kernel.dw_kernel_fast),
-    ("infotaxis", infotaxis._corr2),
-)
+from odorloc.core import jit
 stats = {}
-for name, k in kernels:
+for name, k in jit.kernels().items():
     stats[name] = [sum(k.stats.cache_hits.values()), sum(k.stats.cache_misses.values())]
 print(json.dumps(stats))
 """
@@ -177,13 +174,23 @@ def test_compiled_kernels_hit_the_cache_in_a_new_process(tmp_path) -> None:
         assert r.returncode == 0, r.stderr
         return json.loads(r.stdout.strip().splitlines()[-1])
 
+    def used(stats: dict[str, list[int]], module: str) -> list[list[int]]:
+        return [v for k, v in stats.items() if k.startswith(module + ".") and sum(v)]
+
     first = run("warm")
-    assert first["filament"][1] >= 1 and first["odor_path"][1] >= 1  # compiled (cold cache)
+    for module in ("odorloc.plume.filament", "odorloc.inference.odor_path.kernel"):
+        # compiled (cold cache)
+        assert any(v[1] >= 1 for v in used(first, module)), (module, first)
     assert _kernel_files(tmp_path / "cache"), "nothing cached in the user cache folder"
     second = run("episode")
-    assert second["filament"] == [second["filament"][0], 0] and second["filament"][0] >= 1
-    assert second["odor_path"][1] == 0 and second["odor_path"][0] >= 1
-    assert second["infotaxis"][1] == 0 and second["infotaxis"][0] >= 1
+    # the episode, the odor-path update and the correlation load their kernels from the cache
+    for module in (
+        "odorloc.plume.filament",
+        "odorloc.inference.odor_path.kernel",
+        "odorloc.planning.infotaxis",
+    ):
+        assert used(second, module), (module, second)
+    assert all(v[1] == 0 for v in second.values() if sum(v)), second
     assert _kernel_files(PACKAGE) == before == []
 
 
@@ -206,8 +213,8 @@ def test_runtime_start_runs_once_and_loads_from_the_cache(tmp_path) -> None:
     env["ODORLOC_CACHE_DIR"] = str(tmp_path / "cache")
     code = (
         "import json; from odorloc.core import jit; jit.start(); jit.start(); "
-        "k = jit._RUNTIME; print(json.dumps([len(k), "
-        "[sum(k[0].stats.cache_misses.values()) if k else 0]]))"
+        "k = [v for n, v in jit.kernels().items() if n == 'runtime']; print(json.dumps("
+        "[len(k), [sum(k[0].stats.cache_misses.values()) if k else 0]]))"
     )
 
     def run() -> list:

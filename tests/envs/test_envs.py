@@ -66,7 +66,7 @@ def test_check_env_3d_and_belief_feature() -> None:
     _quiet_check(SearchEnv(uav, action={"kind": "discrete", "moves": "all"}))
     env = SearchEnv(
         small(),
-        observation={"belief": {"type": "pf-entropy", "n_particles": 200}},
+        observation={"belief": {"type": "pf-entropy", "estimator": {"n_particles": 200}}},
         action={"declare": "belief"},
     )
     _quiet_check(env)

@@ -219,7 +219,7 @@ def test_restarted_workers_get_the_same_set_up_as_the_first():
     from odorloc.experiments.backends import DaskBackend
 
     with DaskBackend(workers=1) as backend:
-        client = backend._client
+        client = backend.client
         assert list(client.run(_worker_state).values()) == [(True, True)]
         # a worker that died is replaced by its nanny the same way
         client.restart()
@@ -237,7 +237,7 @@ def test_joined_cluster_is_left_without_the_set_up_plugin():
         n_workers=1, processes=False, dashboard_address=None, silence_logs=logging.ERROR
     ) as cluster:
         with DaskBackend(scheduler=cluster.scheduler_address) as backend:
-            plugins = backend._client.run_on_scheduler(
+            plugins = backend.client.run_on_scheduler(
                 lambda dask_scheduler: list(dask_scheduler.worker_plugins)
             )
             assert WORKER_SETUP in plugins
@@ -258,4 +258,4 @@ def test_a_failure_while_entering_shuts_the_local_cluster_down(monkeypatch):
     backend = backends.DaskBackend(workers=1)
     with pytest.raises(RuntimeError, match="plugin could not be built"):
         backend.__enter__()
-    assert backend._client is None and backend._cluster is None
+    assert backend.client is None and backend.cluster is None

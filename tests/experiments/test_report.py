@@ -193,7 +193,7 @@ def test_report_of_a_store_leaves_its_folder_alone(store_path, tmp_path) -> None
 def test_paper_comparison_gives_no_verdict_where_the_paper_or_the_data_give_no_number() -> None:
     import pandas as pd
 
-    from odorloc.experiments.report import _paper_section
+    from odorloc.experiments.report import paper_section
 
     summ = pd.DataFrame(
         {
@@ -207,7 +207,7 @@ def test_paper_comparison_gives_no_verdict_where_the_paper_or_the_data_give_no_n
             "mean_time_hi": [110.0, math.nan],
         }
     )
-    page = _paper_section(
+    page = paper_section(
         summ,
         {
             "a": {"success_rate": 0.5, "mean_time": math.nan, "source": "Fig. 1"},
@@ -228,4 +228,4 @@ def test_progress_counts_a_nan_success_as_the_store_does() -> None:
     task = SimpleNamespace(cell_id="c")
     for value in (math.nan, None, True, 1.0, 0.0):
         p.advance(task, {"success": value, "status": "ok"})
-    assert p._counts["c"] == [5, 2, 0]
+    assert p.counts("c") == (5, 2, 0)

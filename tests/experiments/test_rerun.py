@@ -142,3 +142,17 @@ def test_bad_rerun_requests_get_one_line(
     assert r.stderr.startswith(message.format(**fill)), r.stderr
     assert len(r.stderr.strip().splitlines()) == 1
     assert not (tmp_path / "o").exists()
+
+
+def test_a_rerun_may_keep_more_without_changing_the_episode(stored_batch) -> None:
+    from odorloc.experiments.rerun import rerun
+
+    _, store = stored_batch
+    ep = stored_episode(store, CELL, 1)
+    with ResultStore(store, readonly=True) as s:
+        kept = s.arrays(CELL, 1)
+    _, plain = rerun(ep)
+    _, dense = rerun(ep, recording={"plume_stride": 1})
+    assert len(dense.recording.plume_t) > len(plain.recording.plume_t)
+    np.testing.assert_array_equal(dense.recording.positions, kept["positions"])
+    assert differences(ep, dense.metrics) == []

@@ -177,6 +177,30 @@ def test_paired_success_mcnemar_and_world_check():
     assert len(comp) == 2 and set(comp["metric"]) == {"success", "search_time"}
 
 
+def test_compare_searchers_is_every_paired_comparison_of_a_world():
+    rng = np.random.default_rng(3)
+    parts = []
+    for k, w in enumerate(("u", "v")):
+        cells = {
+            f"{w}/{s}": {"success": rng.random(12) < 0.6, "search_time": rng.uniform(5, 50, 12)}
+            for s in ("a", "b", "c")
+        }
+        part = _df(cells, world=w)
+        part["cell_index"] += 3 * k
+        parts.append(part)
+    df = pd.concat(parts, ignore_index=True)
+    df.loc[3, "status"] = "error"  # dropped from its pairs
+    comp = stats.compare_searchers(df, seed=5)
+    assert len(comp) == 2 * 3 * 2  # two worlds, three pairs each, two metrics
+    for row in comp.to_dict("records"):
+        a, b = row["cell_a"], row["cell_b"]
+        assert a.split("/")[0] == b.split("/")[0] == row["world_key"]
+        one = stats.paired_comparison(df, a, b, row["metric"], seed=5)
+        for k, v in one.items():
+            same = row[k] == v or (isinstance(v, float) and math.isnan(v) and math.isnan(row[k]))
+            assert same, (a, b, row["metric"], k)
+
+
 def test_summarize_and_width():
     succ = np.array([True] * 8 + [False] * 2)
     times = np.arange(10, dtype=float) * 10.0

@@ -174,3 +174,95 @@ def test_cell_counts_count_a_named_success_column(tmp_path):
         assert st.cell_counts()[cid][1] == int(g["success"].fillna(False).astype(bool).sum())
         with pytest.raises(ConfigError):
             st.cell_counts("x'); DROP TABLE episodes; --")
+
+
+# ----------------------------------------------------------------------------- per-agent values
+def _team_rows(tasks):
+    """Rows of a 3-UAV team: episode columns plus each agent's own values."""
+    out = []
+    for t in tasks:
+        row = {**stub_episode(t), "wall_time": 0.01, "found_time_0": 5.0}
+        row["agent_metrics"] = {a: {"cues": float(a + t.episode), "sent": 2.0} for a in range(3)}
+        out.append(row)
+    return out
+
+
+def test_per_agent_values_go_to_their_own_table(tmp_path):
+    spec = load_sweep(SPEC)
+    tasks = expand_tasks(spec)[:4]
+    with ResultStore(tmp_path / "r.sqlite") as st:
+        st.bind(config_hash(spec), spec)
+        for t, row in zip(tasks, _team_rows(tasks), strict=True):
+            st.add(t, row)
+        long = st.agent_frame()
+        assert list(long.columns) == ["cell_id", "episode", "agent", "key", "value"]
+        assert len(long) == 4 * 3 * 2
+        t = tasks[1]
+        mine = long[(long.cell_id == t.cell_id) & (long.episode == t.episode)]
+        assert mine[mine.key == "cues"].value.tolist() == [t.episode + a for a in range(3)]
+        df = st.frame(agents=True)
+        # the episode table holds the episode's own columns, nothing folded per agent
+        assert "found_time_0" in df.columns
+        assert not [c for c in df.columns if c.startswith(("cues", "sent"))]
+        assert df["agents"].iloc[1] == {a: {"cues": t.episode + a, "sent": 2.0} for a in range(3)}
+        from odorloc.experiments.store import agent_values
+
+        cues = agent_values(df, "cues")
+        assert list(cues.columns) == [0, 1, 2]
+        assert cues.sum(axis=1).tolist() == [3.0 * t.episode + 3 for t in tasks]
+        # exports: the episode table as today, the long table beside it
+        csv = st.to_csv(tmp_path / "results.csv")
+        pq = st.to_parquet(tmp_path / "results.parquet")
+        assert not [c for c in pd.read_csv(csv).columns if c.startswith("cues")]
+        back = pd.read_csv(tmp_path / "results_agents.csv")
+        pd.testing.assert_frame_equal(back, long, check_dtype=False)
+        back = pd.read_parquet(tmp_path / "results_agents.parquet")
+        pd.testing.assert_frame_equal(back, long, check_dtype=False)
+        assert pq.is_file()
+        con = st.duckdb()
+        n = con.sql("select count(*) n from agent_metrics where key = 'cues'").df()["n"]
+        assert n.tolist() == [12]
+
+
+def _legacy_store(path, tasks, spec):
+    """A store as schema 1 wrote it: a team's values as ``key`` / ``key_<agent>`` extras."""
+    with ResultStore(path) as st:
+        st.bind(config_hash(spec), spec)
+        for t in tasks:
+            row = {**stub_episode(t), "wall_time": 0.01, "found_time_0": 5.0, "mapped_x_0": 1.0}
+            row.update(cues=1.0, cues_1=2.0, cues_2=3.0 + t.episode, sent=4.0, sent_2=5.0)
+            st.add(t, row)
+    con = sqlite3.connect(path)
+    con.execute("DROP TABLE agent_metrics")
+    con.execute("UPDATE meta SET value = '1' WHERE key = 'schema'")
+    con.commit()
+    con.close()
+
+
+def test_a_schema_1_store_reads_per_agent_and_migrates_when_resumed(tmp_path):
+    spec = load_sweep(SPEC)
+    tasks = expand_tasks(spec)[:3]
+    path = tmp_path / "old.sqlite"
+    _legacy_store(path, tasks, spec)
+    expected = {
+        0: {"cues": 1.0, "sent": 4.0},
+        1: {"cues": 2.0},
+        2: {"cues": 3.0 + tasks[2].episode, "sent": 5.0},
+    }
+    with ResultStore(path, readonly=True) as st:
+        assert st.legacy
+        df = st.frame(agents=True)
+        # indexed columns without a base column are the episode's (found times, per-peak values)
+        assert {"found_time_0", "mapped_x_0"} <= set(df.columns)
+        assert not [c for c in df.columns if c.startswith(("cues", "sent"))]
+        assert df["agents"].iloc[2] == expected
+        before = st.agent_frame()
+    assert len(before) == 3 * 5
+    with ResultStore(path) as st:  # opened to write (a resumed sweep): migrated once
+        assert not st.legacy and st.schema == "2"
+        pd.testing.assert_frame_equal(st.agent_frame(), before)
+        assert st.frame(agents=True)["agents"].iloc[2] == expected
+    con = sqlite3.connect(path)
+    extra = con.execute("SELECT extra FROM episodes LIMIT 1").fetchone()[0]
+    con.close()
+    assert "cues" not in extra and "found_time_0" in extra

@@ -18,6 +18,7 @@ from odorloc.inference.particles.adaptive_count import (
     spacing_minimum,
 )
 from odorloc.inference.particles.collaborative import (
+    ParticleSetMessage,
     collaborative_log_likelihood,
     confidence_factor,
     confidence_factors,
@@ -178,13 +179,16 @@ def test_collaborative_log_likelihood_rejects_bad_betas() -> None:
 
 def test_fit_payload_round_trip_and_size() -> None:
     p = fit_payload(np.arange(3.0), np.eye(3) * 2, 4.0, [1.0, 2.0, 3.0], True)
-    assert sum(v.size for v in p.values()) == 17  # 12 for the fit + count, position, cue
+    assert p.numbers == 17  # 12 for the fit + count, position, cue
+    assert p.nbytes == 17 * 8
+    with pytest.raises(ValueError, match="read-only"):
+        p.mean[0] = 9.0  # what was sent cannot change
     f = read_fit_payload(5, p)
     assert f.sender == 5 and f.count == 4.0 and f.cue_captured
     np.testing.assert_array_equal(f.mean, [0.0, 1.0, 2.0])
     np.testing.assert_array_equal(f.cov, np.eye(3) * 2)
     with pytest.raises(ConfigError, match="message"):
-        read_fit_payload(1, {"positions": np.zeros((3, 3))})
+        read_fit_payload(1, ParticleSetMessage(np.zeros((3, 3)), np.ones(3) / 3))
 
 
 # ----------------------------------------------------------------------------- PUGL
@@ -299,7 +303,8 @@ def test_colpf_estimator_keeps_count_in_bounds_and_moves_particles() -> None:
         est.update(Measurement(count, pos, 1.0, k, down), {}, rng)
         assert 20 <= est.pf.n <= 160
         assert np.all(ctx.arena.is_free(est.pf.positions))
-    assert est.message()["fit"].size == 12
+    msg = est.message()
+    assert msg.mean.size + msg.cov.size == 12
 
 
 @pytest.mark.parametrize("k", [1, 200, 400])
@@ -342,12 +347,13 @@ def test_standard_pf_pools_neighbour_particles() -> None:
     est = StandardPFEstimator(StandardPFParams(n_particles=50))
     flat = TableModel(np.ones((3, 100)))
     est.reset(ctx, flat, np.random.default_rng(0))
-    theirs = {"positions": np.full((50, 3), 7.0), "weights": np.full(50, 1 / 50)}
+    theirs = ParticleSetMessage(np.full((50, 3), 7.0), np.full(50, 1 / 50))
     est.update(Measurement(0.0, np.zeros(3), 1.0, 1), {1: theirs}, np.random.default_rng(1))
     assert est.pf.n == 50
     # half of the pooled mass sat on the neighbour's point: about half the resampled particles
     near = np.linalg.norm(est.pf.positions - 7.0, axis=1) < 4.0
     assert 0.3 < near.mean() < 0.8
     msg = est.message()
-    assert msg["positions"].shape == (50, 3) and msg["weights"].shape == (50,)
-    assert sum(v.size for v in msg.values()) == 4 * 50  # the paper's 4N
+    assert msg.positions.shape == (50, 3) and msg.weights.shape == (50,)
+    assert msg.numbers == 4 * 50  # the paper's 4N
+    assert msg.nbytes == 8 * 4 * 50

@@ -21,19 +21,19 @@ class TwoLevel(MeasurementModel):
     """A hand model: p(detection) = 0.8 for hypotheses with x < 1 m, else 0.2 (release scales
     nothing but the odds: p = min(0.8 * release, 0.99) on the left)."""
 
-    def _p1(self, hyp: np.ndarray, release: float = 1.0) -> np.ndarray:
+    def p1(self, hyp: np.ndarray, release: float = 1.0) -> np.ndarray:
         return np.where(hyp[:, 0] < 1.0, min(0.8 * release, 0.99), 0.2)
 
     def log_likelihood(
         self, z: Any, sensor_position: np.ndarray, hypotheses: np.ndarray, **conditions: Any
     ) -> np.ndarray:
-        p1 = self._p1(np.atleast_2d(hypotheses), conditions.get("release", 1.0))
+        p1 = self.p1(np.atleast_2d(hypotheses), conditions.get("release", 1.0))
         return np.log(p1 if z else 1.0 - p1)
 
     def outcome_probabilities(
         self, sensor_positions: np.ndarray, hypotheses: np.ndarray, **conditions: Any
     ) -> np.ndarray:
-        p1 = self._p1(np.atleast_2d(hypotheses), conditions.get("release", 1.0))
+        p1 = self.p1(np.atleast_2d(hypotheses), conditions.get("release", 1.0))
         q = np.stack([1 - p1, p1])[None]
         return np.repeat(q, len(np.atleast_2d(sensor_positions)), axis=0)
 

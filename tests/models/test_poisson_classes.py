@@ -114,19 +114,33 @@ def test_lattice_rule_refuses_thousands_of_hit_classes() -> None:
 
 @pytest.mark.parametrize("backend", ["numpy", "auto"])
 def test_release_arrays_kept_between_calls_stay_few(backend: str) -> None:
+    # one cached ``a Q`` array per (hypothesis count, release) ever seen grew over an episode:
+    # the memory a model holds must stop growing once its caches are full
+    import gc
+    import tracemalloc
+
     from odorloc.models.vergassola import VergassolaModelParams
 
-    # one cached ``a Q`` array per (hypothesis count, release) ever seen grew over an episode
     m = VergassolaModel(VergassolaModelParams(backend=backend))
     rng = np.random.default_rng(3)
     x = np.zeros((1, 3))
     first = None
-    for i in range(60):
-        h = rng.uniform(0.0, 10.0, (20 + i, 3))
-        rows = m.log_likelihood_rows([1.0], x, h, dt=1.0, release=1.0 + 0.01 * i)
-        if i == 0:
-            first = (h, rows)
-    assert len(m._aq) <= 8
+    n_hyp = 4000  # 32 kB per cached array: growth stands far above the noise
+    held = []
+    tracemalloc.start()
+    try:
+        for i in range(60):
+            h = rng.uniform(0.0, 10.0, (n_hyp + i, 3))
+            rows = m.log_likelihood_rows([1.0], x, h, dt=1.0, release=1.0 + 0.01 * i)
+            if i == 0:
+                first = (h, rows)
+            if i in (19, 59):
+                gc.collect()
+                held.append(tracemalloc.get_traced_memory()[0])
+    finally:
+        tracemalloc.stop()
+    # 40 more arrays kept would be 40 x 32 kB = 1.3 MB; a bounded cache adds nothing
+    assert held[1] - held[0] < 10 * 8 * n_hyp, held
     # an entry pushed out is rebuilt with the same numbers
     assert first is not None
     again = m.log_likelihood_rows([1.0], x, first[0], dt=1.0, release=1.0)

@@ -34,7 +34,7 @@ def test_reproduction_survives_degenerate_results(name, kind, tmp_path, monkeypa
         # tests/test_indoor.py); here every figure drawn from the stored rows must survive them
         import odorloc.papers.indoor_pf_entropy.reproduction as ind
 
-        monkeypatch.setattr(ind, "_episode_figures", lambda df, store, path: _blank(path))
+        monkeypatch.setattr(ind, "episode_figures", lambda df, store, path: _blank(path))
     if name == "muc-osl":
         # Fig. 3 and its animation run a new episode whatever is stored (covered by the real run)
         import odorloc.papers.muc_osl.reproduction as muc
@@ -91,18 +91,39 @@ def test_console_tables_fit_100_columns(tmp_path) -> None:
             assert "…" not in c.export_text(), (name, tab.name, lines)
 
 
-#: Shorter episodes (s) for the reproductions whose single episode per cell would take many
-#: minutes (144 virtual-physics cells of 20 simulated minutes; every MUC-OSL sweep point in two
-#: worlds; D-S mapping flights of up to 5 000 s): the path from sweep to report is the same, and
-#: the searchers themselves are tested on their own (tests/test_virtual_physics.py,
-#: tests/test_muc_osl*.py, tests/test_ds_mapping.py); the source-term reproduction's D-S flights
-#: are cut the same way.
+#: Shorter episodes (s) for the reproductions whose single episode per cell would take minutes
+#: (144 virtual-physics cells of 20 simulated minutes; every MUC-OSL sweep point in two worlds;
+#: D-S mapping flights of up to 5 000 s; 36 single-agent episodes of 10-20 minutes): the path
+#: from sweep to report is the same, and the searchers themselves are tested on their own
+#: (tests/searchers/, tests/papers/<paper>/); the source-term reproduction's D-S flights are
+#: cut the same way.
 QUICK = {
-    "virtual-physics": 120.0,
+    "virtual-physics": 40.0,
     "muc-osl": 300.0,
-    "ds-multi-source": 1500.0,
+    "ds-multi-source": 600.0,
+    "single-agent": 60.0,
     "source-terms": 300.0,
 }
+
+
+def _quick(r, seconds: float):
+    """``r`` with every episode cut at ``seconds``: through its own ``time_limit`` where it has
+    one, else as an override of every scenario of its sweeps."""
+    import inspect
+
+    if "time_limit" in inspect.signature(type(r)).parameters:
+        return type(r)(time_limit=seconds)
+    sweeps = r.sweeps
+
+    def short(episodes, seed):
+        out = sweeps(episodes, seed)
+        for spec in out.values():
+            for sc in spec["scenarios"]:
+                sc["params"] = {**sc.get("params", {}), "limits.time": seconds}
+        return out
+
+    r.sweeps = short
+    return r
 
 
 @pytest.mark.slow
@@ -112,7 +133,7 @@ def test_every_reproduction_completes_with_one_episode(name, tmp_path) -> None:
     that embeds the figures and the tables' titles."""
     r = rp.get(name)
     if name in QUICK:
-        r = type(r)(time_limit=QUICK[name])
+        r = _quick(r, QUICK[name])
     out = r.run(tmp_path, episodes=1, workers=2, seed=1, progress=False)
     assert out.failed_figures == []
     assert out.figures and all(p.is_file() for p in out.figures)

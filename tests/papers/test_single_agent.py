@@ -13,7 +13,7 @@ from odorloc.experiments.sweep import expand_tasks, load_sweep, run_sweep, valid
 from odorloc.models.vergassola import vergassola_rate
 from odorloc.papers.infotaxis import reproduction as rp
 from odorloc.papers.infotaxis.calibration import detection_map, fit_detection_model
-from odorloc.scenarios import Scenario, get_scenario
+from odorloc.scenarios import Scenario
 
 
 @pytest.mark.parametrize("world", list(rp.WORLDS))
@@ -23,7 +23,7 @@ def test_every_strategy_has_valid_settings_in_every_world(world: str) -> None:
     spec = load_sweep(rp.SingleAgentReproduction().sweep(2, 1))
     validate_names(spec)
     task = next(t for t in expand_tasks(spec) if t.cell["scenario_label"] == world)
-    sc = rp._prepare(cell_scenario(task.cell), task)
+    sc = rp.prepare(cell_scenario(task.cell), task)
     assert sc.task.end == "reach" and sc.task.reach_radius is not None
     assert sc.searcher.values == {**rp.SEARCHER_PARAMS[world][sc.searcher.type]}
 
@@ -171,23 +171,3 @@ def test_detection_model_fit_refuses_inconsistent_data() -> None:
             with pytest.raises(ConfigError, match=field):
                 fit_detection_model(**args, dt=0.5, sensor_radius=radius)
     assert fit_detection_model(**good, dt=0.5)["Q"] > 0
-
-
-def test_grid_tables_made_in_calm_air_are_remade_once_the_wind_blows() -> None:
-    from odorloc.core.seeds import episode_seeds
-    from odorloc.engine.episode import Episode
-
-    model = {"type": "vergassola", "V": 1.0, "D": 1.0, "tau": 100.0, "sensor_radius": 0.5}
-    sc = get_scenario("lattice-isotropic-2d").with_overrides(
-        {"searcher.model": model, "searcher.wind_average": 1}
-    )
-    ep = Episode(sc)
-    ep.reset(*episode_seeds(0, "lattice-isotropic-2d", 0))
-    s = ep.built.searcher
-    s.reset(ep.context, ep.agent_rng)
-    s._refresh_tables(np.array([0.0, 0.0]))  # the first reading: calm
-    np.testing.assert_array_equal(s._table_wind, [0.0, 0.0])
-    s._refresh_tables(np.array([1.0, 0.0]))
-    np.testing.assert_array_equal(s._table_wind, [1.0, 0.0])
-    s._refresh_tables(np.array([0.0, 0.0]))  # calm again: the tables of the last wind stay
-    np.testing.assert_array_equal(s._table_wind, [1.0, 0.0])

@@ -10,16 +10,75 @@ import numpy as np
 import pytest
 
 from odorloc.core.errors import ConfigError
+from odorloc.core.registry import make_params
+from odorloc.core.types import SearchContext
+from odorloc.geometry.arena import Arena
 from odorloc.geometry.grid import CellGrid
 from odorloc.inference.belief import ParticleBelief
+from odorloc.inference.grid_estimator import LatticeBelief
 from odorloc.inference.grid_filter import GridFilter
-from odorloc.models.base import binary_outcomes
+from odorloc.models.base import MeasurementModel, binary_outcomes
 from odorloc.models.lattice import IsotropicHitModel, IsotropicHitParams, tabulate
 from odorloc.papers.infotaxis.reference import CHECKS
 from odorloc.planning import infotaxis as inf
 from odorloc.planning import rewards
+from odorloc.planning.base import Plan, Pose
+from odorloc.planning.candidates import neighbour_cells
 
 EPS = 1e-10
+REWARD = {
+    "infotaxis": "expected-entropy",
+    "space-aware": "space-aware",
+    "greedy": "greedy",
+    "mean-distance": "mean-distance",
+    "entrotaxis": "predictive-entropy",
+}
+
+
+def _ctx(lower, upper, start, blocked=()) -> SearchContext:
+    arena = Arena.box(lower, upper, 1.0)
+    if blocked:
+        arena = arena.with_boxes(blocked)
+    return SearchContext(
+        arena=arena,
+        dt=1.0,
+        agent_ids=(0,),
+        start=np.atleast_2d(start),
+        speed_limits=np.ones(1),
+    )
+
+
+def _lattice_plan(
+    policy: str,
+    b: np.ndarray,
+    tables: list,
+    cell: tuple[int, ...],
+    *,
+    ties: str = "first",
+    floor: float = EPS,
+    blocked: tuple[tuple[int, ...], ...] = (),
+    rng: np.random.Generator | None = None,
+) -> Plan:
+    """The lattice planner with ``policy`` on the joint belief ``b`` (``(K, *shape)`` or
+    ``shape``) from ``cell`` of a unit grid at the origin; ``blocked`` cells are obstacles."""
+    joint = np.asarray(b, float)
+    if joint.ndim == tables[0].dim:
+        joint = joint[None]
+    shape = joint.shape[1:]
+    d = len(shape)
+    grid = CellGrid((0.0,) * d, 1.0, shape)
+    here = grid.center(np.array(cell))[0]
+    boxes = [(tuple(float(v) for v in c), tuple(float(v) + 1.0 for v in c)) for c in blocked]
+    ctx = _ctx((0.0,) * d, tuple(float(n) for n in shape), here, boxes)
+    params = {
+        "reward": {"type": REWARD[policy]},
+        "selection": {"ties": ties, "tolerance": EPS},
+        "floor": floor,
+    }
+    planner = inf.LatticePlanner(make_params("planner", "lattice", params))
+    planner.reset(ctx)
+    belief = LatticeBelief(grid, joint.sum(axis=0), {}, joint, tuple(tables), 0.5)
+    return planner.plan(belief, Pose(here), rng or np.random.default_rng(0))
 
 
 def _brute(w: np.ndarray, q: np.ndarray, found: np.ndarray) -> dict[str, np.ndarray]:
@@ -202,10 +261,9 @@ def test_choices_are_the_reference_choices(policy: str, setting: tuple) -> None:
     table = tabulate(
         IsotropicHitModel(IsotropicHitParams(length=L, intensity=intensity)), 1.0, (n - 1, n - 1)
     )
-    planner = inf.GridPolicyPlanner(policy)  # type: ignore[arg-type]
     for b, a in _beliefs(n, 11, table):
         ref = _otto_scores(policy, b, a, table)
-        plan = planner.plan(b, [table], inf.neighbour_cells(a))
+        plan = _lattice_plan(policy, b, [table], a)
         assert plan.index == _otto_choice(ref), (policy, a)
         fin = np.isfinite(ref)
         # exact ties are not rescored: their scores may differ by the conventions' bound
@@ -228,8 +286,8 @@ def test_first_move_gain_check_values(key: str) -> None:
     f.observe_table([table], 1, c)
     assert f.entropy() == pytest.approx(ref["entropy_b0"], abs=1e-9)
     assert f.prob[c[0] - 1, c[1]] == pytest.approx(ref["b0_neighbour"], abs=1e-11)
-    cells = inf.neighbour_cells(c)
-    plan = inf.GridPolicyPlanner("infotaxis").plan(f.joint, [table], cells)
+    cells = neighbour_cells(c)
+    plan = _lattice_plan("infotaxis", f.joint, [table], c)
     assert plan.index == 0  # every move ties by symmetry: the first one
     # the exact information differs from the reference's truncated entropies by < 1e-7 here
     np.testing.assert_allclose(plan.scores, -ref["first_move_gain"], atol=1e-7)
@@ -245,7 +303,7 @@ def test_fast_and_explicit_outcomes_agree() -> None:
     table = tabulate(IsotropicHitModel(IsotropicHitParams(length=2.0, intensity=2.0)), 1.0, (8, 8))
     rng = np.random.default_rng(4)
     b = rng.dirichlet(np.ones(81)).reshape(1, 9, 9)
-    cells = inf.neighbour_cells((4, 4), "neighbours")
+    cells = neighbour_cells((4, 4), "neighbours")
     lo = inf.lattice_outcomes(b, [table], cells, 1.2)
     pe, p, s, d = inf.lattice_posteriors(b, [table], cells, 1.2, 0.0, True)
     np.testing.assert_allclose(lo.p_found, pe, atol=1e-14)
@@ -266,7 +324,7 @@ def test_correlation_backends_agree(dim: int) -> None:
     half = tuple(n - 1 for n in shape)
     ch = rng.random((4, *(2 * h + 1 for h in half)))
     b = rng.random(shape)
-    cells = inf.neighbour_cells(tuple(n // 2 for n in shape), "neighbours")
+    cells = neighbour_cells(tuple(n // 2 for n in shape), "neighbours")
     ref = inf.correlate(ch, b, cells, half, backend="numpy")
     for c in range(len(cells)):
         w = tuple(slice(h - v, h - v + n) for v, h, n in zip(cells[c], half, shape, strict=True))
@@ -284,72 +342,78 @@ def test_ties_first_and_random() -> None:
     b = np.ones((5, 5))
     b[2, 2] = 0
     b /= b.sum()
-    assert (
-        inf.GridPolicyPlanner("infotaxis").plan(b, [table], inf.neighbour_cells((2, 2))).index == 0
-    )
-    pl = inf.GridPolicyPlanner("infotaxis", ties="random")
+    assert _lattice_plan("infotaxis", b, [table], (2, 2)).index == 0
     picks = [
-        pl.plan(b, [table], inf.neighbour_cells((2, 2)), rng=np.random.default_rng(s)).index
+        _lattice_plan("infotaxis", b, [table], (2, 2), ties="random", rng=np.random.default_rng(s))
         for s in range(40)
     ]
-    assert set(picks) == {0, 1, 2, 3}
+    assert {p.index for p in picks} == {0, 1, 2, 3}
     again = [
-        pl.plan(b, [table], inf.neighbour_cells((2, 2)), rng=np.random.default_rng(s)).index
+        _lattice_plan("infotaxis", b, [table], (2, 2), ties="random", rng=np.random.default_rng(s))
         for s in range(40)
     ]
-    assert picks == again
-    # infeasible candidates are never chosen; none feasible gives None
-    feas = np.array([False, False, True, False])
-    assert (
-        inf.GridPolicyPlanner().plan(b, [table], inf.neighbour_cells((2, 2)), feasible=feas).index
-        == 2
-    )
-    assert (
-        inf.GridPolicyPlanner()
-        .plan(b, [table], inf.neighbour_cells((2, 2)), feasible=~np.ones(4, bool))
-        .index
-        is None
-    )
+    assert [p.index for p in picks] == [p.index for p in again]
+    # infeasible candidates (obstacle cells) are never chosen; none feasible gives None
+    walls = ((1, 2), (3, 2), (2, 3))
+    plan = _lattice_plan("infotaxis", b, [table], (2, 2), blocked=walls)
+    assert plan.index == 2 and plan.feasible.tolist() == [False, False, True, False]
+    boxed = _lattice_plan("infotaxis", b, [table], (2, 2), blocked=(*walls, (2, 1)))
+    assert boxed.index is None and boxed.target is None
 
 
 def test_planner_bad_input() -> None:
     table = tabulate(IsotropicHitModel(), 1.0, (2, 2))
-    with pytest.raises(ConfigError, match="policy"):
-        inf.GridPolicyPlanner("mystery")  # type: ignore[arg-type]
+    with pytest.raises(ConfigError) as ei:
+        make_params("planner", "lattice", {"reward": {"type": "mystery"}})
+    assert ei.value.field == "reward.type"
     with pytest.raises(ConfigError, match="cover"):
-        inf.GridPolicyPlanner().plan(np.ones((5, 5)) / 25, [table], inf.neighbour_cells((2, 2)))
+        _lattice_plan("infotaxis", np.ones((5, 5)) / 25, [table], (2, 2))
     with pytest.raises(ConfigError, match="moves"):
-        inf.neighbour_cells((1, 1), "knight")  # type: ignore[arg-type]
+        neighbour_cells((1, 1), "knight")  # type: ignore[arg-type]
+    with pytest.raises(ConfigError, match="particle beliefs"):
+        inf.ParticlePlanner(make_params("planner", "particle", {"reward": {"type": "space-aware"}}))
 
 
 def test_neighbour_cells_orders() -> None:
-    np.testing.assert_array_equal(inf.neighbour_cells((5, 5)), [[4, 5], [6, 5], [5, 4], [5, 6]])
-    assert inf.neighbour_cells((1, 1, 1), "lattice-stay").shape == (7, 3)
-    assert inf.neighbour_cells((1, 1, 1), "neighbours").shape == (26, 3)
+    np.testing.assert_array_equal(neighbour_cells((5, 5)), [[4, 5], [6, 5], [5, 4], [5, 6]])
+    assert neighbour_cells((1, 1, 1), "lattice-stay").shape == (7, 3)
+    assert neighbour_cells((1, 1, 1), "neighbours").shape == (26, 3)
+
+
+class _Near(MeasurementModel):
+    """A binary sensor that reads 0.9 within 1.5 m of the source, else 0.05."""
+
+    def log_likelihood(self, z, sensor_position, hypotheses, **conditions):  # type: ignore[no-untyped-def]
+        raise NotImplementedError
+
+    def outcome_probabilities(self, s, h, **conditions):  # type: ignore[no-untyped-def]
+        d = np.linalg.norm(np.atleast_2d(s)[:, None, :] - h[None], axis=2)
+        return binary_outcomes(np.where(d < 1.5, 0.9, 0.05))
+
+
+def _particle_plan(reward: str, belief: ParticleBelief, step: float) -> Plan:
+    """The particle planner with the four lattice moves of ``step`` metres from the origin."""
+    params = {"candidates": {"moves": "lattice", "step": step}, "reward": {"type": reward}}
+    planner = inf.ParticlePlanner(make_params("planner", "particle", params))
+    planner.reset(_ctx((-10.0, -10.0), (10.0, 10.0), (0.0, 0.0)), _Near())
+    return planner.plan(belief, Pose(np.zeros(2)), np.random.default_rng(0))
 
 
 def test_particle_planner_prefers_the_informative_move() -> None:
-    # particles split between two spots; a binary sensor reads "near spot A" only close to A:
-    # moving towards A tells them apart, moving away does not
+    # particles split between two spots; the binary sensor reads "near" only close to one:
+    # the move towards spot A (+y) tells them apart, the one towards B (-y) stays far from B
     rng = np.random.default_rng(0)
-    pts = np.concatenate([rng.normal([0, 2], 0.05, (50, 2)), rng.normal([0, -2], 0.05, (50, 2))])
+    pts = np.concatenate([rng.normal([0, 2], 0.05, (50, 2)), rng.normal([0, -4], 0.05, (50, 2))])
     belief = ParticleBelief(pts, np.full(100, -math.log(100)))
-
-    class Near:
-        def outcome_probabilities(self, s: np.ndarray, h: np.ndarray) -> np.ndarray:
-            d = np.linalg.norm(s[:, None, :] - h[None], axis=2)
-            return binary_outcomes(np.where(d < 1.5, 0.9, 0.05))
-
-    targets = np.array([[0.0, 1.0], [0.0, -5.0], [5.0, 0.0]])
-    plan = inf.ParticleInfotaxisPlanner().plan(belief, targets, Near())
-    assert plan.index == 0
-    ent = inf.ParticleInfotaxisPlanner("entrotaxis").plan(belief, targets, Near())
-    assert ent.index == 0
+    plan = _particle_plan("expected-entropy", belief, 1.0)  # moves -x, +x, -y, +y
+    assert plan.index == 3
+    assert _particle_plan("predictive-entropy", belief, 1.0).index == 3
     # a candidate on top of half the particles finds the source with probability 1/2
-    found = inf.ParticleInfotaxisPlanner().plan(
-        belief, np.array([[0.0, 2.0]]), Near(), found_radius=0.5
-    )
-    assert found.scores[0] < plan.scores[0]
+    found = _particle_plan("expected-entropy", ParticleBelief(pts, belief.log_weights, 0.5), 2.0)
+    assert found.index == 3 and found.scores[3] < plan.scores[3]
+    # greedy goes where the source is found most probably; without a found radius all tie
+    assert _particle_plan("greedy", ParticleBelief(pts, belief.log_weights, 0.5), 2.0).index == 3
+    assert _particle_plan("greedy", belief, 2.0).scores.tolist() == [1.0] * 4
 
 
 def test_unknown_release_fast_and_explicit_agree() -> None:
@@ -359,13 +423,13 @@ def test_unknown_release_fast_and_explicit_agree() -> None:
     tables = [tabulate(model, 1.0, (6, 6), release=q) for q in (0.5, 2.0)]
     rng = np.random.default_rng(8)
     b = rng.dirichlet(np.ones(2 * 49)).reshape(2, 7, 7)
-    cells = inf.neighbour_cells((3, 3))
+    cells = neighbour_cells((3, 3))
     lo = inf.lattice_outcomes(b, tables, cells, 0.5)
     pe, p, s, _ = inf.lattice_posteriors(b, tables, cells, 0.5)
     s0 = -np.sum(b * np.log(b))
     e = rewards.expected_entropy_from(pe, p, s * math.log(2))
     np.testing.assert_allclose(lo.entropy_change, e - s0, atol=1e-12)
-    plan = inf.GridPolicyPlanner("infotaxis", floor=0.0).plan(b, tables, cells)
+    plan = _lattice_plan("infotaxis", b, tables, (3, 3), floor=0.0)
     assert plan.index == int(np.argmin(e))
 
 

@@ -69,7 +69,7 @@ def test_picks_highest_uncertainty_weighted_fitness():
     # reach, as is (8, 5) / (9, 5).
     ds = certain_grid([(6, 5), (8, 5)])
     planner = UncertaintyRoutePlanner(UncertaintyRouteParams(step_range=1.5))
-    plan = planner.plan_detailed(ds, upwind_patch(), (5.5, 5.5), np.random.default_rng(0))
+    plan = planner.route(ds, upwind_patch(), (5.5, 5.5), np.random.default_rng(0))
     np.testing.assert_allclose(plan.target, [6.5, 5.5])
     assert plan.fitness == pytest.approx(1.5)
     assert plan.reason == "ok" and plan.n_candidates == 9 and not plan.done
@@ -81,14 +81,15 @@ def test_widens_range_when_nothing_nearby_is_uncertain():
     planner = UncertaintyRoutePlanner(UncertaintyRouteParams(step_range=1.0))
     targets = set()
     for seed in range(20):
-        plan = planner.plan_detailed(ds, upwind_patch(), (5.5, 5.5), np.random.default_rng(seed))
+        plan = planner.route(ds, upwind_patch(), (5.5, 5.5), np.random.default_rng(seed))
         assert (
             plan.reason == "widened" and plan.radius >= 4.0 and plan.fitness == pytest.approx(1.5)
         )
         targets.add(tuple(plan.target))
     assert targets == {(0.5, 0.5), (1.5, 0.5)}
     again = [
-        planner.plan(ds, upwind_patch(), (5.5, 5.5), np.random.default_rng(3)) for _ in range(2)
+        planner.route(ds, upwind_patch(), (5.5, 5.5), np.random.default_rng(3)).target
+        for _ in range(2)
     ]
     np.testing.assert_array_equal(again[0], again[1])
 
@@ -97,9 +98,9 @@ def test_threshold_and_stop():
     planner = UncertaintyRoutePlanner(UncertaintyRouteParams(step_range=1.0, eta_e=0.5))
     rng = np.random.default_rng(0)
     # all cells known: the whole area is below eta_E -> finished
-    plan = planner.plan_detailed(certain_grid(), upwind_patch(), (5.5, 5.5), rng)
+    plan = planner.route(certain_grid(), upwind_patch(), (5.5, 5.5), rng)
     assert plan.done and plan.target is None and plan.reason == "finished"
-    assert planner.plan(certain_grid(), upwind_patch(), (5.5, 5.5), rng) is None
+    assert planner.route(certain_grid(), upwind_patch(), (5.5, 5.5), rng).target is None
     # one partly known cell, X = -m(notS) log2 m(notS) + 3 m(U) = 0.328 + 0.8; the best
     # E = 0.5 X, so the plan depends on which side of eta_E it falls
     ds = certain_grid()
@@ -108,25 +109,23 @@ def test_threshold_and_stop():
     assert x == pytest.approx(-(1 - 0.8 / 3) * np.log2(1 - 0.8 / 3) + 0.8)
     below = UncertaintyRoutePlanner(UncertaintyRouteParams(eta_e=0.5 * x + 1e-6))
     above = UncertaintyRoutePlanner(UncertaintyRouteParams(eta_e=0.5 * x - 1e-6))
-    assert below.plan(ds, upwind_patch(), (5.5, 5.5), rng) is None
-    assert above.plan(ds, upwind_patch(), (5.5, 5.5), rng) is not None
+    assert below.route(ds, upwind_patch(), (5.5, 5.5), rng).target is None
+    assert above.route(ds, upwind_patch(), (5.5, 5.5), rng).target is not None
 
 
 def test_region_limits_candidates_and_counted_uncertainty():
     ds = certain_grid([(8, 8), (2, 2)])
     region = ((0.0, 0.0), (5.0, 5.0))
     planner = UncertaintyRoutePlanner(UncertaintyRouteParams(step_range=1.0, region=region))
-    plan = planner.plan_detailed(ds, upwind_patch((3, 3)), (3.5, 3.5), np.random.default_rng(0))
+    plan = planner.route(ds, upwind_patch((3, 3)), (3.5, 3.5), np.random.default_rng(0))
     assert plan.target is not None
     assert np.all(plan.target <= 5.0)
     assert tuple(plan.target) in {(2.5, 2.5), (3.5, 2.5)}
     # obstacles: forbid both cells covering (2, 2) -> the planner finishes
     allowed = np.ones(GRID.shape, bool)
     allowed[2, 2] = allowed[3, 2] = False
-    assert (
-        planner.plan(ds, upwind_patch((3, 3)), (3.5, 3.5), np.random.default_rng(0), allowed)
-        is None
-    )
+    rng = np.random.default_rng(0)
+    assert planner.route(ds, upwind_patch((3, 3)), (3.5, 3.5), rng, allowed).target is None
 
 
 def test_edge_reach_covers_the_downwind_edge_of_the_region():
@@ -138,29 +137,27 @@ def test_edge_reach_covers_the_downwind_edge_of_the_region():
     pi = PathPatch(4, 4, np.array([[1.0], [0.0]]), GRID, np.array([5, 4]))  # one cell upwind
     rng = np.random.default_rng(0)
     inside = UncertaintyRoutePlanner(UncertaintyRouteParams(step_range=1.5, region=region))
-    plan = inside.plan_detailed(ds, pi, (4.5, 3.5), rng)
+    plan = inside.route(ds, pi, (4.5, 3.5), rng)
     # no candidate centre in the region has (5, 4) one cell upwind: the cell can never be read
     assert plan.done and plan.target is None and plan.fitness == 0.0
     edge = UncertaintyRoutePlanner(
         UncertaintyRouteParams(step_range=1.5, region=region, edge_reach=0.5)
     )
-    plan = edge.plan_detailed(ds, pi, (4.5, 3.5), rng)
+    plan = edge.route(ds, pi, (4.5, 3.5), rng)
     # the margin cell (6, 4) has it one cell upwind; its centre (6.5, 4.5) is clamped onto the
     # region's edge x = 6
     assert plan.fitness == pytest.approx(3.0)
     np.testing.assert_allclose(plan.target, [6.0, 4.5])
     # cells further out than edge_reach stay excluded, and uncertainty outside never counts
     ds2 = certain_grid([(6, 4)])
-    far = edge.plan_detailed(ds2, pi, (4.5, 3.5), rng)
+    far = edge.route(ds2, pi, (4.5, 3.5), rng)
     assert far.done
 
 
 def test_empty_path_map_holds_position():
     planner = UncertaintyRoutePlanner(UncertaintyRouteParams())
     empty = PathPatch(0, 0, np.zeros((0, 0)), GRID, np.array([5, 5]))
-    plan = planner.plan_detailed(
-        DSGrid(DSParams(), GRID), empty, (5.2, 5.7), np.random.default_rng(0)
-    )
+    plan = planner.route(DSGrid(DSParams(), GRID), empty, (5.2, 5.7), np.random.default_rng(0))
     assert plan.reason == "empty_path_map" and not plan.done
     np.testing.assert_allclose(plan.target, [5.5, 5.5])
 
@@ -172,15 +169,15 @@ def test_works_with_estimator_and_dense_map():
         est.update(i * 0.5, (6.0, 5.0), np.array([0.8, 0.0]) + rng.normal(0, 0.05, 2), 0.0)
     ds = DSGrid(DSParams(), est.grid)
     planner = UncertaintyRoutePlanner(UncertaintyRouteParams(step_range=0.25))
-    a = planner.plan_detailed(ds, est, (6.0, 5.0), np.random.default_rng(1))
-    b = planner.plan_detailed(ds, est.path_map(), (6.0, 5.0), np.random.default_rng(1))
+    a = planner.route(ds, est, (6.0, 5.0), np.random.default_rng(1))
+    b = planner.route(ds, est.path_map(), (6.0, 5.0), np.random.default_rng(1))
     assert a.reason == "ok" and b.reason == "ok"
     np.testing.assert_allclose(a.target, b.target)
     assert np.linalg.norm(a.target - [6.0, 5.0]) <= 0.25 + 0.15
     # all unknown: E is 3 * (sum of the map inside the grid) for every in-range candidate
     assert a.fitness == pytest.approx(3.0 * est.path_map().sum(), rel=1e-6)
     with pytest.raises(ConfigError):
-        planner.plan(DSGrid(DSParams(), GRID), est, (6.0, 5.0), rng)
+        planner.route(DSGrid(DSParams(), GRID), est, (6.0, 5.0), rng)
 
 
 def test_bad_params_raise():
@@ -195,13 +192,13 @@ def test_bad_params_raise():
     planner = UncertaintyRoutePlanner(UncertaintyRouteParams())
     ds = certain_grid([(1, 1)])
     with pytest.raises(ConfigError, match="allowed"):
-        planner.plan(
+        planner.route(
             ds, upwind_patch(), (5.5, 5.5), np.random.default_rng(0), np.ones((3, 3), bool)
         )
     with pytest.raises(ConfigError, match="position"):
-        planner.plan(ds, upwind_patch(), (np.nan, 5.5), np.random.default_rng(0))
+        planner.route(ds, upwind_patch(), (np.nan, 5.5), np.random.default_rng(0))
     with pytest.raises(ConfigError, match="path_model"):
-        planner.plan(ds, np.zeros((4, 4)), (5.5, 5.5), np.random.default_rng(0))
+        planner.route(ds, np.zeros((4, 4)), (5.5, 5.5), np.random.default_rng(0))
 
 
 # --------------------------------------------------------------- closed loop vs fixed pattern
@@ -245,7 +242,7 @@ def _explore(mode: str, n_steps: int, seed: int) -> tuple[float, float]:
         if mode == "wave":
             nxt = route[i + 1]
         else:
-            target = planner.plan(ds, est, p, rng)
+            target = planner.route(ds, est, p, rng).target
             assert target is not None
             d = target - p
             dist = np.linalg.norm(d)

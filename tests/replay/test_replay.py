@@ -311,6 +311,42 @@ def test_offline_replay_is_deterministic_per_seed(episode) -> None:
         replay_estimator([], ctx)
 
 
+def test_a_recipe_replays_its_estimator(episode) -> None:
+    """A searcher's name replays the estimator it composes, with its model and parameters: the
+    same as naming the estimator; a searcher without one is refused before any log is read."""
+    from odorloc.core.types import Observation
+    from odorloc.replay.offline import check_estimator, resolve_estimator
+    from odorloc.scenarios.build import build, search_context
+
+    rec = episode.recording
+    obs = [
+        Observation(0, float(t), p, 0.0, float(g), bool(d), w)
+        for t, p, g, d, w in zip(
+            rec.t,
+            rec.positions[:, 0],
+            rec.gas[:, 0],
+            rec.detection[:, 0],
+            rec.wind[:, 0],
+            strict=True,
+        )
+    ]
+    sc = checks.small_scenario({"type": "zigzag"}, 2, 1, 30.0)
+    ctx = search_context(sc, build(sc))
+    a = replay_estimator(obs, ctx, "pf-entropy", seed=4)
+    b = replay_estimator(obs, ctx, "particle-filter", seed=4)
+    assert a.beliefs and len(a.beliefs) == len(b.beliefs)
+    np.testing.assert_array_equal(a.beliefs[-1][1]["positions"], b.beliefs[-1][1]["positions"])
+    assert a.meta["searcher"] == "pf-entropy" and b.meta["searcher"] == "particle-filter"
+    grid = replay_estimator(obs, ctx, "ds-map")
+    assert grid.beliefs and "m_s" in grid.beliefs[-1][1]
+    check_estimator("odor-path")
+    with pytest.raises(ConfigError) as ei:
+        check_estimator("no-such-thing", "--estimator")
+    assert ei.value.field == "--estimator"
+    with pytest.raises(ConfigError, match="composes no estimator"):
+        resolve_estimator("zigzag")
+
+
 # ---------------------------------------------------------------------- GADEN
 def _gaden_scenario() -> Scenario:
     sc = checks.small_scenario({"type": "zigzag"}, 3, 1, 20.0)

@@ -112,18 +112,18 @@ CASES: list[tuple[str, dict[str, Any], str]] = [
     ),
     (
         "surge-cast-cast-growth-inf",
-        _small("surge-cast", searcher__cast_growth=INF),
-        "searcher.cast_growth: must be finite",
+        _small("surge-cast", searcher__cast__growth=INF),
+        "searcher.cast.growth: must be finite",
     ),
     (
         "gradient-bionic-cast-growth-inf",
-        _small("gradient-bionic", searcher__cast_growth=INF),
-        "searcher.cast_growth: must be finite",
+        _small("gradient-bionic", searcher__cast__growth=INF),
+        "searcher.cast.growth: must be finite",
     ),
     (
         "surge-spiral-increment-inf",
-        _small("surge-spiral", searcher__spiral_increment=INF),
-        "searcher.spiral_increment: must be a finite number >= 0",
+        _small("surge-spiral", searcher__spiral__step_increment=INF),
+        "searcher.spiral.step_increment: must be a finite number >= 0",
     ),
     (
         "random-walk-turn-std-inf",

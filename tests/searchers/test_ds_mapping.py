@@ -328,9 +328,9 @@ def test_declares_exactly_when_the_planner_stops() -> None:
     )
     s.reset(_ctx(), rng)
     a0 = s.act(_obs(0.0), rng)  # a single record: no path map yet, no decision
-    assert not a0.declarations and s.last_plan.reason == "empty_path_map"
+    assert not a0.declarations and s.last_plan.extra["reason"] == "empty_path_map"
     a1 = s.act(_obs(0.5, det=True), rng)
-    assert s.last_plan.done and a1.declarations
+    assert s.last_plan.extra["done"] and a1.declarations
     assert s.finished_at == 0.5
     assert a1.declarations[0].positions.shape[1] == 2
     # with the paper's eta_E the same map is far from finished
@@ -402,10 +402,7 @@ def test_close_readings_place_a_source_the_far_ones_put_downwind() -> None:
         covered = x0 <= src[0] < x
         det = covered and k % 2 == 0  # intermittent plume
         patch = PathPatch(x0, src[1], values, grid, np.array([x, src[1]]))
-        mp.grid.update(patch, det)
-        mp._log.add(patch, det)
-        mp.n_readings += 1
-        mp.wind_sum += np.array([1.0, 0.0])
+        mp.add_reading(patch, det, np.array([1.0, 0.0]))
 
     k = 0
     for _ in range(6):
@@ -426,9 +423,11 @@ def test_close_readings_place_a_source_the_far_ones_put_downwind() -> None:
     # the estimate's own cell not visited, or no reading since: unchanged
     np.testing.assert_allclose(mp.refined(far[:1], since, np.zeros(grid.shape, bool)), far[:1])
     np.testing.assert_allclose(mp.refined(far[:1], mp.n_readings), far[:1])
-    # the mapper applies it once a route sets the close look's first reading
-    mp.close_since, mp.close_cells = since, visited
-    mp._likely = None
+    # the mapper applies it once a route starts its close look and marks the cells it read from
+    mp.start_close_look(since)
+    for cell in np.argwhere(visited):
+        mp.mark_visited(tuple(cell))
+    np.testing.assert_array_equal(mp.visited, visited)
     np.testing.assert_allclose(mp.source_positions()[0], [5.5, 3.5])
 
 
@@ -443,7 +442,7 @@ def test_default_candidates_are_the_neighbours_not_the_own_cell() -> None:
     s.act(_obs(0.0), rng)  # no path map yet
     a = s.act(_obs(0.5, det=True), rng)
     target = s.motion.goal
-    assert s.last_plan.reason == "ok"
+    assert s.last_plan.extra["reason"] == "ok"
     # a cell centre next to the robot at (3, 3), not the robot's own cell (3.25, 3.25)
     assert not np.allclose(target, [3.25, 3.25])
     assert math.hypot(*(target - 3.0)) <= math.sqrt(2) * 0.5
@@ -461,7 +460,8 @@ def test_stay_candidate_is_the_literal_one_step_reach() -> None:
     assert s.planner.params.step_range == pytest.approx(0.25)
     s.act(_obs(0.0), rng)
     a = s.act(_obs(0.5, det=True), rng)
-    assert s.last_plan.reason == "ok" and s.last_plan.radius == pytest.approx(0.25)
+    assert s.last_plan.extra["reason"] == "ok"
+    assert s.last_plan.extra["radius"] == pytest.approx(0.25)
     np.testing.assert_allclose(s.motion.goal, [3.25, 3.25])
     # one 0.25 m step along the diagonal towards the cell centre
     np.testing.assert_allclose(a.commands[0].value, 3.0 + 0.25 / math.sqrt(2))
@@ -484,9 +484,9 @@ def test_planner_without_current_cell_never_stays() -> None:
     pi[2, 2] = 1.0  # the path map covers the robot's cell only
     rng = np.random.default_rng(0)
     stay = UncertaintyRoutePlanner(UncertaintyRouteParams(step_range=1.0))
-    np.testing.assert_allclose(stay.plan(g, pi, (2.5, 2.5), rng), [2.5, 2.5])
+    np.testing.assert_allclose(stay.route(g, pi, (2.5, 2.5), rng).target, [2.5, 2.5])
     move = UncertaintyRoutePlanner(UncertaintyRouteParams(step_range=1.0, include_current=False))
-    plan = move.plan_detailed(g, pi, (2.5, 2.5), rng)
+    plan = move.route(g, pi, (2.5, 2.5), rng)
     # E = X at the candidate itself: only (2, 4) scores, reached after widening 1 -> 2 m
     np.testing.assert_allclose(plan.target, [2.5, 4.5])
     assert plan.reason == "widened" and plan.fitness == pytest.approx(3.0)
@@ -733,8 +733,9 @@ def test_visit_readings_count_in_the_cell_the_reading_was_taken() -> None:
     assert fused, "no reading was fused"
     n_here = sum(k < 6 for k in fused)
     assert n_here >= 4 and len(fused) - n_here == 2
-    assert s.tests[s._cell(here)] == n_here
-    assert s.tests[s._cell(there)] == len(fused) - n_here
+    cells = s.mapper.grid.grid.index(np.array([here, there]))
+    assert s.tests[tuple(cells[0])] == n_here
+    assert s.tests[tuple(cells[1])] == len(fused) - n_here
     assert s.tests.sum() == len(fused)
 
 
@@ -762,7 +763,7 @@ def test_fitness_path_distribution_divides_the_map_by_its_sum() -> None:
         s.reset(_ctx(), rng)
         for i in range(6):  # uniform wind: every plan sees the same map shape
             s.act(_obs(0.5 * i, det=i % 2 == 0), rng)
-        fits.append((s.last_plan.fitness, tuple(s.motion.goal)))
+        fits.append((s.last_plan.extra["fitness"], tuple(s.motion.goal)))
         sums.append(float(s.mapper.last_patch.values.sum()))
     (f_map, goal_map), (f_dist, goal_dist) = fits
     assert sums[0] == pytest.approx(sums[1]) and sums[0] > 1.5
@@ -829,7 +830,8 @@ def test_preprocessed_readings_are_fused_at_the_period_they_belong_to() -> None:
     assert out[0] is None and out[1] is None and all(o is not None for o in out[2:])
     np.testing.assert_allclose(mp.estimator.times, [0.0, 0.5, 1.0, 1.5])
     assert mp.n_detections == 1 and mp.n_readings == 4
-    np.testing.assert_allclose(mp.estimator.last_position, [6.5, 5.0])
+    # the last reading fused is the one taken at (6.5, 5.0), 1 s before the last call
+    np.testing.assert_array_equal(out[-1].ref_cell, mp.grid.grid.index([[6.5, 5.0]])[0])
     with pytest.raises(ConfigError, match="reading"):
         mp.update(3.0, np.array([5.0, 5.0]), np.array([1.0, 0.0]), False)
 
@@ -866,12 +868,12 @@ def test_failed_wave_episode_leaves_the_dynamic_row_valid() -> None:
     from types import SimpleNamespace
 
     from odorloc.experiments.runner import ROW_DEFAULTS
-    from odorloc.papers.ds_multi_source.reproduction import _extras
+    from odorloc.papers.ds_multi_source.reproduction import ds_extras
 
     res = run_episode(reduced_farrell(5.0), 1, 2, record=True)
     task = SimpleNamespace(cell={"scenario": "two-sources-farrell", "searcher": "ds-mapping"})
     failed = {**ROW_DEFAULTS, "status": "error", "error": "RuntimeError: failed"}
-    out = _extras(task, res, {"0/two-sources-farrell/ds-rectangular-wave": failed})
+    out = ds_extras(task, res, {"0/two-sources-farrell/ds-rectangular-wave": failed})
     assert math.isnan(out["time_to_baseline_residual"])
     assert math.isnan(out["distance_to_baseline_residual"])
     assert "scene_residual_0" in out and "map_success" in out

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from odorloc.behaviours.surge_cast import SurgeCast, SurgeCastParams
+from odorloc.behaviours.surge_cast import CastParams, SurgeCast
 from odorloc.core.errors import ConfigError
 from odorloc.core.registry import make_params
 from odorloc.core.types import Observation, SearchContext, SensorInfo
@@ -62,7 +62,7 @@ def _move(s, o) -> np.ndarray:
 
 
 def test_surge_cast_surges_upwind_then_casts() -> None:
-    s = _build(SurgeCastSearcher, surge_steps=2, cast_angle_deg=90.0)
+    s = _build(SurgeCastSearcher, surge_steps=2, cast={"angle_deg": 90.0})
     pos = np.array([10.0, 10.0])
     d = _move(s, _obs(pos, 3.0))
     np.testing.assert_allclose(d, [-0.5, 0.0], atol=1e-12)  # upwind, one period at 0.5 m/s
@@ -70,18 +70,20 @@ def test_surge_cast_surges_upwind_then_casts() -> None:
     np.testing.assert_allclose(d, [-0.5, 0.0], atol=1e-12)  # the surge goes on
     d = _move(s, _obs(pos, 0.0))
     assert abs(d[0]) < 1e-9 and abs(abs(d[1]) - 0.5) < 1e-9  # lost: crosswind cast
-    assert s.diagnostics()["phase"] == 0.0
+    assert s.diagnostics()["phase"] == "cast"
     assert s.act([_obs(pos, 0.0, ready=False)], np.random.default_rng(0)).commands[0] is None
 
 
 def test_surge_spiral_spirals_where_the_odor_was_lost() -> None:
-    s = _build(SurgeSpiralSearcher, surge_steps=1, spiral_step=1.0, spiral_increment=0.4)
+    s = _build(
+        SurgeSpiralSearcher, surge_steps=1, spiral={"initial_step": 1.0, "step_increment": 0.4}
+    )
     pos = np.array([10.0, 10.0])
     np.testing.assert_allclose(_move(s, _obs(pos, 2.0)), [-0.5, 0.0], atol=1e-12)
     leg = _move(s, _obs(pos, 0.0))
     # the first spiral leg: one step forward (upwind) and one to the left, facing upwind
     np.testing.assert_allclose(leg, [-1.0, -1.0], atol=1e-12)
-    assert s.diagnostics()["phase"] == 2.0
+    assert s.diagnostics()["phase"] == "spiral"
     # a detection during a leg ends it and surges at once
     np.testing.assert_allclose(
         _move(s, _obs(pos + leg / 2, 2.0, ready=False)), [-0.5, 0.0], atol=1e-12
@@ -100,28 +102,28 @@ def test_chemotaxis_climbs_and_turns_back() -> None:
     d = _move(s, _obs([10.0, 12.0], 1.2))
     assert d[1] < 0
     # no detection in memory: the rule is silent and the robot casts crosswind
-    s2 = _build(ChemotaxisSearcher, memory=2, cast_angle_deg=90.0)
+    s2 = _build(ChemotaxisSearcher, memory=2, cast={"angle_deg": 90.0})
     s2.act([_obs([5.0, 5.0], 0.2)], np.random.default_rng(0))
     d = _move(s2, _obs([5.0, 5.0], 0.5))
     assert abs(d[0]) < 1e-9
 
 
 def test_anemotaxis_goes_upwind_only_while_every_reading_exceeds() -> None:
-    s = _build(AnemotaxisSearcher, memory=2, cast_angle_deg=90.0)
+    s = _build(AnemotaxisSearcher, memory=2, cast={"angle_deg": 90.0})
     s.act([_obs([10.0, 10.0], 2.0)], np.random.default_rng(0))
     np.testing.assert_allclose(_move(s, _obs([10.0, 10.0], 1.5)), [-0.5, 0.0], atol=1e-12)
     d = _move(s, _obs([10.0, 10.0], 0.5))  # one reading below: cast
-    assert abs(d[0]) < 1e-9 and s.diagnostics()["phase"] == 0.0
+    assert abs(d[0]) < 1e-9 and s.diagnostics()["phase"] == "cast"
 
 
 def test_taxis_rules_count_a_reading_at_the_sensor_threshold_as_odor() -> None:
     # a hit counter: threshold 1 hit, one encounter is a detection, and for the taxis rules it is
     # a reading that exceeds rho_T (the default rho_T is the sensor's detection threshold)
-    s = _build(AnemotaxisSearcher, memory=2, cast_angle_deg=90.0)
+    s = _build(AnemotaxisSearcher, memory=2, cast={"angle_deg": 90.0})
     s.act([_obs([10.0, 10.0], 1.0)], np.random.default_rng(0))
     np.testing.assert_allclose(_move(s, _obs([10.0, 10.0], 1.0)), [-0.5, 0.0], atol=1e-12)
     # an explicit rho_T keeps the paper's strict "exceeds"
-    s = _build(AnemotaxisSearcher, memory=2, cast_angle_deg=90.0, threshold=1.0)
+    s = _build(AnemotaxisSearcher, memory=2, cast={"angle_deg": 90.0}, threshold=1.0)
     s.act([_obs([10.0, 10.0], 1.0)], np.random.default_rng(0))
     assert abs(_move(s, _obs([10.0, 10.0], 1.0))[0]) < 1e-9
 
@@ -145,16 +147,14 @@ def test_fluxotaxis_heads_for_the_inflow() -> None:
 
 
 def test_three_d_casts_sweep_heights() -> None:
-    sc = SurgeCast(
-        SurgeCastParams(surge_steps=0, cast_amplitude=0.4, cast_growth=1.0, cast_elevation_deg=30.0)
-    )
+    sc = SurgeCast(CastParams(amplitude=0.4, growth=1.0, elevation_deg=30.0))
     arena = Arena.box((0.0, 0.0, 0.0), (20.0, 20.0, 20.0), 0.5)
     up = np.array([-1.0, 0.0, 0.0])
     zs = [sc.direction(arena, np.full(3, 10.0), up, 0.2)[2] for _ in range(16)]
     # two legs up, two legs down: heights are swept both ways
     assert max(zs) == pytest.approx(math.sin(math.radians(30.0)))
     assert min(zs) == pytest.approx(-math.sin(math.radians(30.0)))
-    flat = SurgeCast(SurgeCastParams(surge_steps=0))
+    flat = SurgeCast(CastParams())
     assert flat.direction(arena, np.full(3, 10.0), up, 0.2)[2] == 0.0
 
 
@@ -163,5 +163,5 @@ def test_reactive_bad_input() -> None:
         make_params("searcher", "chemotaxis", {"memory": 1})
     with pytest.raises(ConfigError, match="step_length"):
         make_params("searcher", "surge-cast", {"step_length": -1.0})
-    with pytest.raises(ConfigError, match="cast_elevation_deg"):
-        make_params("searcher", "anemotaxis", {"cast_elevation_deg": 95.0})
+    with pytest.raises(ConfigError, match=r"cast\.elevation_deg"):
+        make_params("searcher", "anemotaxis", {"cast": {"elevation_deg": 95.0}})

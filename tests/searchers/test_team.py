@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import copy
-
 import numpy as np
 import pytest
 
@@ -11,7 +9,7 @@ from helpers import filament_scenario_dict
 from odorloc.core.errors import ConfigError
 from odorloc.core.params import Params
 from odorloc.core.types import Action, Command, Declaration
-from odorloc.engine.episode import run_episode
+from odorloc.engine.episode import Episode, run_episode
 from odorloc.scenarios import Scenario
 from odorloc.scenarios.build import build, search_context
 from odorloc.searchers.base import Searcher
@@ -31,6 +29,23 @@ class Talker(Searcher):
         o = observations[0]
         self.heard.extend(m.sender for m in o.messages)
         return Action([Command.hold()], messages={o.agent: {"x": np.zeros(8)}})
+
+
+class Dice(Searcher):
+    """Holds still; remembers the first draw of the stream it was reset with and of each
+    stream it acts with."""
+
+    Params = Params
+    max_agents = 1
+
+    def reset(self, ctx, rng) -> None:
+        super().reset(ctx, rng)
+        self.first = float(rng.random())
+        self.draws: list[float] = []
+
+    def act(self, observations, rng):
+        self.draws.append(float(rng.random()))
+        return Action([Command.hold()])
 
 
 def _team_scenario(starts, radius: float, member: str = "zigzag") -> Scenario:
@@ -63,16 +78,24 @@ def test_per_agent_zigzag_team_runs_and_says_nothing() -> None:
 
 def test_members_draw_from_separate_streams() -> None:
     # one generator shared by the members (or two seeded alike) would give equal draws
-    sc = _team_scenario([[8.0, 1.0], [8.0, 4.0], [5.0, 3.0]], float("inf"), member="random-walk")
+    sc = _team_scenario([[8.0, 1.0], [8.0, 4.0], [5.0, 3.0]], float("inf"), member="test_team:Dice")
     b = build(sc)
     team = b.searcher
     team.reset(search_context(sc, b), np.random.default_rng(7))
-    # each random-walk member draws its agent's first heading from the stream it was reset with
-    headings = [float(m.headings[0]) for m in team.members]
-    assert len(set(headings)) == 3
-    # and acts with another one, one per member
-    draws = [tuple(copy.deepcopy(g).random(4).tolist()) for g in team._rngs]
-    assert len(set(draws)) == 3
+    obs = Episode(sc, built=b).reset(1, 2)
+    team.act(obs, np.random.default_rng(8))
+    team.act(obs, np.random.default_rng(9))
+    # each member was reset with a stream of its own and acts with another of its own, which
+    # goes on from step to step (the generator passed to the team's act is not the members')
+    firsts = [m.first for m in team.members]
+    acts = [tuple(m.draws) for m in team.members]
+    assert len(set(firsts)) == 3 and len(set(acts)) == 3
+    assert not set(firsts) & {d for a in acts for d in a}
+    assert all(a[0] != a[1] for a in acts)
+    again = build(sc).searcher
+    again.reset(search_context(sc, b), np.random.default_rng(7))
+    again.act(obs, np.random.default_rng(123))
+    assert [m.draws[0] for m in again.members] == [a[0] for a in acts]
 
 
 def test_an_agents_path_does_not_depend_on_where_the_others_are() -> None:

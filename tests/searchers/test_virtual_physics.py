@@ -16,7 +16,11 @@ from odorloc.core.types import Message, Observation, SearchContext
 from odorloc.engine.episode import run_episode
 from odorloc.geometry.arena import Arena
 from odorloc.scenarios import get_scenario
-from odorloc.searchers.virtual_physics import VirtualPhysicsParams, VirtualPhysicsSearcher
+from odorloc.searchers.virtual_physics import (
+    GroupMessage,
+    VirtualPhysicsParams,
+    VirtualPhysicsSearcher,
+)
 
 CENTRE = np.array([10.0, 10.0])
 RING = regular_polygon(CENTRE, equilibrium_radius(6, 0.3, 5.0, 1e5), 6)  # formed hexagon
@@ -119,8 +123,9 @@ def test_declares_after_n_s_steps_of_flux_above_phi_t_and_stops() -> None:
     np.testing.assert_allclose(d.positions, [s.vr])
     assert d.agent == 0
     assert all(c.kind == "hold" for c in a.commands)
-    assert a.messages[0]["declared"][0] == 1
-    np.testing.assert_allclose(a.messages[0]["vr"], s.vr)
+    assert a.messages[0].declared
+    np.testing.assert_allclose(a.messages[0].vr, s.vr)
+    assert a.messages[0].nbytes == 17  # two float64 and a flag byte
     later = s.act(_obs(np.zeros(6), t=5.0), rng)
     assert not later.declarations and all(c.kind == "hold" for c in later.commands)
     assert s.final_metrics()["declared_time"] == 4.5
@@ -134,16 +139,14 @@ def test_declares_after_n_s_steps_of_flux_above_phi_t_and_stops() -> None:
 
 
 def test_listens_to_other_groups_repulsion_and_bypass() -> None:
-    near = Message(6, {"vr": CENTRE + np.array([-1.0, 0.0]), "declared": np.array([0], np.uint8)})
+    near = Message(6, GroupMessage(CENTRE + np.array([-1.0, 0.0]), False))
     s = _searcher(rule="anemotaxis")
     s.act(_obs(np.full(6, 0.01), messages=[near]), np.random.default_rng(0))
     # goal upwind (-x) plus the push away from the group 1 m upwind: they cancel, no step
     np.testing.assert_allclose(s.vr, CENTRE)
     assert s.final_metrics()["repelled_steps"] == 1
     # the same group, located: its forbidden circle (r_T 1.5 m) sends this one around it
-    located = Message(
-        6, {"vr": CENTRE + np.array([-1.52, 0.01]), "declared": np.array([1], np.uint8)}
-    )
+    located = Message(6, GroupMessage(CENTRE + np.array([-1.52, 0.01]), True))
     s = _searcher(rule="anemotaxis", repulsion=False)
     s.act(_obs(np.full(6, 0.01), messages=[located]), np.random.default_rng(0))
     assert s.diagnostics()["rotary"] == 1.0
@@ -160,7 +163,7 @@ def test_listens_to_other_groups_repulsion_and_bypass() -> None:
 
 def test_a_searching_group_out_of_range_is_forgotten_a_located_one_kept() -> None:
     rng = np.random.default_rng(0)
-    near = Message(6, {"vr": CENTRE + np.array([-1.0, 0.0]), "declared": np.array([0], np.uint8)})
+    near = Message(6, GroupMessage(CENTRE + np.array([-1.0, 0.0]), False))
     s = _searcher(rule="anemotaxis")
     s.act(_obs(np.full(6, 0.01), messages=[near]), rng)
     np.testing.assert_allclose(s.vr, CENTRE)  # repelled: no step
@@ -169,9 +172,7 @@ def test_a_searching_group_out_of_range_is_forgotten_a_located_one_kept() -> Non
     assert s.diagnostics()["repelled"] == 0.0
     np.testing.assert_allclose(s.vr, CENTRE - [0.06, 0.0])
     # a located group has stopped: its forbidden circle stays closed when it is not heard
-    located = Message(
-        6, {"vr": CENTRE + np.array([-1.52, 0.01]), "declared": np.array([1], np.uint8)}
-    )
+    located = Message(6, GroupMessage(CENTRE + np.array([-1.52, 0.01]), True))
     s = _searcher(rule="anemotaxis", repulsion=False)
     s.act(_obs(np.full(6, 0.01), messages=[located]), rng)
     first = s.vr.copy()

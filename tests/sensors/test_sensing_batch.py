@@ -73,8 +73,28 @@ def test_episode_observations_are_the_sensors_readings() -> None:
         assert o.gas == r.value and np.array_equal(o.wind, w)
 
 
+def _reference_faces(p: EulerianPlume) -> tuple[list[np.ndarray], list[np.ndarray]]:
+    """Per axis, the faces mass may cross (``open``: neither neighbour cell solid and, with a
+    closed boundary, not on the domain's edge) and the interior faces (diffusion never leaves
+    the domain), as 0/1 arrays over the faces."""
+    d = p.dim
+    opened, interior = [], []
+    for a in range(d):
+        pad = np.pad(p.solid, [(1, 1) if b == a else (0, 0) for b in range(d)])
+        blocked = pad[_sl(d, a, slice(None, -1))] | pad[_sl(d, a, slice(1, None))]
+        inner = np.zeros(blocked.shape, bool)
+        inner[_sl(d, a, slice(1, -1))] = True
+        if p.params.boundary == "closed":
+            blocked |= ~inner
+        opened.append((~blocked).astype(float))
+        interior.append(inner.astype(float))
+    return opened, interior
+
+
 def _reference_advance(p: EulerianPlume, dt: float) -> np.ndarray:
     """The substep loop written out plainly (padding and temporaries every substep)."""
+    opened, interior = _reference_faces(p)
+    cells = tuple(p.grid.index(p.source_positions).T)
     faces = p.face_velocities()
     n = max(1, int(np.ceil(dt / p.max_substep(faces) - 1e-9)))
     ds = dt / n
@@ -89,12 +109,12 @@ def _reference_advance(p: EulerianPlume, dt: float) -> np.ndarray:
             cr = cp[_sl(d, a, slice(1, None))]
             flux = np.maximum(u, 0.0) * cl + np.minimum(u, 0.0) * cr
             if D > 0:
-                flux -= (D / h) * (cr - cl) * p._interior[a]
-            flux *= p._open[a]
+                flux -= (D / h) * (cr - cl) * interior[a]
+            flux *= opened[a]
             div += flux[_sl(d, a, slice(1, None))] - flux[_sl(d, a, slice(None, -1))]
         c = c - (ds / h) * div
         tk = p.t + (k + 0.5) * ds
-        for s, idx in zip(p.sources, zip(*p._src_cell, strict=True), strict=True):
+        for s, idx in zip(p.sources, zip(*cells, strict=True), strict=True):
             c[idx] += s.rate_at(tk) * ds / p.cell_volume
     return c
 
@@ -142,7 +162,7 @@ def _rate_plume(velocity, sources, modulation=None):
 @pytest.mark.parametrize("n_sources", [1, 3])
 def test_rate_at_a_few_points_equals_the_array_path(velocity, n_sources) -> None:
     """The per-point Python path (up to 8 sensors) gives the vectorised rates bit for bit."""
-    from odorloc.models.vergassola import rate_exponent
+    from odorloc.models.vergassola import vergassola_rate
 
     rng = np.random.default_rng(5)
     src = rng.uniform([5, 5, 5], [95, 55, 25], (n_sources, 3)).tolist()
@@ -152,10 +172,16 @@ def test_rate_at_a_few_points_equals_the_array_path(velocity, n_sources) -> None
         pts = rng.uniform([0, 0, 0], [100, 60, 30], (q, 3))
         pts[0] = src[0]  # at a source: the floored distance
         fast = plume.encounter_rate(pts)
-        expo, r = rate_exponent(
-            pts, plume._src, plume._e, V=plume.V, D=p.D, lam=plume._lam, a=p.sensor_radius
-        )
-        ref = (plume._aq * np.exp(expo) / r).sum(axis=1)
+        ref = vergassola_rate(
+            pts,
+            plume.source_positions,
+            [s.rate for s in plume.sources],
+            V=plume.V,
+            D=p.D,
+            tau=p.tau,
+            a=p.sensor_radius,
+            direction=plume.direction,
+        ).sum(axis=1)
         assert np.array_equal(fast, ref)
 
 
@@ -183,7 +209,7 @@ def test_steady_rate_plume_ticks_only_its_clock() -> None:
 def test_reach_test_matches_the_array_norm() -> None:
     """The reach test finds the first (agent, source) pair within the radius in agent-major
     order, with the distances numpy.linalg.norm computes."""
-    from types import SimpleNamespace
+    from odorloc.engine.episode import first_within
 
     rng = np.random.default_rng(2)
     for _ in range(300):
@@ -193,7 +219,6 @@ def test_reach_test_matches_the_array_norm() -> None:
         radius = float(rng.uniform(0.5, 4.0))
         if rng.random() < 0.3:  # exactly on the circle
             radius = float(np.linalg.norm(pos[0] - src[-1]))
-        stub = SimpleNamespace(_source_rows=src.tolist())
-        got = Episode._first_within(stub, pos, radius)
+        got = first_within(pos, src.tolist(), radius)
         hits = np.argwhere(np.linalg.norm(pos[:, None, :] - src[None, :, :], axis=2) <= radius)
         assert got == (tuple(int(v) for v in hits[0]) if len(hits) else None)

@@ -31,6 +31,7 @@ from odorloc.sensors import (
     signal_intensity,
     wind_from_polar,
 )
+from odorloc.sensors.preprocessing import WindAverage
 from odorloc.wind import UniformWind, UniformWindParams
 
 SRC = (2.0, 1.0)
@@ -422,3 +423,21 @@ def test_pid_hits_refuse_non_finite_readings_and_bad_scale() -> None:
         with pytest.raises(ConfigError) as exc:
             hits_from_concentration([250.0], scale)
         assert exc.value.field == "ppm_per_hit"
+
+
+# ---------------------------------------------------------------------- wind average
+def test_wind_average() -> None:
+    w = WindAverage(2)
+    w.add([1.0, 0.0])
+    np.testing.assert_allclose(w.add([3.0, 2.0]), [2.0, 1.0])
+    np.testing.assert_allclose(w.add([1.0, 0.0]), [2.0, 1.0])  # the oldest dropped
+    np.testing.assert_allclose(w.upwind(0.0), -np.array([2.0, 1.0]) / math.sqrt(5.0))
+
+
+def test_wind_average_refuses_a_non_finite_reading() -> None:
+    w = WindAverage(3)
+    w.add([1.0, 0.0])
+    with pytest.raises(ConfigError, match="wind"):
+        w.add([math.nan, 0.0])
+    # the refused reading left the average alone
+    np.testing.assert_allclose(w.upwind(0.3), [-1.0, 0.0])

@@ -19,15 +19,21 @@ import numpy as np
 from pydantic import Field
 
 from odorloc.core.params import NonNegative, Params, Positive
+from odorloc.geometry.arena import Arena
 
-__all__ = ["Spiral", "SpiralParams", "proximity_index"]
+__all__ = ["Spiral", "SpiralLegParams", "SpiralParams", "proximity_index"]
 
 
-class SpiralParams(Params):
-    """Settings of the spiral (see the module docstring; lengths in metres)."""
+class SpiralLegParams(Params):
+    """The spiral's legs: the first leg's step and its growth every second leg (metres)."""
 
     initial_step: Positive = 0.6
     step_increment: NonNegative = 0.3
+
+
+class SpiralParams(SpiralLegParams):
+    """Settings of the spiral search with a proximity index (see the module docstring)."""
+
     measure_periods: int = Field(2, ge=1, le=10_000)
     kmu: NonNegative = 0.5
     kp: NonNegative = 1.0
@@ -50,9 +56,15 @@ def proximity_index(readings: np.ndarray, dt: float, kmu: float, kp: float) -> f
 
 
 class Spiral:
-    """One agent's spiral state: the legs, the best proximity index and its patience."""
+    """One agent's spiral state: the legs, the best proximity index and its patience.
 
-    def __init__(self, params: SpiralParams) -> None:
+    Parameters
+    ----------
+    params : SpiralLegParams
+        The legs (a :class:`SpiralParams` also gives :meth:`judge` its patience and decay).
+    """
+
+    def __init__(self, params: SpiralLegParams) -> None:
         self.params = params
         self.best = 0.0
         self.misses = 0
@@ -65,8 +77,12 @@ class Spiral:
         self.leg = 0
         self.heading = float(heading)
 
-    def judge(self, index: float, heading: float) -> bool:
-        """Feed a window's proximity index; ``True`` when it restarts the spiral."""
+    def judge(self, index: float, heading: float, patience: int, decay: float) -> bool:
+        """Feed a window's proximity index; ``True`` when it restarts the spiral.
+
+        After ``patience`` windows in a row without a better index the best is multiplied by
+        ``decay``.
+        """
         if index > self.best:
             self.best = index
             self.misses = 0
@@ -74,8 +90,8 @@ class Spiral:
             self.restart(heading)
             return True
         self.misses += 1
-        if self.misses > self.params.patience:
-            self.best *= self.params.decay
+        if self.misses > patience:
+            self.best *= decay
             self.misses = 0
         return False
 
@@ -93,3 +109,21 @@ class Spiral:
             d = self.step * np.array([math.cos(self.heading), math.sin(self.heading)])
         self.leg += 1
         return d
+
+    def free_leg(
+        self, arena: Arena, pos: np.ndarray, max_skips: int, heading: float | None = None
+    ) -> np.ndarray | None:
+        """Target ``(d,)`` of the next leg that walls and obstacles leave free, or ``None``.
+
+        Up to ``max_skips`` blocked legs are skipped; then the spiral restarts facing
+        ``heading`` (default: where it faces then) and tries as many legs again.
+        """
+        for attempt in range(2):
+            for _ in range(max_skips + 1):
+                target = np.array(pos, dtype=float)
+                target[:2] += self.next_offset()
+                if arena.segment_free(pos, target)[0]:
+                    return target
+            if attempt == 0:
+                self.restart(self.heading if heading is None else heading)
+        return None

@@ -12,12 +12,30 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from pydantic import Field
 
 from odorloc.behaviours.escape import free_step
+from odorloc.core.params import Params, Positive
 from odorloc.geometry.arena import Arena
 from odorloc.geometry.vectors import rotate2
 
-__all__ = ["Zigzag", "zigzag_leg"]
+__all__ = ["Zigzag", "ZigzagLegParams", "zigzag_leg"]
+
+
+class ZigzagLegParams(Params):
+    """The legs of a zigzag.
+
+    Attributes
+    ----------
+    angle_deg : float, degrees
+        Angle between a leg and the upwind (or downwind) direction.
+    max_leg : float or None, metres
+        Leg length after which the leg turns even without an obstacle (``None``: only at
+        walls and obstacles, as in the indoor PF paper).
+    """
+
+    angle_deg: float = Field(45.0, ge=0.0, le=90.0)
+    max_leg: Positive | None = None
 
 
 def zigzag_leg(
@@ -49,16 +67,9 @@ def zigzag_leg(
 
 
 class Zigzag:
-    """The state of one agent's zigzag.
-
-    Parameters
-    ----------
-    angle : float, rad
-        Angle between a leg and the upwind (or downwind) direction.
-    max_leg : float or None, metres
-        Leg length after which the leg turns even without an obstacle (``None``: only at
-        walls and obstacles, as in the paper).
-    """
+    """The state of one agent's zigzag: legs at ``angle`` (rad) to the wind, turned after
+    ``max_leg`` metres (``None``: only at walls and obstacles), as :class:`ZigzagLegParams`
+    describes them (:meth:`from_params`)."""
 
     def __init__(self, angle: float, max_leg: float | None = None) -> None:
         self.angle = float(angle)
@@ -66,6 +77,11 @@ class Zigzag:
         self.side = 1.0
         self.along = 1.0  # +1: legs angled upwind, -1: downwind
         self.travelled = 0.0
+
+    @classmethod
+    def from_params(cls, params: ZigzagLegParams) -> Zigzag:
+        """A zigzag with the legs of ``params``."""
+        return cls(math.radians(params.angle_deg), params.max_leg)
 
     def direction(
         self, arena: Arena, pos: np.ndarray, up: np.ndarray, look: float, advance: float

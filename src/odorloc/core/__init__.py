@@ -10,12 +10,14 @@ from odorloc.core.errors import ConfigError, OdorlocError
 from odorloc.core.params import Finite, NonNegative, Params, Positive, Vector
 from odorloc.core.types import (
     Action,
+    ArrayPayload,
     Command,
     Declaration,
     Event,
     Group,
     Message,
     Observation,
+    Payload,
     Region,
     SearchContext,
     SensorInfo,
@@ -23,6 +25,7 @@ from odorloc.core.types import (
 
 __all__ = [
     "Action",
+    "ArrayPayload",
     "Command",
     "ConfigError",
     "Declaration",
@@ -34,6 +37,7 @@ __all__ = [
     "Observation",
     "OdorlocError",
     "Params",
+    "Payload",
     "Positive",
     "Region",
     "SearchContext",

@@ -21,7 +21,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-__all__ = ["HAVE_NUMBA", "cache_dir", "jit", "start", "warm"]
+__all__ = ["HAVE_NUMBA", "cache_dir", "jit", "kernels", "start", "warm"]
 
 try:
     import numba as _numba
@@ -90,9 +90,20 @@ def jit(
         return fn
     _configure()
     kernel = _numba.njit(cache=True, **options)(fn)
+    _KERNELS[f"{fn.__module__}.{fn.__qualname__}"] = kernel
     if warmup is not None:
         _WARMERS.append(lambda: warmup(kernel))
     return kernel
+
+
+_KERNELS: dict[str, Any] = {}
+
+
+def kernels() -> dict[str, Any]:
+    """Every compiled kernel declared in this process, by ``module.function`` (``"runtime"``
+    for the one :func:`start` loads): numba dispatchers, whose ``stats`` count cache hits and
+    misses. Empty without numba."""
+    return dict(_KERNELS)
 
 
 def warm() -> float:
@@ -113,7 +124,7 @@ def warm() -> float:
     t0 = time.perf_counter()
     from odorloc.core import registry
 
-    registry.names("plume")  # imports the component modules, which declare their kernels
+    registry.load_all()  # imports the component modules, which declare their kernels
     for w in list(_WARMERS):
         w()
     return time.perf_counter() - t0
@@ -149,4 +160,5 @@ def start() -> float:
         kernel = _numba.njit(cache=True)(_identity)
         kernel(0.0)
         _RUNTIME.append(kernel)
+        _KERNELS["runtime"] = kernel
     return time.perf_counter() - t0

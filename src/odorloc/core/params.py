@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 import types
 import typing
-from typing import Annotated, Any
+from typing import Annotated, Any, ClassVar
 
 from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict, Field
 
@@ -120,13 +120,26 @@ class Params(BaseModel):
     @classmethod
     def __pydantic_init_subclass__(cls, **kwargs: Any) -> None:
         super().__pydantic_init_subclass__(**kwargs)
-        refuse_bools_as_numbers(cls)
+        changed = merge_partial_components(cls)
+        refuse_bools_as_numbers(cls, changed)
 
 
-def refuse_bools_as_numbers(cls: type[BaseModel]) -> None:
+class Configured:
+    """Base of a part configured by a :class:`Params` model (a reward, a stopping rule, ...):
+    the class names its model as ``Params`` and keeps its parameters in ``params`` (the model's
+    defaults when the constructor gets ``None``)."""
+
+    params: Params
+    Params: ClassVar[type[Params]]
+
+    def __init__(self, params: Params | None = None) -> None:
+        self.params = params if params is not None else type(self).Params()
+
+
+def refuse_bools_as_numbers(cls: type[BaseModel], changed: bool = False) -> None:
     """Make the numeric fields of the model ``cls`` refuse ``true``/``false`` (call it from
-    ``__pydantic_init_subclass__``; :class:`Params` does)."""
-    changed = False
+    ``__pydantic_init_subclass__``; :class:`Params` does). ``changed``: the caller changed the
+    fields already (the schema must be made again)."""
     for f in cls.model_fields.values():
         if _holds_numbers(f.annotation) and not any(_is_guard(m) for m in f.metadata):
             f.metadata.append(_bool_refuser(f.annotation))
@@ -134,6 +147,62 @@ def refuse_bools_as_numbers(cls: type[BaseModel]) -> None:
     # with ``defer_build`` the schema is made at first use, from the fields as changed here
     if changed and cls.__pydantic_complete__:
         cls.model_rebuild(force=True)
+
+
+def merge_dicts(default: dict[str, Any], given: dict[str, Any]) -> dict[str, Any]:
+    """``given`` laid over ``default``: a nested dict without a ``type`` merges into the
+    default's dict of the same key; any other value (a dict naming a ``type`` included)
+    replaces it."""
+    out = dict(default)
+    for k, v in given.items():
+        old = out.get(k)
+        if isinstance(v, dict) and "type" not in v and isinstance(old, dict):
+            out[k] = merge_dicts(old, v)
+        else:
+            out[k] = v
+    return out
+
+
+def _component_default(f: Any) -> dict[str, Any] | None:
+    """The default of a component field (``type`` plus parameters) as a dict, else ``None``."""
+    default = f.default_factory() if f.default_factory is not None else f.default
+    if not isinstance(default, BaseModel) or "type" not in type(default).model_fields:
+        return None
+    return default.model_dump(mode="python")
+
+
+def _merger(default: dict[str, Any]) -> BeforeValidator:
+    def merge(v: Any) -> Any:
+        if isinstance(v, dict) and "type" not in v:
+            return merge_dicts(default, v)
+        return v
+
+    merge.merges_components = True  # type: ignore[attr-defined]
+    return BeforeValidator(merge)
+
+
+def _is_merger(meta: Any) -> bool:
+    return bool(getattr(getattr(meta, "func", None), "merges_components", False))
+
+
+def merge_partial_components(cls: type[BaseModel]) -> bool:
+    """Let a component field of ``cls`` (a ``Ref``) be given without its ``type``: such a dict
+    is laid over the field's default (:func:`merge_dicts`), so that
+    ``estimator: {n_particles: 500}`` changes one setting of the default estimator and keeps
+    the others. A dict naming a ``type`` replaces the default whole, as before. Returns
+    whether a field was changed."""
+    changed = False
+    for f in cls.model_fields.values():
+        if any(
+            getattr(m, "func", None) is not None and getattr(m.func, "merges_components", False)
+            for m in f.metadata
+        ):
+            continue  # inherited from a parent model that has it already
+        default = _component_default(f)
+        if default is not None:
+            f.metadata.insert(0, _merger(default))
+            changed = True
+    return changed
 
 
 def _finite(v: float) -> float:

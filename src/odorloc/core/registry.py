@@ -1,17 +1,21 @@
 """Named registry of components, so scenarios can refer to them by name (``"filament"``).
 
-Each family (``"wind"``, ``"plume"``, ``"searcher"``, ``"reproduction"``, ...) maps a name to a
+Each family (``"wind"``, ``"plume"``, ``"searcher"``, ``"resampler"``, ...) maps a name to a
 parameter model and a builder. Scenario files then read ``{type: filament, ...params}`` and the
 registry validates the parameters with the component's own model, so errors name the exact field.
 
 Where components come from
 --------------------------
-- **Discovery**: every module of the component packages (:data:`PACKAGES`) is imported the first
-  time the registry is asked anything, and each module registers its members with
-  :func:`register`. Adding a component is adding its file; no list of imports is kept by hand.
+- **Discovery**: the modules of the component packages (:data:`PACKAGES`) register their members
+  with :func:`register` when they are imported. The first question about a family imports only
+  the modules whose source registers a member of that family (a text scan of the package files,
+  which imports nothing), so asking for a plume loads the plumes and what they need, not the
+  searchers. Adding a component is adding its file; no list of imports is kept by hand.
+- **Higher layers** name further packages with :func:`include` (the experiments layer includes
+  ``odorloc.papers`` for the family ``"reproduction"``); the core itself never imports them.
 - **Plugins**: distributions may declare modules under the entry-point group
   ``odorloc.components`` (``[project.entry-points."odorloc.components"] mine = "mypkg.mod"``);
-  they are imported the same way.
+  they are imported in full the first time any family is asked for.
 - **Import paths**: a ``type`` of the form ``"package.module:ClassName"`` names a class directly.
   The class must carry its parameter model as the class attribute ``Params``.
 """
@@ -20,8 +24,10 @@ from __future__ import annotations
 
 import importlib
 import importlib.metadata
+import importlib.util
 import pkgutil
-from collections.abc import Callable
+import re
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from typing import Annotated, Any
 
@@ -40,12 +46,17 @@ __all__ = [
     "Ref",
     "entries",
     "entry",
+    "families",
+    "family_base",
+    "include",
+    "load_all",
     "make_params",
     "names",
     "register",
 ]
 
-#: Packages whose modules are imported to discover components (in dependency order).
+#: Packages whose modules are scanned to discover components (in dependency order). Papers are
+#: not among them: the layers that use reproductions and paper scenarios find those themselves.
 PACKAGES = (
     "odorloc.models",
     "odorloc.wind",
@@ -56,7 +67,6 @@ PACKAGES = (
     "odorloc.planning",
     "odorloc.behaviours",
     "odorloc.searchers",
-    "odorloc.papers",
 )
 ENTRY_POINT_GROUP = "odorloc.components"
 
@@ -73,7 +83,19 @@ class Entry:
 
 
 _REGISTRY: dict[str, dict[str, Entry]] = {}
-_LOADED = False
+#: Further packages named by higher layers with :func:`include` (scanned like :data:`PACKAGES`).
+_INCLUDED: list[str] = []
+#: Families whose modules have been imported, and whether everything has been.
+_LOADED: set[str] = set()
+_LOADED_ALL: list[bool] = []
+_PLUGINS_LOADED: list[bool] = []
+#: Module name -> the families its source registers (``None``: unknown, import it for any).
+_SCAN: dict[str, frozenset[str] | None] = {}
+_SCANNED: set[str] = set()
+
+# ``register("family"`` with a literal family, as in ``@register("plume", "filament", ...)``
+_REGISTERS = re.compile(r"\bregister\(\s*(?:family\s*=\s*)?([\"'])([A-Za-z0-9_.\-]+)\1")
+_ANY_REGISTER = re.compile(r"\bregister\(")
 
 
 def register(
@@ -96,6 +118,60 @@ def register(
     return deco
 
 
+def _modules(package: str) -> Iterator[tuple[str, str | None]]:
+    """``(module name, source)`` of every module under ``package``, found without importing
+    any of them (``source`` is ``None`` when only compiled files exist)."""
+    spec = importlib.util.find_spec(package)
+    if spec is None:
+        raise ModuleNotFoundError(f"no package {package!r}", name=package)
+    yield package, _source(spec)
+    todo = [(package, list(spec.submodule_search_locations or []))]
+    while todo:
+        prefix, path = todo.pop()
+        for info in pkgutil.iter_modules(path, prefix=f"{prefix}."):
+            sub = info.module_finder.find_spec(info.name, None)  # type: ignore[call-arg]
+            if sub is None:
+                continue
+            yield info.name, _source(sub)
+            if info.ispkg:
+                todo.append((info.name, list(sub.submodule_search_locations or [])))
+
+
+def _source(spec: importlib.machinery.ModuleSpec) -> str | None:
+    try:
+        return spec.loader.get_source(spec.name)  # type: ignore[union-attr]
+    except (AttributeError, ImportError, OSError, UnicodeDecodeError):
+        return None
+
+
+def _families_in(source: str | None) -> frozenset[str] | None:
+    """Families a module's source registers; ``None`` if it may register others the scan cannot
+    read (compiled only, or ``register`` called with a computed family)."""
+    if source is None:
+        return None
+    found = [m.group(2) for m in _REGISTERS.finditer(source)]
+    if len(found) != len(_ANY_REGISTER.findall(source)):
+        return None
+    return frozenset(found)
+
+
+def _scan() -> None:
+    for package in (*PACKAGES, *_INCLUDED):
+        if package in _SCANNED:
+            continue
+        for name, source in _modules(package):
+            _SCAN[name] = _families_in(source)
+        _SCANNED.add(package)
+
+
+def _load_plugins() -> None:
+    if _PLUGINS_LOADED:
+        return
+    for ep in importlib.metadata.entry_points(group=ENTRY_POINT_GROUP):
+        _import_tree(ep.value.split(":")[0])
+    _PLUGINS_LOADED.append(True)
+
+
 def _import_tree(package: str) -> None:
     pkg = importlib.import_module(package)
     path = getattr(pkg, "__path__", None)
@@ -105,26 +181,46 @@ def _import_tree(package: str) -> None:
         importlib.import_module(info.name)
 
 
-def _load_all() -> None:
-    """Import every component module once (discovery), then the plugins' modules."""
-    global _LOADED
-    if _LOADED:
+def _load(family: str) -> None:
+    """Import the modules that register members of ``family`` (once), then the plugins."""
+    if family in _LOADED or _LOADED_ALL:
         return
-    _LOADED = True
-    try:
-        for package in PACKAGES:
-            _import_tree(package)
-        for ep in importlib.metadata.entry_points(group=ENTRY_POINT_GROUP):
-            _import_tree(ep.value.split(":")[0])
-    except BaseException:
-        _LOADED = False
-        raise
+    _scan()
+    for name, fams in list(_SCAN.items()):
+        if fams is None or family in fams:
+            importlib.import_module(name)
+    _load_plugins()
+    _LOADED.add(family)
+
+
+def load_all() -> None:
+    """Import every module of the component packages, the included ones and the plugins (what
+    a process about to run many episodes does once, e.g. to load every compiled kernel)."""
+    if _LOADED_ALL:
+        return
+    _scan()
+    for name in list(_SCAN):
+        importlib.import_module(name)
+    _load_plugins()
+    _LOADED_ALL.append(True)
+
+
+def include(package: str) -> None:
+    """Add ``package`` to discovery: its modules are scanned and imported like those of
+    :data:`PACKAGES`. A higher layer calls this for the packages whose members it uses (the
+    experiments layer for the papers' reproductions); families already loaded are loaded again
+    from the new package at their next lookup."""
+    if package in PACKAGES or package in _INCLUDED:
+        return
+    _INCLUDED.append(package)
+    _LOADED.clear()
+    _LOADED_ALL.clear()
 
 
 def family_base(family: str) -> type | None:
     """The most specific class every registered member of ``family`` derives from (``None``
     when they share nothing but ``object``)."""
-    _load_all()
+    _load(family)
     members = [e.build for e in _REGISTRY.get(family, {}).values() if isinstance(e.build, type)]
     if not members:
         return None
@@ -156,7 +252,7 @@ def _from_path(family: str, ref: str, field: str) -> Entry:
 
 def names(family: str) -> list[str]:
     """Sorted names registered in ``family``."""
-    _load_all()
+    _load(family)
     return sorted(_REGISTRY.get(family, {}))
 
 
@@ -164,7 +260,7 @@ def entry(family: str, name: str, field: str = "type") -> Entry:
     """The registry entry ``family/name``; a :class:`ConfigError` naming ``field`` if unknown."""
     if ":" in name:
         return _from_path(family, name, field)
-    _load_all()
+    _load(family)
     fam = _REGISTRY.get(family, {})
     if name not in fam:
         known = ", ".join(sorted(fam)) or "none"
@@ -185,13 +281,13 @@ def make_params(family: str, name: str, values: dict[str, Any], field: str = "")
 
 def entries(family: str) -> list[Entry]:
     """All entries of ``family`` sorted by name."""
-    _load_all()
+    _load(family)
     return [v for _, v in sorted(_REGISTRY.get(family, {}).items())]
 
 
 def families() -> list[str]:
     """Every family with at least one member."""
-    _load_all()
+    load_all()
     return sorted(_REGISTRY)
 
 

@@ -19,6 +19,7 @@ environment adapters can all use them without importing each other.
 from __future__ import annotations
 
 import math
+from abc import ABC, abstractmethod
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any, Literal
@@ -30,6 +31,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "Action",
+    "ArrayPayload",
     "Command",
     "CommandKind",
     "Declaration",
@@ -38,9 +40,11 @@ __all__ = [
     "Group",
     "Message",
     "Observation",
+    "Payload",
     "Region",
     "SearchContext",
     "SensorInfo",
+    "frozen_array",
 ]
 
 CommandKind = Literal["velocity", "waypoint", "move", "hold"]
@@ -49,17 +53,68 @@ Region = tuple[tuple[float, ...], tuple[float, ...]]
 """An axis-aligned box ``(lower, upper)``, metres (2 or 3 components each)."""
 
 
+class Payload(ABC):
+    """What one agent tells its neighbours: a small frozen dataclass with a declared size.
+
+    Subclasses name their fields (a Gaussian fit's mean and covariance, a group's virtual
+    robot) and say how many bytes a radio would send for them (:attr:`nbytes`, charged once per
+    recipient: eq. 8 of the multi-UAV paper). Receivers read the fields, never a dict of names.
+    Arrays in a payload are read-only copies (:func:`frozen_array`), so a sender changing its
+    state later never changes what was sent.
+    """
+
+    @property
+    @abstractmethod
+    def nbytes(self) -> int:
+        """Bytes a radio would send for this payload."""
+
+
+def frozen_array(value: Any, dtype: Any = float) -> np.ndarray:
+    """A read-only copy of ``value`` as an array of ``dtype`` (for payload fields)."""
+    a = np.array(value, dtype=dtype)
+    a.setflags(write=False)
+    return a
+
+
+@dataclass(frozen=True, eq=False)
+class ArrayPayload(Payload):
+    """Named arrays of numbers (a generic payload, e.g. what a learned policy broadcasts);
+    its size is the sum of the arrays' ``nbytes``."""
+
+    arrays: Mapping[str, np.ndarray]
+
+    def __post_init__(self) -> None:
+        out = {}
+        for k, v in self.arrays.items():
+            a = np.array(v)
+            if a.dtype.hasobject:
+                raise ValueError(f"payload field {k!r} is not an array of numbers")
+            a.setflags(write=False)
+            out[str(k)] = a
+        object.__setattr__(self, "arrays", out)
+
+    @property
+    def nbytes(self) -> int:
+        return int(sum(a.nbytes for a in self.arrays.values()))
+
+    def __getitem__(self, key: str) -> np.ndarray:
+        return self.arrays[key]
+
+    def __contains__(self, key: object) -> bool:
+        return key in self.arrays
+
+
 @dataclass(frozen=True, eq=False)
 class Message:
     """A payload broadcast by agent ``sender``; ``nbytes`` is charged once per recipient."""
 
     sender: int
-    payload: Mapping[str, np.ndarray]
+    payload: Payload
 
     @property
     def nbytes(self) -> int:
-        """Size of the payload's arrays in bytes (what a radio would send)."""
-        return int(sum(np.asarray(v).nbytes for v in self.payload.values()))
+        """The payload's declared size in bytes (what a radio would send)."""
+        return int(self.payload.nbytes)
 
 
 @dataclass(frozen=True, eq=False)
@@ -171,7 +226,7 @@ class Action:
     commands : sequence of Command or None
         One per controlled agent, in the order of :attr:`SearchContext.agent_ids`; ``None``
         keeps the agent's current command.
-    messages : dict of int to dict of str to ndarray
+    messages : dict of int to Payload
         Payload each agent (by id) broadcasts to its neighbours this step.
     declaration : Declaration, optional
         Shorthand for ``declarations=(declaration,)``.
@@ -183,14 +238,14 @@ class Action:
     """
 
     commands: Sequence[Command | None]
-    messages: Mapping[int, Mapping[str, np.ndarray]]
+    messages: Mapping[int, Payload]
     declarations: tuple[Declaration, ...]
     compute_bits: Mapping[int, float]
 
     def __init__(
         self,
         commands: Sequence[Command | None],
-        messages: Mapping[int, Mapping[str, np.ndarray]] | None = None,
+        messages: Mapping[int, Payload] | None = None,
         declaration: Declaration | None = None,
         declarations: Sequence[Declaration] = (),
         compute_bits: Mapping[int, float] | None = None,

@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
@@ -40,6 +41,7 @@ import numpy as np
 from odorloc.core.errors import ConfigError
 from odorloc.core.seeds import episode_generators
 from odorloc.core.types import Action, Declaration, Event, Message, Observation, SearchContext
+from odorloc.engine.metrics import EpisodeMetrics
 from odorloc.engine.recorder import Recorder, Recording
 from odorloc.platforms.team import CommGraph
 from odorloc.scenarios.build import Built, build, build_world, search_context
@@ -52,6 +54,7 @@ __all__ = [
     "EpisodeResult",
     "StepResult",
     "control_substeps",
+    "first_within",
     "prepare_world",
     "run_episode",
     "score_declaration",
@@ -168,9 +171,10 @@ class StepResult:
 
 @dataclass
 class EpisodeResult:
-    """Outcome of one episode: a flat metrics row, the recording, declarations and events."""
+    """Outcome of one episode: its metrics (core and extra columns, per-agent values), the
+    recording, declarations and events."""
 
-    metrics: dict[str, Any]
+    metrics: EpisodeMetrics
     recording: Recording | None = None
     declarations: list[Declaration] = field(default_factory=list)
     sources: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
@@ -441,21 +445,7 @@ class Episode:
         return obs
 
     def _first_within(self, positions: np.ndarray, radius: float) -> tuple[int, int] | None:
-        """The first (agent, source) pair, in agent-major order, closer than ``radius``.
-
-        Distances in Python floats, summed over the axes in order (as ``numpy.linalg.norm``
-        of the difference sums them): checked every step, where array calls on a few numbers
-        cost more than the arithmetic.
-        """
-        sources = self._source_rows
-        for k, p in enumerate(positions.tolist()):
-            for j, s in enumerate(sources):
-                acc = 0.0
-                for a, b in zip(p, s, strict=True):
-                    acc += (a - b) * (a - b)
-                if math.sqrt(acc) <= radius:
-                    return k, j
-        return None
+        return first_within(positions, self._source_rows, radius)
 
     def _stuck(self) -> bool:
         """Update the back-and-forth counters; ``True`` when every agent exceeds the limit.
@@ -525,11 +515,27 @@ class Episode:
         return StepResult([], events, terminated, not terminated, termination, self._t)
 
     # ------------------------------------------------------------------ outcome
-    def result(self, extra: dict[str, Any] | None = None) -> EpisodeResult:
-        """The metrics row (and recording) of the finished episode.
+    def result(
+        self,
+        extra: Mapping[str, Any] | None = None,
+        *,
+        agents: Mapping[int, Mapping[str, Any]] | None = None,
+        searcher_time: float | None = None,
+    ) -> EpisodeResult:
+        """The metrics (and recording) of the finished episode.
 
-        ``extra`` columns (e.g. a searcher's :meth:`~odorloc.searchers.base.Searcher.
-        final_metrics`) are added to the row.
+        Parameters
+        ----------
+        extra : mapping, optional
+            Extra columns (e.g. a searcher's :meth:`~odorloc.searchers.base.Searcher.
+            final_metrics`), added beside the episode's core columns; one named like a core
+            column is refused (:class:`~odorloc.engine.metrics.MetricsError`).
+        agents : mapping, optional
+            Per-agent values (a searcher's :meth:`~odorloc.searchers.base.Searcher.
+            agent_metrics`).
+        searcher_time : float, optional
+            Seconds the searcher spent choosing actions; adds the core column
+            ``searcher_fraction`` (its share of the wall time).
         """
         if not self._done:
             raise RuntimeError("the episode is not over yet")
@@ -585,15 +591,46 @@ class Episode:
                 totals[key] = totals.get(key, 0.0) + float(v)
         for key, v in totals.items():
             metrics[f"team_{key}"] = v
-        if extra:
-            metrics.update(extra)
+        if searcher_time is not None:
+            metrics["searcher_fraction"] = searcher_time / wall if wall > 0 else math.nan
+        record = EpisodeMetrics(metrics, extra, agents)
         recording = None
         if self._rec is not None:
             decl = Declaration(declared) if declared is not None else None
-            recording = self._rec.finish(metrics, decl, [e.as_dict() for e in self._events])
+            meta = record.row()
+            if record.agents:
+                meta["agent_metrics"] = {str(a): v for a, v in record.agents.items()}
+            recording = self._rec.finish(meta, decl, [e.as_dict() for e in self._events])
         return EpisodeResult(
-            metrics, recording, list(self._declarations), self.sources, list(self._events)
+            record, recording, list(self._declarations), self.sources, list(self._events)
         )
+
+
+def first_within(
+    positions: np.ndarray, sources: list[list[float]], radius: float
+) -> tuple[int, int] | None:
+    """The first ``(agent, source)`` pair, in agent-major order, within ``radius`` (metres).
+
+    Distances in Python floats, summed over the axes in order (as ``numpy.linalg.norm`` of the
+    difference sums them): checked every step, where array calls on a few numbers cost more
+    than the arithmetic.
+
+    Parameters
+    ----------
+    positions : (n, d) ndarray, metres
+        Agent positions.
+    sources : list of list of float
+        Source positions, one row each (as ``ndarray.tolist()`` gives them).
+    radius : float, metres
+    """
+    for k, p in enumerate(positions.tolist()):
+        for j, s in enumerate(sources):
+            acc = 0.0
+            for a, b in zip(p, s, strict=True):
+                acc += (a - b) * (a - b)
+            if math.sqrt(acc) <= radius:
+                return k, j
+    return None
 
 
 def run_episode(
@@ -630,9 +667,6 @@ def run_episode(
         action = agent.act(obs, rng)
         searcher_time += time.perf_counter() - ts
         obs = ep.step(action, agent).observations
-    res = ep.result(agent.final_metrics())
-    wall = res.metrics["wall_time"]
-    res.metrics["searcher_fraction"] = searcher_time / wall if wall > 0 else math.nan
-    if res.recording is not None:
-        res.recording.meta["searcher_fraction"] = res.metrics["searcher_fraction"]
-    return res
+    return ep.result(
+        agent.final_metrics(), agents=agent.agent_metrics(), searcher_time=searcher_time
+    )

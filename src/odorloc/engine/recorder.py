@@ -28,7 +28,8 @@ class Recording:
     detection : (K, A) bool ndarray
     wind : (K, A, d) ndarray, m/s (anemometer readings)
     diagnostics : dict of str to (K,) ndarray
-        Scalars the searcher reported each recorded step (entropy, ESS, ...).
+        Scalars the searcher reported each recorded step: numbers (entropy, ESS, ...; NaN where
+        not reported) or text (a phase name; ``""`` where not reported).
     beliefs : list of (t, dict of arrays)
         Belief snapshots (particles and weights, or grids); each carries ``agent`` (the agent
         holding it, -1 for a central belief). The last snapshots are those at the end.
@@ -155,7 +156,8 @@ class Recorder:
         self._gas: list[list[float]] = []
         self._det: list[list[bool]] = []
         self._wind: list[np.ndarray] = []
-        self._diag: dict[str, list[float]] = {}
+        self._diag: dict[str, list[Any]] = {}
+        self._text: set[str] = set()
         self._beliefs: list[tuple[float, dict[str, np.ndarray]]] = []
         self._plume_t: list[float] = []
         self._frames: list[np.ndarray] = []
@@ -184,8 +186,22 @@ class Recorder:
         self._wind.append(np.array([o.wind for o in obs]))
         diag = probe.diagnostics() if probe is not None else {}
         for k in set(self._diag) | set(diag):
-            col = self._diag.setdefault(k, [np.nan] * (len(self._t) - 1))
-            col.append(float(diag.get(k, np.nan)))
+            v = diag.get(k)
+            col = self._diag.get(k)
+            if col is None:
+                # a diagnostic is text (a phase name) or a number, decided by its first value
+                if isinstance(v, str):
+                    self._text.add(k)
+                col = self._diag[k] = [self._missing(k)] * (len(self._t) - 1)
+            if v is None:
+                col.append(self._missing(k))
+            elif isinstance(v, str) != (k in self._text):
+                raise TypeError(f"diagnostic {k!r} mixes text and numbers ({v!r})")
+            else:
+                col.append(v if k in self._text else float(v))
+
+    def _missing(self, key: str) -> Any:
+        return "" if key in self._text else np.nan
 
     def final_pose(self, t: float, obs: list[Any], probe: Any) -> None:
         """Record the observations an episode ended on after moving (a source reached, agents

@@ -521,6 +521,18 @@ class DaskBackend:
         """Workers currently connected to the scheduler."""
         return len(self._client.scheduler_info()["workers"]) if self._client else 0
 
+    @property
+    def client(self) -> Any:
+        """The ``distributed.Client`` while the backend is open (``None`` otherwise): to run
+        something of one's own on the same workers."""
+        return self._client
+
+    @property
+    def cluster(self) -> Any:
+        """The local cluster this backend started (``None`` when it joined a scheduler by
+        address, or once closed)."""
+        return self._cluster
+
     def run(
         self,
         tasks: Iterable[Any],

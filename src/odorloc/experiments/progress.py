@@ -97,6 +97,11 @@ class SweepProgress:
                         self._cell_tasks[c.cell_id], rate=self._rate(n, k, e), **kw
                     )
 
+    def counts(self, cell_id: str) -> tuple[int, int, int]:
+        """``(episodes, successes, errors)`` of a cell counted so far."""
+        n, k, e = self._counts.get(cell_id, (0, 0, 0))
+        return int(n), int(k), int(e)
+
     def advance(self, task: Any, row: dict) -> None:
         """Count one finished episode."""
         c = self._counts.setdefault(task.cell_id, [0, 0, 0])

@@ -206,7 +206,7 @@ def _finite_or_none(v: Any) -> float | None:
     return v if math.isfinite(v) else None
 
 
-def _paper_section(summ: Any, reference: Mapping[str, Mapping[str, Any]]) -> str:
+def paper_section(summ: Any, reference: Mapping[str, Mapping[str, Any]]) -> str:
     rows = []
     for key, ref in reference.items():
         match = summ[(summ["cell_id"] == key) | (summ["searcher"] == key)]
@@ -699,7 +699,7 @@ def write_report(
             if paired:
                 body.append(_guarded("paired comparisons", _paired_section, df, level, seed))
             if reference:
-                body.append(_guarded("paper comparison", _paper_section, summ, reference))
+                body.append(_guarded("paper comparison", paper_section, summ, reference))
             figs: list[str] = []
             for name, fn, args in (
                 ("parameter figures", _param_figures, (summ, level)),

@@ -1,7 +1,10 @@
 """The common shape of a paper reproduction: a stored sweep, tables beside the paper, figures.
 
 A reproduction (registry family ``"reproduction"``) lives in its paper package
-(``odorloc/papers/<paper>/reproduction.py``) and subclasses :class:`Reproduction`:
+(``odorloc/papers/<paper>/reproduction.py``) and subclasses :class:`Reproduction`. The core
+registry does not search the papers: this module adds ``odorloc.papers`` to its discovery
+(:func:`discover`) when a reproduction is asked for, and then only the modules that register a
+reproduction are imported.
 
 - :meth:`Reproduction.sweep` gives the sweep (scenarios x searchers x grids x episodes, the
   ``replay`` option for record-once/replay-many); it runs through the ordinary harness, so it is
@@ -30,10 +33,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, ClassVar
 
+from odorloc.core import registry
 from odorloc.core.errors import ConfigError
 from odorloc.core.loading import check_output_dir
 from odorloc.core.params import Params
-from odorloc.core.registry import entry, names
 
 __all__ = [
     "CONSOLE_WIDTH",
@@ -42,6 +45,7 @@ __all__ = [
     "ReproductionParams",
     "Table",
     "console_table",
+    "discover",
     "fmt",
     "get",
     "names_of_reproductions",
@@ -219,7 +223,7 @@ class Reproduction:
         from rich.console import Console
 
         from odorloc.experiments.report import ReportSection, write_report
-        from odorloc.experiments.store import ResultStore
+        from odorloc.experiments.store import ResultStore, agent_dicts, agent_table, agents_path
         from odorloc.experiments.sweep import load_sweep, run_sweep
 
         if episodes is not None and int(episodes) < 1:
@@ -264,13 +268,19 @@ class Reproduction:
             if len(part):
                 part = part[part["episode"] < spec.episodes].copy()
                 part["sweep"] = name
+                with ResultStore(path, readonly=True) as held:
+                    part["agents"] = agent_dicts(held.agent_frame(), part)
                 frames.append(part)
         wall = time.perf_counter() - t0
         df = pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
         outcome = Outcome(results=df, wall_time=wall, stores=stores)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            df.to_csv(out / "results.csv", index=False)
+            flat = df.drop(columns=["agents"], errors="ignore")
+            flat.to_csv(out / "results.csv", index=False)
+            long = agent_table(df)
+            if len(long):
+                long.to_csv(agents_path(out / "results.csv"), index=False)
         try:
             tables = self.tables(df, seed)
         except Exception:  # the stored rows stay; say what failed
@@ -396,12 +406,23 @@ def console_table(tab: Table) -> Any:
     return rt
 
 
+#: The package whose paper packages hold the reproductions.
+PAPERS_PACKAGE = "odorloc.papers"
+
+
+def discover() -> None:
+    """Let the registry find the reproductions (and whatever else) registered by the papers."""
+    registry.include(PAPERS_PACKAGE)
+
+
 def names_of_reproductions() -> list[str]:
     """Registered reproduction names."""
-    return names("reproduction")
+    discover()
+    return registry.names("reproduction")
 
 
 def get(name: str) -> Reproduction:
     """A reproduction by name; :class:`ConfigError` naming it if unknown."""
-    e = entry("reproduction", name, field="paper")
+    discover()
+    e = registry.entry("reproduction", name, field="paper")
     return e.build(ReproductionParams())

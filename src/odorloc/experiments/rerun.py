@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -171,12 +172,21 @@ def _few(items: list[str], n: int = 4) -> str:
     return shown + (f", ... ({len(items)} in all)" if len(items) > n else "")
 
 
-def rerun(stored: StoredEpisode, record: bool = True) -> tuple[Any, Any]:
-    """Run the stored episode again; returns ``(scenario, EpisodeResult)``."""
+def rerun(
+    stored: StoredEpisode, record: bool = True, recording: Mapping[str, Any] | None = None
+) -> tuple[Any, Any]:
+    """Run the stored episode again; returns ``(scenario, EpisodeResult)``.
+
+    ``recording`` overrides the scenario's recording settings (e.g. ``{"belief_stride": 1}``
+    to keep every belief, which a batch does not); they change what is kept, never the
+    episode.
+    """
     from odorloc.engine.episode import run_episode
     from odorloc.experiments.runner import cell_scenario
 
     sc = cell_scenario(stored.cell)
+    if recording:
+        sc = sc.model_copy(update={"recording": sc.recording.model_copy(update=dict(recording))})
     if not stored.replay:
         return sc, run_episode(sc, stored.world_seed, stored.agent_seed, record=record)
     from odorloc.engine.replay import on_replay, record_flow

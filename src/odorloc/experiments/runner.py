@@ -19,6 +19,7 @@ from typing import Any
 from odorloc.core.errors import ConfigError
 from odorloc.engine.episode import EpisodeResult, run_episode
 from odorloc.engine.replay import on_replay, record_flow
+from odorloc.experiments.store import AGENT_METRICS
 from odorloc.scenarios import Scenario, get_scenario
 
 log = logging.getLogger("odorloc.runner")
@@ -98,6 +99,17 @@ def _light_recording(sc: Scenario) -> Scenario:
     )
 
 
+def result_row(res: EpisodeResult) -> dict[str, Any]:
+    """The stored row of a finished episode: the defaults, its metrics (core and extra
+    columns), its per-agent values under :data:`~odorloc.experiments.store.AGENT_METRICS` and
+    ``status="ok"``."""
+    row = dict(ROW_DEFAULTS)
+    row.update(res.metrics.row())
+    row[AGENT_METRICS] = res.metrics.agents
+    row.update(status="ok", error="")
+    return row
+
+
 def _error_row(cell: dict[str, Any], exc: Exception, t0: float) -> dict[str, Any]:
     tb = traceback.format_exc()
     log.error("episode failed (cell %s): %s\n%s", cell, exc, tb)
@@ -122,8 +134,7 @@ def run_cell_episode(
         if keep_arrays:
             sc = _light_recording(sc)
         res = run_episode(sc, world_seed, agent_seed, record=keep_arrays)
-        row.update(res.metrics)
-        row.update(status="ok", error="")
+        row = result_row(res)
         if keep_arrays and res.recording is not None:
             row["arrays"] = res.recording.to_arrays()
     except Exception as exc:  # one bad episode must not stop a batch
@@ -202,19 +213,19 @@ def run_replay_group(
                 built=built,
                 record=record or task.keep_arrays,
             )
-            row = dict(ROW_DEFAULTS)
-            row.update(res.metrics)
-            row.update(
-                status="ok",
-                error="",
-                replay=True,
-                movie_wall_time=movie_wall,
-                movie_cpu_time=movie_cpu,
-                group_size=len(tasks),
-                cpu_time=time.process_time() - c1,
+            res.metrics.add(
+                {
+                    "replay": True,
+                    "movie_wall_time": movie_wall,
+                    "movie_cpu_time": movie_cpu,
+                    "group_size": len(tasks),
+                    "cpu_time": time.process_time() - c1,
+                },
+                source="replay",
             )
             if extras is not None:
-                row.update(extras(task, res, by_cell))
+                res.metrics.add(extras(task, res, by_cell), source="extras")
+            row = result_row(res)
             if task.keep_arrays and res.recording is not None:
                 row["arrays"] = res.recording.to_arrays()
         except Exception as exc:  # one bad episode must not stop the group
@@ -222,6 +233,55 @@ def run_replay_group(
         by_cell[task.cell_id] = row
         rows.append(row)
     return rows
+
+
+def run_live_group(
+    tasks: Sequence[Any], *, prepare: Callable[[Scenario, Any], Scenario] | None = None
+) -> list[dict[str, Any]]:
+    """Run a group of tasks one after another on live worlds (no recorded flow), each
+    scenario adjusted by ``prepare(scenario, task)``: the counterpart of
+    :func:`run_replay_group` for a group function whose worlds are not replayed (a steady
+    analytic plume, or one a replay cannot stand for). Rows as :func:`run_cell_episode`'s."""
+    rows = []
+    for task in tasks:
+        t0 = time.perf_counter()
+        try:
+            sc = cell_scenario(task.cell)
+            if prepare is not None:
+                sc = prepare(sc, task)
+            res = run_episode(sc, task.world_seed, task.agent_seed, record=task.keep_arrays)
+            row = result_row(res)
+            if task.keep_arrays and res.recording is not None:
+                row["arrays"] = res.recording.to_arrays()
+        except Exception as exc:  # one bad episode must not stop the group
+            row = _error_row(task.cell, exc, t0)
+        rows.append(row)
+    return rows
+
+
+def run_with_reference(
+    tasks: Sequence[Any],
+    is_reference: Callable[[Any], bool],
+    make_reference: Callable[[Any], Any],
+    **replay: Any,
+) -> list[dict[str, Any]]:
+    """A replay group (:func:`run_replay_group`, with ``replay``'s options) whose reference
+    task runs first, so that ``extras`` of the others can read its row.
+
+    The rows come back in the order of ``tasks``. When the group holds no reference task (a
+    resumed run that stored it already), ``make_reference(any task)`` builds one; it runs first
+    and its row is not returned (nothing is stored twice).
+    """
+    order = sorted(range(len(tasks)), key=lambda i: not is_reference(tasks[i]))
+    ordered = [tasks[i] for i in order]
+    if ordered and not is_reference(ordered[0]):
+        rows = run_replay_group([make_reference(ordered[0]), *ordered], **replay)[1:]
+    else:
+        rows = run_replay_group(ordered, **replay)
+    back: list[dict[str, Any]] = [{}] * len(tasks)
+    for i, r in zip(order, rows, strict=True):
+        back[i] = r
+    return back
 
 
 def replay_group(tasks: Sequence[Any]) -> list[dict[str, Any]]:

@@ -22,7 +22,7 @@ give an interval of zero width.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Any, Literal
 
 import numpy as np
@@ -166,6 +166,23 @@ def _ok(df: Any) -> Any:
     return df[df["status"] != "error"]
 
 
+def _success_columns(g: Any, ok: Any, level: float) -> dict[str, Any]:
+    """``n`` (episodes without error), ``errors``, ``successes``, ``success_rate`` and its
+    Wilson interval ``success_lo``/``success_hi`` of a group ``g`` whose rows without error are
+    ``ok``."""
+    n = len(ok)
+    k = int(ok["success"].fillna(False).astype(bool).sum())
+    lo, hi = wilson_interval(k, n, level)
+    return {
+        "n": n,
+        "errors": int(len(g) - n),
+        "successes": k,
+        "success_rate": k / n if n else math.nan,
+        "success_lo": lo,
+        "success_hi": hi,
+    }
+
+
 def _times(ok: Any, time_over: str) -> np.ndarray:
     if time_over == "success":
         ok = ok[ok["success"].fillna(False).astype(bool)]
@@ -215,9 +232,7 @@ def summarize(
     swept_cols = [c for c in df.columns if c.startswith(("scenario.", "searcher."))]
     for i, (cid, g) in enumerate(df.sort_values([order, "episode"]).groupby("cell_id", sort=False)):
         ok = _ok(g)
-        n = len(ok)
-        k = int(ok["success"].fillna(False).astype(bool).sum())
-        lo, hi = wilson_interval(k, n, level)
+        success = _success_columns(g, ok, level)
         t = _times(ok, time_over)
         cidx = int(g["cell_index"].iloc[0]) if "cell_index" in g.columns else i
         rng = _cell_rng(seed, cidx)
@@ -229,12 +244,7 @@ def summarize(
             "world_key": g["world_key"].iloc[0] if "world_key" in g.columns else "",
             "scenario": g["scenario"].iloc[0] if "scenario" in g.columns else "",
             "searcher": g["searcher"].iloc[0] if "searcher" in g.columns else "",
-            "n": n,
-            "errors": int(len(g) - n),
-            "successes": k,
-            "success_rate": k / n if n else math.nan,
-            "success_lo": lo,
-            "success_hi": hi,
+            **success,
             "mean_time": float(np.mean(t)) if t.size else math.nan,
             "mean_time_lo": mlo,
             "mean_time_hi": mhi,
@@ -249,6 +259,77 @@ def summarize(
             row[c] = g[c].iloc[0]
         out.append(row)
     return pd.DataFrame(out)
+
+
+def outcome_table(
+    df: Any, by: Sequence[str] = ("scenario", "searcher"), seed: int = 0, level: float = 0.95
+) -> Any:
+    """One row per group of ``by`` (in order of appearance): success and what the successes
+    cost.
+
+    Columns: the ``by`` columns, ``n`` (episodes without error), ``errors``, ``successes``,
+    ``success_rate`` with its Wilson interval ``success_lo``/``success_hi``, ``mean_time`` (s)
+    and ``mean_path`` (m) of the successful episodes with their bootstrap intervals
+    (``time_lo``/``time_hi``, ``path_lo``/``path_hi``; NaN for fewer than two successes) and
+    ``detected`` (fraction of episodes with a first detection). Group ``i`` bootstraps from
+    ``default_rng([seed, i])``, times first, so a table is reproducible to the last digit.
+    """
+    import pandas as pd
+
+    rows = []
+    for key, g in df.groupby(list(by), sort=False):
+        ok = _ok(g)
+        success = _success_columns(g, ok, level)
+        n = success["n"]
+        succ = ok[ok["success"].fillna(False).astype(bool)]
+        rng = np.random.default_rng([seed, len(rows)])
+        t = succ["search_time"].to_numpy(float)
+        p = succ["path_length"].to_numpy(float)
+        tl, th = bootstrap_ci(t, rng, level=level)
+        pl, ph = bootstrap_ci(p, rng, level=level)
+        first = ok["first_detection_time"].astype(float)
+        rows.append(
+            {
+                **dict(zip(by, key if isinstance(key, tuple) else (key,), strict=True)),
+                **success,
+                "mean_time": float(t.mean()) if t.size else math.nan,
+                "time_lo": tl,
+                "time_hi": th,
+                "mean_path": float(p.mean()) if p.size else math.nan,
+                "path_lo": pl,
+                "path_hi": ph,
+                "detected": float(np.isfinite(first).mean()) if n else math.nan,
+            }
+        )
+    return pd.DataFrame(rows, columns=[*by, *OUTCOME_COLUMNS])
+
+
+#: Columns of :func:`outcome_table` after its ``by`` columns.
+OUTCOME_COLUMNS = (
+    "n",
+    "errors",
+    "successes",
+    "success_rate",
+    "success_lo",
+    "success_hi",
+    "mean_time",
+    "time_lo",
+    "time_hi",
+    "mean_path",
+    "path_lo",
+    "path_hi",
+    "detected",
+)
+
+
+def mean_sd(x: Any) -> tuple[float, float]:
+    """Mean and sample standard deviation of the finite values of ``x`` (``(nan, nan)`` for
+    none; a standard deviation of 0 for one value)."""
+    a = np.asarray(x, float)
+    a = a[np.isfinite(a)]
+    if a.size == 0:
+        return math.nan, math.nan
+    return float(a.mean()), float(a.std(ddof=1)) if a.size > 1 else 0.0
 
 
 def _nanmean(df: Any, col: str) -> float:
@@ -351,6 +432,21 @@ def paired_comparison(
             raise ConfigError(
                 "cells", f"{cell_a!r} and {cell_b!r} do not share worlds ({wa} vs {wb})"
             )
+    return _paired(ga, gb, cell_a, cell_b, metric, test, level, seed, n_boot)
+
+
+def _paired(
+    ga: Any,
+    gb: Any,
+    cell_a: str,
+    cell_b: str,
+    metric: str,
+    test: Literal["wilcoxon", "t"],
+    level: float,
+    seed: int,
+    n_boot: int,
+) -> dict[str, Any]:
+    """:func:`paired_comparison` of two cells' episodes without errors, indexed by episode."""
     common = ga.index.intersection(gb.index).sort_values()
     a = ga.loc[common, metric].astype(float).to_numpy()
     b = gb.loc[common, metric].astype(float).to_numpy()
@@ -404,12 +500,16 @@ def compare_searchers(
     rows = []
     order = "cell_index" if "cell_index" in df.columns else "cell_id"
     cells = df.sort_values(order).drop_duplicates("cell_id")[["cell_id", "world_key"]]
+    # each cell's episodes split off once (not once per pair and metric)
+    frames = {cid: _ok(g).set_index("episode") for cid, g in df.groupby("cell_id", sort=False)}
     for wk, g in cells.groupby("world_key", sort=False):
         ids = list(g["cell_id"])
         for i in range(len(ids)):
             for j in range(i + 1, len(ids)):
                 for m in metrics:
-                    r = paired_comparison(df, ids[i], ids[j], m, test, level, seed)
+                    r = _paired(
+                        frames[ids[i]], frames[ids[j]], ids[i], ids[j], m, test, level, seed, 2000
+                    )
                     r["world_key"] = wk
                     rows.append(r)
     return pd.DataFrame(rows)

@@ -24,8 +24,17 @@ Tables
     ``path_length`` m, ``loc_error`` m, ``first_detection_time`` s, ``energy`` J, ``bytes``,
     ``steps``, ``termination``, ``start_distance`` m), ``status``, ``error``, ``wall_time`` s and
     any further numeric metrics as JSON in ``extra``.
+``agent_metrics(cell_id, episode, agent, key, value)``
+    values that belong to one agent of a team (a UAV's cue count, a group's declaration time),
+    one row per agent and metric beside the episode row (:meth:`ResultStore.agent_frame`);
+    never folded into ``key_<agent>`` column names.
 ``arrays``
     optional per-episode arrays (trajectories, beliefs) as ``.npz`` bytes.
+
+Stores of schema 1 (written before per-agent values had their table) kept them in ``extra``
+as ``key`` (the first member) and ``key_<agent>`` (the others); they are read through
+:func:`split_legacy_extra`, the one place that knows that naming, and migrated in place the first
+time such a store is opened for writing (a resumed sweep).
 
 Query with DuckDB either through :meth:`ResultStore.duckdb` (no extension needed) or, where
 DuckDB's ``sqlite`` extension is installed,
@@ -47,7 +56,7 @@ import numpy as np
 
 from odorloc.core.errors import ConfigError
 
-SCHEMA_VERSION = "1"
+SCHEMA_VERSION = "2"
 
 STANDARD_METRICS: dict[str, str] = {
     "success": "INTEGER",
@@ -88,7 +97,10 @@ VOLATILE_COLUMNS = (
 )
 """Columns that legitimately differ between two runs of the same sweep."""
 
-_RESERVED = {"status", "error", "wall_time", "arrays", "traceback"}
+AGENT_METRICS = "agent_metrics"
+"""Row key (and table name) of the per-agent values: ``{agent id: {key: value}}`` in a row."""
+
+_RESERVED = {"status", "error", "wall_time", "arrays", "traceback", AGENT_METRICS}
 
 
 def connect_readonly(path: Path) -> sqlite3.Connection:
@@ -126,6 +138,14 @@ CREATE TABLE IF NOT EXISTS episodes (
   finished_at REAL,
   UNIQUE (cell_id, episode)
 );
+CREATE TABLE IF NOT EXISTS agent_metrics (
+  cell_id TEXT NOT NULL,
+  episode INTEGER NOT NULL,
+  agent INTEGER NOT NULL,
+  key TEXT NOT NULL,
+  value REAL,
+  PRIMARY KEY (cell_id, episode, agent, key)
+);
 CREATE TABLE IF NOT EXISTS arrays (
   cell_id TEXT NOT NULL,
   episode INTEGER NOT NULL,
@@ -158,6 +178,35 @@ def _error_text(row: Mapping[str, Any]) -> str:
 def _finite_or_none(v: Any) -> Any:
     v = _num(v)
     return None if isinstance(v, float) and not math.isfinite(v) else v
+
+
+def _is_number(v: Any) -> bool:
+    return isinstance(v, int | float | bool | np.generic)
+
+
+def split_legacy_extra(
+    extra: Mapping[str, Any],
+) -> tuple[dict[str, Any], dict[int, dict[str, Any]]]:
+    """Episode columns and per-agent values of a schema-1 row's ``extra``.
+
+    Schema-1 teams wrote their first member's values as ``key`` and the others' as
+    ``key_<agent>``; a column ``key_<n>`` is read as agent ``n``'s value of ``key`` when the row
+    also has ``key`` (which then is agent 0's). Indexed columns without such a base (the times
+    sources were found, ``found_time_0``; per-peak values) stay episode columns.
+    """
+    suffixed: dict[str, tuple[str, int]] = {}
+    for k in extra:
+        base, sep, tail = k.rpartition("_")
+        if sep and tail.isdigit() and base in extra:
+            suffixed[k] = (base, int(tail))
+    bases = {b for b, _ in suffixed.values()}
+    agents: dict[int, dict[str, Any]] = {}
+    for base in sorted(bases):
+        agents.setdefault(0, {})[base] = extra[base]
+    for k, (base, a) in suffixed.items():
+        agents.setdefault(a, {})[base] = extra[k]
+    rest = {k: v for k, v in extra.items() if k not in bases and k not in suffixed}
+    return rest, {a: agents[a] for a in sorted(agents)}
 
 
 def arrays_to_npz(arrays: Mapping[str, Any]) -> bytes:
@@ -204,6 +253,56 @@ class ResultStore:
             self._con.execute("PRAGMA synchronous=NORMAL")
             self._con.executescript(_create_sql())
             self._con.commit()
+            if self.legacy:
+                self._migrate()
+
+    @property
+    def schema(self) -> str:
+        """The store's schema version (``"1"``: per-agent values still in ``extra``)."""
+        tables = {r[0] for r in self._con.execute("SELECT name FROM sqlite_master")}
+        if "meta" not in tables:
+            return SCHEMA_VERSION
+        got = self._con.execute("SELECT value FROM meta WHERE key = 'schema'").fetchone()
+        if got is not None:
+            return str(got[0])
+        return SCHEMA_VERSION if "agent_metrics" in tables else "1"
+
+    @property
+    def legacy(self) -> bool:
+        """Whether the store was written with schema 1 (read through
+        :func:`split_legacy_extra`)."""
+        return self.schema == "1" and len(self) > 0
+
+    def _migrate(self) -> None:
+        """Move a schema-1 store's per-agent values from ``extra`` to ``agent_metrics``."""
+        rows = self._con.execute("SELECT cell_id, episode, extra FROM episodes").fetchall()
+        with self._con:
+            for cell_id, episode, extra in rows:
+                rest, agents = split_legacy_extra(json.loads(extra) if extra else {})
+                if not agents:
+                    continue
+                self._con.execute(
+                    "UPDATE episodes SET extra = ? WHERE cell_id = ? AND episode = ?",
+                    (json.dumps(rest, sort_keys=True) if rest else None, cell_id, episode),
+                )
+                self._insert_agents(cell_id, episode, agents)
+            self._con.execute(
+                "INSERT OR REPLACE INTO meta (key, value) VALUES ('schema', ?)", (SCHEMA_VERSION,)
+            )
+
+    def _insert_agents(
+        self, cell_id: str, episode: int, agents: Mapping[int, Mapping[str, Any]]
+    ) -> None:
+        self._con.executemany(
+            "INSERT OR REPLACE INTO agent_metrics (cell_id, episode, agent, key, value) "
+            "VALUES (?, ?, ?, ?, ?)",
+            [
+                (cell_id, int(episode), int(a), str(k), _finite_or_none(v))
+                for a, values in agents.items()
+                for k, v in values.items()
+                if _is_number(v)
+            ],
+        )
 
     # ------------------------------------------------------------------ lifecycle
     def _check_existing(self) -> None:
@@ -326,9 +425,7 @@ class ResultStore:
         extra = {
             k: _finite_or_none(v)
             for k, v in row.items()
-            if k not in STANDARD_METRICS
-            and k not in _RESERVED
-            and isinstance(v, int | float | bool | np.generic)
+            if k not in STANDARD_METRICS and k not in _RESERVED and _is_number(v)
         }
         values: dict[str, Any] = {
             "cell_index": task.cell_index,
@@ -359,6 +456,9 @@ class ResultStore:
                 f"INSERT OR IGNORE INTO episodes ({cols}) VALUES ({marks})", values
             )
             inserted = cur.rowcount == 1
+            agents = row.get(AGENT_METRICS)
+            if inserted and agents:
+                self._insert_agents(task.cell_id, task.episode, agents)
             arrays = row.get("arrays")
             if inserted and arrays:
                 self._con.execute(
@@ -371,10 +471,11 @@ class ResultStore:
         """Remove episodes stored with status ``"error"`` so they run again; returns the count."""
         with self._con:
             cur = self._con.execute("DELETE FROM episodes WHERE status = 'error'")
-            self._con.execute(
-                "DELETE FROM arrays WHERE NOT EXISTS (SELECT 1 FROM episodes e "
-                "WHERE e.cell_id = arrays.cell_id AND e.episode = arrays.episode)"
-            )
+            for table in ("arrays", "agent_metrics"):
+                self._con.execute(
+                    f"DELETE FROM {table} WHERE NOT EXISTS (SELECT 1 FROM episodes e "
+                    f"WHERE e.cell_id = {table}.cell_id AND e.episode = {table}.episode)"
+                )
         return cur.rowcount
 
     # ------------------------------------------------------------------ reading
@@ -400,7 +501,7 @@ class ResultStore:
     def __len__(self) -> int:
         return int(self._con.execute("SELECT COUNT(*) FROM episodes").fetchone()[0])
 
-    def frame(self, volatile: bool = True, expand: bool = True) -> Any:
+    def frame(self, volatile: bool = True, expand: bool = True, agents: bool = False) -> Any:
         """All episodes as a pandas DataFrame ordered by cell, episode.
 
         Parameters
@@ -410,6 +511,10 @@ class ResultStore:
         expand : bool
             Spread ``extra`` metrics into their own columns and add one column per swept
             parameter (``scenario.<key>``, ``searcher.<key>``).
+        agents : bool
+            Add the column ``agents``: each episode's per-agent values as a dict ``{agent id:
+            {key: value}}`` (empty for episodes without any; see :meth:`agent_frame` for the
+            long table).
         """
         import pandas as pd
 
@@ -429,11 +534,47 @@ class ResultStore:
                 df[k] = df[k].astype("Int64")
         df["wall_time"] = df["wall_time"].astype(float)
         df["finished_at"] = df["finished_at"].astype(float)
+        if self.legacy:
+            df["extra"] = [
+                json.dumps(split_legacy_extra(json.loads(x))[0], sort_keys=True)
+                if isinstance(x, str) and x
+                else x
+                for x in df["extra"]
+            ]
+        if agents:
+            df["agents"] = agent_dicts(self.agent_frame(), df)
         if expand:
             df = expand_frame(df)
         if not volatile:
             df = df.drop(columns=[c for c in VOLATILE_COLUMNS if c in df.columns])
         return df.reset_index(drop=True)
+
+    def agent_frame(self) -> Any:
+        """The per-agent values as a long table: columns ``cell_id, episode, agent, key,
+        value``, ordered by cell, episode, agent and key (one row per agent and metric)."""
+        import pandas as pd
+
+        if self.legacy:
+            rows = []
+            q = "SELECT cell_id, episode, extra FROM episodes ORDER BY cell_index, episode"
+            for cell_id, episode, extra in self._con.execute(q):
+                _, agents = split_legacy_extra(json.loads(extra) if extra else {})
+                rows += [
+                    (cell_id, int(episode), a, k, v)
+                    for a, values in agents.items()
+                    for k, v in sorted(values.items())
+                ]
+        else:
+            rows = self._con.execute(
+                "SELECT m.cell_id, m.episode, m.agent, m.key, m.value FROM agent_metrics m "
+                "JOIN episodes e ON m.cell_id = e.cell_id AND m.episode = e.episode "
+                "ORDER BY e.cell_index, m.episode, m.agent, m.key"
+            ).fetchall()
+        df = pd.DataFrame(rows, columns=list(AGENT_COLUMNS))
+        df["episode"] = df["episode"].astype(int)
+        df["agent"] = df["agent"].astype(int)
+        df["value"] = df["value"].astype(float)
+        return df
 
     def arrays(self, cell_id: str, episode: int) -> dict[str, np.ndarray] | None:
         """Stored arrays of one episode, or ``None``."""
@@ -452,17 +593,25 @@ class ResultStore:
 
     # ------------------------------------------------------------------ export
     def to_csv(self, path: str | Path) -> Path:
-        """Write the episode table as CSV; returns the path."""
+        """Write the episode table as CSV, and the per-agent table (when there are per-agent
+        values) beside it as :func:`agents_path`; returns the episode table's path."""
         path = Path(path)
         self.frame().to_csv(path, index=False)
+        agents = self.agent_frame()
+        if len(agents):
+            agents.to_csv(agents_path(path), index=False)
         return path
 
     def to_parquet(self, path: str | Path) -> Path:
-        """Write the episode table as Parquet (needs pyarrow); returns the path."""
+        """Write the episode table as Parquet (needs pyarrow), and the per-agent table beside
+        it as :func:`agents_path`; returns the episode table's path."""
         path = Path(path)
         df = self.frame()
         df["success"] = df["success"].astype("boolean")
         df.to_parquet(path, index=False)
+        agents = self.agent_frame()
+        if len(agents):
+            agents.to_parquet(agents_path(path), index=False)
         return path
 
     def duckdb(self) -> Any:
@@ -477,7 +626,63 @@ class ResultStore:
             raise ConfigError("duckdb", "install the extra: pip install 'odorloc[duckdb]'") from exc
         con = duckdb.connect()
         con.register("episodes", self.frame())
+        con.register("agent_metrics", self.agent_frame())
         return con
+
+
+AGENT_COLUMNS = ("cell_id", "episode", "agent", "key", "value")
+"""Columns of the per-agent table (:meth:`ResultStore.agent_frame`, the ``*_agents`` exports)."""
+
+
+def agents_path(path: str | Path) -> Path:
+    """Where an export of the episode table at ``path`` puts the per-agent table
+    (``results.csv`` -> ``results_agents.csv``)."""
+    p = Path(path)
+    return p.with_name(f"{p.stem}_agents{p.suffix}")
+
+
+def agent_dicts(agents: Any, episodes: Any) -> list[dict[int, dict[str, float]]]:
+    """For each row of ``episodes`` (columns ``cell_id, episode``), its per-agent values from
+    the long table ``agents`` as ``{agent id: {key: value}}`` (empty when it has none)."""
+    by: dict[tuple[str, int], dict[int, dict[str, float]]] = {}
+    for c, e, a, k, v in agents[list(AGENT_COLUMNS)].itertuples(index=False, name=None):
+        by.setdefault((str(c), int(e)), {}).setdefault(int(a), {})[str(k)] = float(v)
+    return [
+        by.get((str(c), int(e)), {})
+        for c, e in episodes[["cell_id", "episode"]].itertuples(index=False, name=None)
+    ]
+
+
+def agent_table(episodes: Any) -> Any:
+    """The long per-agent table (:data:`AGENT_COLUMNS`, plus ``sweep`` when ``episodes`` has
+    it) of an episode frame that carries the ``agents`` column."""
+    import pandas as pd
+
+    cols = list(AGENT_COLUMNS) + (["sweep"] if "sweep" in episodes.columns else [])
+    if "agents" not in episodes.columns or not len(episodes):
+        return pd.DataFrame(columns=cols)
+    keys = ["cell_id", "episode"] + (["sweep"] if "sweep" in episodes.columns else [])
+    rows = [
+        (*ids[:2], a, k, v, *ids[2:])
+        for *ids, d in episodes[[*keys, "agents"]].itertuples(index=False, name=None)
+        for a, values in sorted((d or {}).items())
+        for k, v in sorted(values.items())
+    ]
+    return pd.DataFrame(rows, columns=cols)
+
+
+def agent_values(episodes: Any, key: str) -> Any:
+    """One per-agent metric of each episode as a frame: rows as ``episodes`` (which carries the
+    ``agents`` column of :meth:`ResultStore.frame`), one column per agent id (NaN where an
+    agent has no such value)."""
+    import pandas as pd
+
+    recs = [
+        {a: v[key] for a, v in (d or {}).items() if key in v}
+        for d in episodes.get("agents", pd.Series([{}] * len(episodes), index=episodes.index))
+    ]
+    out = pd.DataFrame.from_records(recs, index=episodes.index)
+    return out.reindex(columns=sorted(out.columns)).astype(float)
 
 
 def expand_frame(df: Any) -> Any:

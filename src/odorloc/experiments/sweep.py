@@ -66,7 +66,7 @@ import hashlib
 import itertools
 import json
 import math
-from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
@@ -852,13 +852,3 @@ def run_sweep(
 
         print_summary(df)
     return df
-
-
-def iter_rows_sequential(
-    tasks: Iterable[EpisodeTask], episode_fn: EpisodeFn
-) -> Iterable[tuple[EpisodeTask, dict]]:
-    """Run tasks one after another in this process (reference for the other backends)."""
-    from odorloc.experiments.backends import execute_task
-
-    for t in tasks:
-        yield t, execute_task(episode_fn, t, keep_arrays=True)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from odorloc.geometry.arena import Arena, as_points
 from odorloc.geometry.grid import CellGrid, multilinear
-from odorloc.geometry.regions import check_region, resolve_region
+from odorloc.geometry.regions import check_region, narrow_box, resolve_region, task_region
 from odorloc.geometry.vectors import (
     directions_26,
     fan,
@@ -26,9 +26,11 @@ __all__ = [
     "heading_vector",
     "lattice_moves",
     "multilinear",
+    "narrow_box",
     "resolve_region",
     "ring",
     "rotate2",
+    "task_region",
     "upwind_unit",
     "wrap_angle",
 ]

@@ -6,13 +6,16 @@ import math
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
+import numpy as np
+from numpy.typing import ArrayLike
+
 from odorloc.core.errors import ConfigError
 from odorloc.core.types import Region
 
 if TYPE_CHECKING:
     from odorloc.core.types import SearchContext
 
-__all__ = ["check_region", "resolve_region"]
+__all__ = ["check_region", "narrow_box", "resolve_region", "task_region"]
 
 
 def check_region(region: Sequence[Sequence[float]], field: str = "region") -> Region:
@@ -36,6 +39,18 @@ def check_region(region: Sequence[Sequence[float]], field: str = "region") -> Re
     return lo, hi
 
 
+def task_region(
+    ctx: SearchContext, region: Sequence[Sequence[float]] | None = None
+) -> Region | None:
+    """The region a component works in: its own ``region`` (checked, named
+    ``searcher.region``), else the task's search region, else ``None`` (no restriction)."""
+    if region is not None:
+        return check_region(region, "searcher.region")
+    if ctx.search_region is not None:
+        return check_region(ctx.search_region, "task.region")
+    return None
+
+
 def resolve_region(
     ctx: SearchContext, region: Sequence[Sequence[float]] | None = None, dims: int = 2
 ) -> Region:
@@ -43,10 +58,36 @@ def resolve_region(
 
     Only the first ``dims`` axes are returned (2: a horizontal region).
     """
-    if region is not None:
-        lo, hi = check_region(region, "searcher.region")
-    elif ctx.search_region is not None:
-        lo, hi = check_region(ctx.search_region, "task.region")
-    else:
-        lo, hi = tuple(ctx.arena.lower), tuple(ctx.arena.upper)
+    box = task_region(ctx, region)
+    lo, hi = box if box is not None else (tuple(ctx.arena.lower), tuple(ctx.arena.upper))
     return tuple(lo[:dims]), tuple(hi[:dims])
+
+
+def narrow_box(
+    lower: ArrayLike,
+    upper: ArrayLike,
+    region: Sequence[Sequence[float]] | None,
+    field: str = "region",
+) -> tuple[np.ndarray, np.ndarray]:
+    """The box ``[lower, upper]`` narrowed to ``region`` on the region's axes, ``(d,)`` each.
+
+    A region with fewer components than the box (a horizontal region of a 3-D arena) keeps the
+    box's extent on the other axes; ``None`` keeps the whole box.
+
+    Raises
+    ------
+    ConfigError
+        Naming ``field`` when the region does not overlap the box.
+    """
+    lo = np.array(lower, dtype=float)
+    hi = np.array(upper, dtype=float)
+    if region is None:
+        return lo, hi
+    k = len(region[0])
+    if k > lo.size:
+        raise ConfigError(field, f"has more components than the {lo.size}D arena")
+    lo[:k] = np.maximum(lo[:k], np.asarray(region[0], float))
+    hi[:k] = np.minimum(hi[:k], np.asarray(region[1], float))
+    if np.any(hi[:k] <= lo[:k]):
+        raise ConfigError(field, "does not overlap the arena")
+    return lo, hi

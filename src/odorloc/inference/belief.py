@@ -35,10 +35,15 @@ class ParticleBelief:
     positions : (N, d) ndarray, metres
     log_weights : (N,) ndarray
         Normalised log-weights (``logsumexp == 0``).
+    found_radius : float, metres
+        A source within this distance of where the agent stands is found there (a search that
+        ends when the source is reached; a planner predicts that outcome too). 0: the search
+        does not end by reaching.
     """
 
     positions: np.ndarray
     log_weights: np.ndarray
+    found_radius: float = 0.0
 
     @property
     def weights(self) -> np.ndarray:

@@ -18,11 +18,19 @@ Members keep their parameters immutable (a :class:`~odorloc.core.params.Params` 
 ``self.params``) and all evolving state in attributes set by :meth:`Estimator.reset`. The random
 stream given to ``reset`` is the only source of randomness (resampling, moves); the same stream
 and the same observations give the same belief.
+
+Optional hooks (with defaults): :meth:`Estimator.conditions` (the measurement conditions of the
+next reading, for a planner that anticipates it), :meth:`Estimator.initial_belief` (the belief
+as first formed), :meth:`Estimator.use_stream` (draw from another stream from now on: a team
+member's actions have a stream of their own), :meth:`Estimator.diagnostics` and
+:meth:`Estimator.final_metrics`; the class attribute ``default_model`` names the measurement
+model used where a caller has none (an offline replay).
 """
 
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
+from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
@@ -47,11 +55,15 @@ class Estimator(ABC):
     needs_model : bool
         ``True`` when :meth:`reset` requires a measurement model (a Bayesian filter); maps
         built from readings alone (evidence, kernel gas maps) accept ``None``.
+    default_model : dict or None
+        The measurement model (``{type: name, **params}``) to use where a caller has none,
+        e.g. an offline replay of a log (``None``: the estimator needs no model).
     """
 
     params: Params
     dims: ClassVar[tuple[int, ...]] = (2, 3)
     needs_model: ClassVar[bool] = True
+    default_model: ClassVar[Mapping[str, Any] | None] = None
 
     def __init__(self, params: Params | None = None) -> None:
         self.params = params if params is not None else Params()
@@ -87,6 +99,24 @@ class Estimator(ABC):
     def converged(self) -> bool:
         """The member's stopping rule (default: never)."""
         return False
+
+    def initial_belief(self) -> Belief | None:
+        """The belief as it was first formed (e.g. the particles as drawn), for measures of
+        how much the readings taught (default ``None``: not kept)."""
+        return None
+
+    def conditions(self) -> dict[str, Any]:
+        """Measurement conditions of a reading taken one control period after the last update
+        (a wind window, an exposure), for a planner's :class:`~odorloc.planning.base.Pose`
+        (default none)."""
+        return {}
+
+    def use_stream(self, rng: np.random.Generator) -> None:
+        """Draw from ``rng`` from now on instead of the stream given to :meth:`reset` (default:
+        nothing to do, for members that draw nothing). A searcher whose actions have a stream
+        of their own (a team member) hands it over before each update, so that the draws of
+        an update come from the stream of the action it belongs to."""
+        return None
 
     def diagnostics(self) -> dict[str, float]:
         """Scalars worth recording each step (ESS, entropy, spread, ...). Default none."""

@@ -227,10 +227,6 @@ class GridFilter:
         """Expected source position, ``(d,)`` metres."""
         return self.prob.reshape(-1) @ self.centres
 
-    def map_cell(self) -> tuple[int, ...]:
-        """Index of the most probable cell."""
-        return tuple(int(v) for v in np.unravel_index(int(np.argmax(self.prob)), self.shape))
-
     def belief(self) -> GridBelief:
         """A snapshot for planners and the recorder (the release posterior in ``extra``)."""
         extra = {} if self.releases is None else {"release_prob": self.release_prob}

@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 
 from odorloc.core.errors import ConfigError
+from odorloc.core.params import Params
 
 __all__ = ["BoundModel", "MeasurementModel", "binary_outcomes"]
 
@@ -33,7 +34,13 @@ def binary_outcomes(p1: np.ndarray) -> np.ndarray:
 
 
 class MeasurementModel(ABC):
-    """Base class of measurement models (see the module docstring)."""
+    """Base class of measurement models (see the module docstring).
+
+    A model keeps its parameters in ``params`` (what it computes depends on them and on the
+    conditions only, so they identify its outcome tables).
+    """
+
+    params: Params
 
     @abstractmethod
     def log_likelihood(

@@ -9,27 +9,33 @@ the searches over a source-term posterior) answers the same call::
     plan.target                            # the chosen position (or None: nothing feasible)
 
 A planner is a composition of three parts, each a ``Ref`` in its parameters: the *candidates*
-(which positions could be next), the *reward* (what a reading there is worth under the belief
-and the model's outcome probabilities) and the *selection* (how ties are broken). The work a
+(which positions could be next; registry family ``candidates``), the *reward* (what a reading
+there is worth under the belief and the model's outcome probabilities; family ``reward``,
+:class:`Reward`) and the *selection* (how ties are broken; family ``selection``). The work a
 decision did is counted in :attr:`Plan.work` so that the episode can charge computation energy
 without timing anything.
+
+Planners form the registry family ``planner``. Each names, as the class attribute
+``belief_estimator``, the estimator (``{type: name, **params}``) whose belief it plans on, so
+that a contract check can give it one.
 """
 
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, Protocol
+from typing import TYPE_CHECKING, Any, ClassVar, Protocol
 
 import numpy as np
 
-from odorloc.core.params import Params
+from odorloc.core.params import Configured, Params
 
 if TYPE_CHECKING:
     from odorloc.core.types import SearchContext
+    from odorloc.models.lattice import OffsetTable
 
-__all__ = ["OutcomeModel", "Plan", "Planner", "Pose"]
+__all__ = ["OutcomeModel", "Plan", "Planner", "Pose", "Reward"]
 
 
 class OutcomeModel(Protocol):
@@ -104,9 +110,26 @@ class Plan:
 
 
 class Planner(ABC):
-    """Base class of planners (see the module docstring)."""
+    """Base class of planners (see the module docstring).
+
+    Class attributes
+    ----------------
+    dims : tuple of int
+        Spatial dimensions the planner works in.
+    needs_model : bool
+        ``True`` when :meth:`reset` requires a measurement model.
+    belief_estimator : dict
+        The estimator whose belief the planner plans on, ``{type: name, **params}``.
+    belief_model : dict or None
+        The measurement model of that estimator and of the planner (``None``: the estimator's
+        ``default_model``).
+    """
 
     params: Params
+    dims: ClassVar[tuple[int, ...]] = (2, 3)
+    needs_model: ClassVar[bool] = True
+    belief_estimator: ClassVar[Mapping[str, Any]] = {"type": "particle-filter"}
+    belief_model: ClassVar[Mapping[str, Any] | None] = None
 
     def __init__(self, params: Params | None = None) -> None:
         self.params = params if params is not None else Params()
@@ -119,3 +142,55 @@ class Planner(ABC):
     @abstractmethod
     def plan(self, belief: Any, pose: Pose, rng: np.random.Generator) -> Plan:
         """Choose the next target for ``belief`` from ``pose``."""
+
+
+class Reward(Configured, ABC):
+    """Base class of the ``reward`` family: a score per candidate, to be minimised.
+
+    A reward is evaluated on weighted particles (:meth:`particle`) or on a lattice belief
+    with tabulated outcomes (:meth:`lattice`); a member that has no form for one kind of belief
+    says so (``particles = False`` / ``lattices = False``) and the planner refuses it.
+    """
+
+    particles: ClassVar[bool] = True
+    lattices: ClassVar[bool] = True
+    #: Whether the particle form needs the model's outcome probabilities.
+    needs_outcomes: ClassVar[bool] = True
+    #: Whether the particle form needs the candidate-particle distances.
+    needs_distances: ClassVar[bool] = False
+
+    def particle(
+        self,
+        log_weights: np.ndarray,
+        outcome_probs: np.ndarray | None,
+        found: np.ndarray | None,
+        distances: np.ndarray | None,
+    ) -> np.ndarray:
+        """Scores ``(M,)`` over ``N`` weighted particles.
+
+        Parameters
+        ----------
+        log_weights : (N,) ndarray
+        outcome_probs : (M, Z, N) ndarray or None
+            ``None`` when :attr:`needs_outcomes` is false.
+        found : (M, N) bool ndarray or None
+            Particles found at each candidate (``None``: the search does not end by reaching).
+        distances : (M, N) ndarray or None, metres
+            From each candidate to each particle (given when :attr:`needs_distances` or a
+            found radius needs them).
+        """
+        raise NotImplementedError
+
+    def lattice(
+        self,
+        joint: np.ndarray,
+        tables: Sequence[OffsetTable],
+        cells: np.ndarray,
+        found_radius: float,
+        floor: float,
+        tolerance: float,
+    ) -> tuple[np.ndarray, int]:
+        """Scores ``(M,)`` of candidate ``cells`` on a ``(K, *shape)`` lattice belief and the
+        number of candidates scored again with the ``floor`` conventions
+        (:mod:`odorloc.planning.infotaxis`); ``tolerance`` is the selection's tie tolerance."""
+        raise NotImplementedError

@@ -1,19 +1,26 @@
-"""Infotaxis and its successors: candidates x rewards x selection on grid or particle beliefs.
+"""Infotaxis and its successors: rewards on grid or particle beliefs, and their planners.
 
 A move to a candidate ends the search if the source is there (probability ``p_found``) and
-otherwise yields a reading ``z``. The policies score every candidate and take the best
-(:mod:`odorloc.planning.rewards` for the formulas):
+otherwise yields a reading ``z``. The rewards (registry family ``reward``) score every
+candidate, lower is better (:mod:`odorloc.planning.rewards` for the formulas):
 
-- ``infotaxis`` (Vergassola, Villermaux & Shraiman 2007): minimise the expected entropy after
-  the move, i.e. maximise the information ``I = H(outcome) - H(outcome | source)`` it brings;
-- ``space-aware`` infotaxis (Loisy & Eloy 2022): minimise
+- ``expected-entropy`` (infotaxis; Vergassola, Villermaux & Shraiman 2007): the expected change
+  of the belief's entropy after the move, i.e. minus the information
+  ``I = H(outcome) - H(outcome | source)`` it brings;
+- ``space-aware`` (space-aware infotaxis; Loisy & Eloy 2022):
   ``sum_z P(z) g(D_z + 2^(S_z - 1) - 1/2)``;
-- ``entrotaxis`` (Hutchinson, Oh & Chen 2018): maximise the entropy of the predicted outcome;
-- ``greedy``: go where the source most probably is;
-- ``mean-distance`` (Loisy & Eloy 2022): minimise the expected posterior mean distance.
+- ``predictive-entropy`` (entrotaxis; Hutchinson, Oh & Chen 2018): minus the entropy of the
+  predicted outcome;
+- ``greedy``: the probability of *not* finding the source at the candidate;
+- ``mean-distance`` (Loisy & Eloy 2022): the expected posterior mean distance.
 
-Grid beliefs (:class:`GridPolicyPlanner`)
------------------------------------------
+A policy is a planner with one of them: :class:`LatticePlanner` (``lattice``) on grid beliefs,
+:class:`ParticlePlanner` (``particle``) on weighted particles; the searchers' presets name the
+published policies (``infotaxis``, ``entrotaxis``, ``space-aware-infotaxis``, ``greedy``,
+``mean-distance``).
+
+Grid beliefs (:class:`LatticePlanner`)
+--------------------------------------
 With a translation-invariant model tabulated over lattice offsets
 (:func:`~odorloc.models.lattice.tabulate`), every per-candidate sum over the cells is a
 correlation of the belief with a table window. Infotaxis needs only three of them per candidate:
@@ -32,87 +39,57 @@ at most ``B = n floor log2(1 / floor) + (Z + 1) floor log2(n) + floor`` bits (``
 so when another candidate scores within ``2 B`` (plus the tie tolerance) of the best, the
 contenders are scored again with the conventions applied (:func:`~odorloc.planning.rewards.
 expected_entropy` with ``floor``): the choice is then the reference's, while most decisions cost
-only the correlations. Ties go to the lowest candidate index among scores within ``tie_tol`` of
-the best (the reference's rule), or to a uniformly drawn one (``ties="random"``).
+only the correlations. Ties go to the lowest candidate index among scores within the selection's
+tolerance of the best (the reference's rule), or to a uniformly drawn one (``ties: random``).
 
-Particle beliefs (:class:`ParticleInfotaxisPlanner`)
-----------------------------------------------------
-The same rewards over weighted particles: candidates (any targets, e.g. 26 directions times a
-step) and the outcome model (any bound measurement model) are the caller's; particles within
-``found_radius`` of a candidate count as found there.
+Particle beliefs (:class:`ParticlePlanner`)
+-------------------------------------------
+The same rewards over weighted particles: the candidates (e.g. 26 directions times a step) and
+the outcome model (the planner's measurement model bound to the pose's conditions) are parts;
+particles within the belief's ``found_radius`` of a candidate count as found there.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from functools import lru_cache
-from typing import Any, Literal, Protocol
+from typing import Any, ClassVar, Literal
 
 import numpy as np
 
 from odorloc.core.errors import ConfigError
 from odorloc.core.jit import HAVE_NUMBA, jit
-from odorloc.geometry.vectors import lattice_moves
+from odorloc.core.params import NonNegative, Params
+from odorloc.core.registry import ComponentRef, Ref, register
+from odorloc.core.types import SearchContext
 from odorloc.inference.belief import ParticleBelief
+from odorloc.inference.grid_estimator import LatticeBelief
 from odorloc.models.lattice import OffsetTable
 from odorloc.planning import rewards
-from odorloc.planning.selection import select
+from odorloc.planning.base import Plan, Planner, Pose, Reward
+from odorloc.planning.candidates import Candidates
+from odorloc.planning.selection import Selection
 
 __all__ = [
-    "POLICIES",
-    "GridPlan",
-    "GridPolicyPlanner",
+    "ExpectedEntropyReward",
+    "GreedyReward",
     "LatticeOutcomes",
-    "ParticleInfotaxisPlanner",
-    "ParticlePlan",
+    "LatticePlanner",
+    "LatticePlannerParams",
+    "MeanDistanceReward",
+    "ParticlePlanner",
+    "ParticlePlannerParams",
+    "PredictiveEntropyReward",
+    "SpaceAwareReward",
     "correlate",
     "lattice_outcomes",
     "lattice_posteriors",
-    "neighbour_cells",
 ]
 
-Policy = Literal["infotaxis", "space-aware", "entrotaxis", "greedy", "mean-distance"]
-POLICIES: tuple[str, ...] = ("infotaxis", "space-aware", "entrotaxis", "greedy", "mean-distance")
 _LN2 = math.log(2.0)
 _EXACT_TIE = 1e-12  # bits: scores this close are equal up to rounding
-
-
-class OutcomeModel(Protocol):
-    """A measurement model with its conditions bound (:class:`~odorloc.models.base.BoundModel`)."""
-
-    def outcome_probabilities(
-        self, sensor_positions: np.ndarray, hypotheses: np.ndarray
-    ) -> np.ndarray: ...
-
-
-# ---------------------------------------------------------------------- lattice candidates
-def neighbour_cells(
-    cell: Sequence[int], moves: Literal["lattice", "lattice-stay", "neighbours"] = "lattice"
-) -> np.ndarray:
-    """Candidate cells around ``cell``, ``(M, d)`` int.
-
-    ``lattice``: the ``2d`` axis moves in the order ``-axis0, +axis0, -axis1, ...``
-    (:func:`~odorloc.geometry.vectors.lattice_moves`); ``lattice-stay`` appends staying;
-    ``neighbours``: the ``3^d - 1`` cells sharing a face, edge or corner (e.g. the 26 directions
-    of the multi-UAV paper), in lexicographic order of the offsets.
-    """
-    c = np.asarray(cell, dtype=np.int64).reshape(-1)
-    return c[None, :] + _move_offsets(c.size, moves)
-
-
-@lru_cache(maxsize=16)
-def _move_offsets(dim: int, moves: str) -> np.ndarray:
-    if moves in ("lattice", "lattice-stay"):
-        off = lattice_moves(dim, moves == "lattice-stay").astype(np.int64)
-    elif moves == "neighbours":
-        grid = np.stack(np.meshgrid(*[[-1, 0, 1]] * dim, indexing="ij"), -1).reshape(-1, dim)
-        off = grid[np.any(grid != 0, axis=1)].astype(np.int64)
-    else:
-        raise ConfigError("moves", f"unknown move set {moves!r}")
-    off.setflags(write=False)
-    return off
 
 
 def _xlogx(x: np.ndarray) -> np.ndarray:
@@ -196,18 +173,6 @@ class LatticeOutcomes:
         """Expected change of the belief's entropy, nats: ``-I - P(found) H(source | found)``
         (finding the source ends the search, so it leaves no uncertainty)."""
         return -self.information - self.found_entropy
-
-
-def _windows(
-    arrays: Sequence[np.ndarray], table: OffsetTable, cells: np.ndarray, shape: tuple[int, ...]
-) -> np.ndarray:
-    """Stack of ``(M, C, n)`` windows of ``(C, *table_shape)`` arrays."""
-    out = []
-    for c in cells:
-        w = table.window(tuple(int(v) for v in c), shape)
-        out.append(np.stack([a[(slice(None), *w)] for a in arrays]).reshape(-1))
-    n = int(np.prod(shape))
-    return np.asarray(out).reshape(len(cells), -1, n)
 
 
 def _correlate_numpy(
@@ -498,252 +463,313 @@ def _window_index(table: OffsetTable, shape: tuple[int, ...], cells: np.ndarray)
     return base[None, :] + shift[:, None]
 
 
-# ---------------------------------------------------------------------- grid planner
-@dataclass(frozen=True)
-class GridPlan:
-    """Outcome of :meth:`GridPolicyPlanner.plan`.
+# ---------------------------------------------------------------------- rewards
+def _floor_bound(n: int, z: int, floor: float, tolerance: float) -> float:
+    """Largest change of an entropy score (bits) by the ``floor`` conventions, plus the tie
+    tolerance (module docstring)."""
+    b = n * floor * math.log2(1.0 / floor) + (z + 1) * floor * math.log2(max(n, 2)) + floor
+    return b + tolerance
+
+
+def _rescore(
+    s: np.ndarray,
+    bound: float,
+    direct: Any,
+) -> int:
+    """Score again, with the ``floor`` conventions, the candidates within ``2 bound`` of the
+    best (in place); returns how many. Exact ties (a symmetric belief) are the reference's ties
+    too and are left alone."""
+    if len(s) < 2:
+        return 0
+    close = s <= s.min() + 2.0 * bound
+    cs = s[close]
+    if cs.size > 1 and cs.max() - cs.min() > _EXACT_TIE:
+        s[close] = direct(close)
+        return int(close.sum())
+    return 0
+
+
+class _NoParams(Params):
+    """A reward without settings."""
+
+
+@register("reward", "expected-entropy", _NoParams, "expected posterior entropy (infotaxis)")
+class ExpectedEntropyReward(Reward):
+    """Infotaxis (Vergassola, Villermaux & Shraiman 2007): the expected entropy after the move,
+    the found outcome included (nats on particles; on a lattice the expected *change* of the
+    entropy, bits)."""
+
+    params: _NoParams
+    Params = _NoParams
+
+    def particle(self, log_weights, outcome_probs, found, distances):  # type: ignore[no-untyped-def]
+        return rewards.expected_entropy(log_weights, outcome_probs, found)
+
+    def lattice(self, joint, tables, cells, found_radius, floor, tolerance):  # type: ignore[no-untyped-def]
+        z = tables[0].n_classes
+        sums = _sums(joint, tables, cells, found_radius)
+        # H(outcome): the found outcome (column z + 1) and the readings (0 .. z - 1)
+        h_out = -_xlogx(sums[:, _outcome_columns(z)]).sum(axis=1)
+        # minus the information (and the uncertainty a find removes), bits
+        s = sums[:, z] - h_out
+        s -= _found_entropy(joint, tables, cells, found_radius, sums[:, z + 1])
+        s /= _LN2
+        if floor <= 0:
+            return s, 0
+
+        def direct(close: np.ndarray) -> np.ndarray:
+            pe, p, ent, _ = lattice_posteriors(joint, tables, cells[close], found_radius, floor)
+            flat = joint.reshape(-1)
+            keep = flat > floor
+            s0 = float(-np.sum(flat[keep] * np.log2(flat[keep])))
+            return rewards.expected_entropy_from(pe, p, ent, floor) - s0
+
+        return s, _rescore(s, _floor_bound(joint.size, z, floor, tolerance), direct)
+
+
+@register("reward", "predictive-entropy", _NoParams, "entropy of the outcome (entrotaxis)")
+class PredictiveEntropyReward(Reward):
+    """Entrotaxis (Hutchinson, Oh & Chen 2018): minus the entropy of the predicted outcome
+    (found, or the reading), nats on particles, bits on a lattice."""
+
+    params: _NoParams
+    Params = _NoParams
+
+    def particle(self, log_weights, outcome_probs, found, distances):  # type: ignore[no-untyped-def]
+        return -rewards.predictive_entropy(log_weights, outcome_probs, found)
+
+    def lattice(self, joint, tables, cells, found_radius, floor, tolerance):  # type: ignore[no-untyped-def]
+        z = tables[0].n_classes
+        sums = _sums(joint, tables, cells, found_radius)
+        h_out = -_xlogx(sums[:, _outcome_columns(z)]).sum(axis=1)
+        return -h_out / _LN2, 0
+
+
+@register("reward", "greedy", _NoParams, "probability of not finding the source there")
+class GreedyReward(Reward):
+    """Greedy: ``1 - p_found``, the candidate most likely to hold the source wins (without a
+    found radius every particle candidate ties)."""
+
+    params: _NoParams
+    Params = _NoParams
+    needs_outcomes = False
+    needs_distances = True
+
+    def particle(self, log_weights, outcome_probs, found, distances):  # type: ignore[no-untyped-def]
+        if found is None:
+            found = np.zeros(distances.shape, bool)
+        return rewards.greedy(log_weights, found)
+
+    def lattice(self, joint, tables, cells, found_radius, floor, tolerance):  # type: ignore[no-untyped-def]
+        z = tables[0].n_classes
+        return 1.0 - _sums(joint, tables, cells, found_radius)[:, z + 1], 0
+
+
+@register("reward", "mean-distance", _NoParams, "expected posterior mean distance")
+class MeanDistanceReward(Reward):
+    """Mean distance (Loisy & Eloy 2022): the expected posterior mean distance to the source
+    (on a lattice the Manhattan distance in cells, on particles the Euclidean in metres)."""
+
+    params: _NoParams
+    Params = _NoParams
+    needs_distances = True
+
+    def particle(self, log_weights, outcome_probs, found, distances):  # type: ignore[no-untyped-def]
+        return rewards.mean_distance(log_weights, outcome_probs, found, distances)
+
+    def lattice(self, joint, tables, cells, found_radius, floor, tolerance):  # type: ignore[no-untyped-def]
+        t0 = tables[0]
+        z = t0.n_classes
+        # the expected posterior mean distance is the prior mean distance over the not-found
+        # hypotheses; the reference conventions move it by < (Z + 1) floor max_distance
+        s = _sums(joint, tables, cells, found_radius)[:, z + 2]
+        if floor <= 0:
+            return s, 0
+        dmax = float(sum(2 * h for h in t0.half)) + 1.0
+        bound = (z + 1) * floor * dmax + floor + tolerance
+
+        def direct(close: np.ndarray) -> np.ndarray:
+            pe, p, _, d = lattice_posteriors(joint, tables, cells[close], found_radius, floor, True)
+            assert d is not None
+            return rewards.mean_distance_from(pe, p, d, floor)
+
+        return s, _rescore(s, bound, direct)
+
+
+@register("reward", "space-aware", _NoParams, "space-aware infotaxis (Loisy & Eloy)")
+class SpaceAwareReward(Reward):
+    """Space-aware infotaxis (Loisy & Eloy 2022): the expected
+    ``log2(D + 2^(S - 1) - 1/2)``, distance (in moves) and entropy (bits) together. Lattice
+    beliefs only: on particles the distance has no move unit."""
+
+    params: _NoParams
+    Params = _NoParams
+    particles = False
+
+    def lattice(self, joint, tables, cells, found_radius, floor, tolerance):  # type: ignore[no-untyped-def]
+        pe, p, ent, d = lattice_posteriors(joint, tables, cells, found_radius, floor, True)
+        assert d is not None
+        return rewards.space_aware_from(pe, p, ent, d, floor), 0
+
+
+# ---------------------------------------------------------------------- planners
+def _parts(p: Any) -> tuple[Candidates, Reward, Selection]:
+    f = "searcher.planner"
+    return (
+        p.candidates.build("candidates", field=f"{f}.candidates"),
+        p.reward.build("reward", field=f"{f}.reward"),
+        p.selection.build("selection", field=f"{f}.selection"),
+    )
+
+
+class LatticePlannerParams(Params):
+    """Parameters of :class:`LatticePlanner`.
 
     Attributes
     ----------
-    index : int or None
-        Chosen candidate (``None``: none feasible).
-    cells : (M, d) int ndarray
-    scores : (M,) ndarray
-        Minimised scores (``inf`` where infeasible); infotaxis: the expected entropy change,
-        bits; entrotaxis: minus the outcome entropy, bits; greedy: ``1 - p_found``;
-        space-aware, mean distance: see :mod:`odorloc.planning.rewards`.
-    feasible : (M,) bool ndarray
-    rescored : int
-        Candidates scored again with the reference conventions.
-    """
-
-    index: int | None
-    cells: np.ndarray
-    scores: np.ndarray
-    feasible: np.ndarray
-    rescored: int = 0
-
-    @property
-    def cell(self) -> tuple[int, ...] | None:
-        """Chosen cell, or ``None``."""
-        return None if self.index is None else tuple(int(v) for v in self.cells[self.index])
-
-
-class GridPolicyPlanner:
-    """Score lattice candidates on a grid belief with one of :data:`POLICIES`.
-
-    Parameters
-    ----------
-    policy : str
-        One of :data:`POLICIES`.
+    candidates : dict
+        ``{type: lattice-cells, moves: lattice | lattice-stay | neighbours}``.
+    reward : dict
+        ``{type: expected-entropy | predictive-entropy | space-aware | greedy |
+        mean-distance}``.
+    selection : dict
+        ``{type: best, ties: first | random, tolerance: ...}`` (scores within the tolerance of
+        the best tie; bits for the entropy rewards).
     floor : float
-        The reference conventions (module docstring); 0 for the exact mathematics.
-    tie_tol : float
-        Scores within this of the best tie (bits for the entropy policies).
-    ties : {"first", "random"}
+        The reference conventions of OTTO (module docstring); 0: exact.
     """
 
-    def __init__(
-        self,
-        policy: Policy = "infotaxis",
-        *,
-        floor: float = 1e-10,
-        tie_tol: float = 1e-10,
-        ties: Literal["first", "random"] = "first",
-    ) -> None:
-        if policy not in POLICIES:
-            raise ConfigError("policy", f"unknown policy {policy!r} (known: {', '.join(POLICIES)})")
-        if not (floor >= 0 and tie_tol >= 0):
-            raise ConfigError("floor", "floor and tie_tol must be >= 0")
-        self.policy = policy
-        self.floor = float(floor)
-        self.tie_tol = float(tie_tol)
-        self.ties = ties
+    candidates: Ref("candidates") = ComponentRef(type="lattice-cells")
+    reward: Ref("reward") = ComponentRef(type="expected-entropy")
+    selection: Ref("selection") = ComponentRef(type="best", tolerance=1e-10)
+    floor: NonNegative = 1e-10
 
-    def _bound(self, n: int, z: int) -> float:
-        """Largest change of a score by the reference conventions, plus the tie tolerance."""
-        fl = self.floor
-        b = n * fl * math.log2(1.0 / fl) + (z + 1) * fl * math.log2(max(n, 2)) + fl
-        return b + self.tie_tol
 
-    # ------------------------------------------------------------------ direct scores
-    def _direct(
-        self,
-        joint: np.ndarray,
-        tables: Sequence[OffsetTable],
-        cells: np.ndarray,
-        found_radius: float,
-    ) -> np.ndarray:
-        """Scores of ``cells`` from explicit posteriors (the reference conventions)."""
-        fl = self.floor
-        need_d = self.policy in ("space-aware", "mean-distance")
-        pe, p, s, d = lattice_posteriors(joint, tables, cells, found_radius, fl, need_d)
-        if self.policy == "infotaxis":
-            flat = joint.reshape(-1)
-            keep = flat > fl
-            s0 = float(-np.sum(flat[keep] * np.log2(flat[keep])))
-            return rewards.expected_entropy_from(pe, p, s, fl) - s0
-        assert d is not None
-        if self.policy == "space-aware":
-            return rewards.space_aware_from(pe, p, s, d, fl)
-        return rewards.mean_distance_from(pe, p, d, fl)
+@register("planner", "lattice", LatticePlannerParams, "candidate cells x reward on a grid belief")
+class LatticePlanner(Planner):
+    """Candidate cells x a reward x a selection on a lattice belief (module docstring).
 
-    def plan(
-        self,
-        joint: np.ndarray,
-        tables: Sequence[OffsetTable],
-        cells: np.ndarray,
-        *,
-        feasible: np.ndarray | None = None,
-        found_radius: float | None = None,
-        rng: np.random.Generator | None = None,
-    ) -> GridPlan:
-        """Choose among candidate ``cells`` on the belief ``joint`` ``(K, n1, ..., nd)``.
+    The belief is a :class:`~odorloc.inference.grid_estimator.LatticeBelief` (its joint
+    release-position belief and its tables); a cell within the belief's ``found_radius`` of a
+    candidate's centre is found there. :attr:`Plan.extra` holds ``cells`` and ``rescored``.
+    """
 
-        Parameters
-        ----------
-        joint : (K, n1, ..., nd) ndarray
-            Belief (``K`` release hypotheses; ``(n1, ..., nd)`` is accepted for ``K = 1``).
-        tables : sequence of K OffsetTable
-        cells : (M, d) int ndarray
-        feasible : (M,) bool ndarray, optional
-            Reachable candidates (default all; candidates outside the grid are infeasible).
-        found_radius : float, metres, optional
-            Default: half a cell (the source is found in the cell moved onto).
-        rng : numpy.random.Generator, optional
-            Needed with ``ties="random"``.
-        """
-        b = joint if isinstance(joint, np.ndarray) else np.asarray(joint, float)
+    params: LatticePlannerParams
+    Params = LatticePlannerParams
+    belief_estimator: ClassVar[Mapping[str, Any]] = {"type": "grid-filter"}
+
+    def __init__(self, params: LatticePlannerParams | None = None) -> None:
+        super().__init__(params or LatticePlannerParams())
+        self.candidates, self.reward, self.selection = _parts(self.params)
+        if not self.reward.lattices:
+            raise ConfigError("searcher.planner.reward", "has no form for grid beliefs")
+
+    def reset(self, ctx: SearchContext, model: Any = None) -> None:
+        super().reset(ctx, model)
+        self.candidates.reset(ctx)
+
+    def plan(self, belief: LatticeBelief, pose: Pose, rng: np.random.Generator) -> Plan:
+        """Score the candidate cells of ``pose`` on ``belief``."""
+        if belief.joint is None or not belief.tables:
+            raise ConfigError("belief", "the lattice planner needs a belief with its tables")
+        cs = self.candidates.generate(belief, pose)
+        tables = belief.tables
         t0 = tables[0]
-        if b.ndim == t0.dim:
-            b = b[None]
+        b = belief.joint
         shape = b.shape[1:]
         if len(tables) != b.shape[0]:
             raise ConfigError("tables", f"need {b.shape[0]} table(s), got {len(tables)}")
         if any(h < n - 1 for h, n in zip(t0.half, shape, strict=True)):
             raise ConfigError("tables", f"offsets {t0.half} do not cover a grid of {shape}")
-        cells = np.asarray(cells, dtype=np.int64).reshape(-1, t0.dim)
-        ok = ((cells >= 0) & (cells < shape)).all(axis=1)
-        if feasible is not None:
-            ok &= np.asarray(feasible, bool)
-        radius = 0.5 * float(t0.cell.min()) if found_radius is None else float(found_radius)
+        assert cs.cells is not None
+        cells = np.asarray(cs.cells, dtype=np.int64).reshape(-1, t0.dim)
+        ok = ((cells >= 0) & (cells < shape)).all(axis=1) & cs.feasible
         scores = np.full(len(cells), np.inf)
         rescored = 0
         sel = cells[ok]
         if len(sel):
-            if self.policy == "space-aware":
-                s = self._direct(b, tables, sel, radius)
-            else:
-                sums = _sums(b, tables, sel, radius)
-                z = t0.n_classes
-                if self.policy == "greedy":
-                    s = 1.0 - sums[:, z + 1]
-                elif self.policy == "mean-distance":
-                    # the expected posterior mean distance is the prior mean distance over the
-                    # not-found hypotheses; the reference conventions move it by
-                    # < (Z + 1) floor max_distance
-                    s = sums[:, z + 2]
-                    if self.floor > 0 and len(s) > 1:
-                        dmax = float(sum(2 * h for h in t0.half)) + 1.0
-                        bound = (z + 1) * self.floor * dmax + self.floor + self.tie_tol
-                        close = s <= s.min() + 2.0 * bound
-                        cs = s[close]
-                        if cs.size > 1 and cs.max() - cs.min() > _EXACT_TIE:
-                            s[close] = self._direct(b, tables, sel[close], radius)
-                            rescored = int(close.sum())
-                else:
-                    # H(outcome): the found outcome (column z + 1) and the readings (0 .. z - 1)
-                    h_out = -_xlogx(sums[:, _outcome_columns(z)]).sum(axis=1)
-                    if self.policy == "entrotaxis":
-                        s = -h_out / _LN2
-                    else:
-                        # minus the information (and the uncertainty a find removes), bits
-                        s = sums[:, z] - h_out
-                        s -= _found_entropy(b, tables, sel, radius, sums[:, z + 1])
-                        s /= _LN2
-                        if self.floor > 0 and len(s) > 1:
-                            close = s <= s.min() + 2.0 * self._bound(b.size, z)
-                            cs = s[close]
-                            # Exact ties (a symmetric belief) are the reference's ties too.
-                            if cs.size > 1 and cs.max() - cs.min() > _EXACT_TIE:
-                                s[close] = self._direct(b, tables, sel[close], radius)
-                                rescored = int(close.sum())
+            s, rescored = self.reward.lattice(
+                b,
+                tables,
+                sel,
+                float(belief.found_radius),
+                self.params.floor,
+                self.selection.tolerance,
+            )
             scores[ok] = s
-        # infeasible candidates already score inf, which select() leaves out
-        index = select(scores, mode="min", ties=self.ties, atol=self.tie_tol, rng=rng)
-        return GridPlan(index, cells, scores, ok, rescored)
+        index = self.selection.choose(scores, ok, rng)
+        work = int(len(sel) * b.size * (t0.n_classes + 3))
+        return Plan(index, cs.targets, scores, ok, work, {"cells": cells, "rescored": rescored})
 
 
-# ---------------------------------------------------------------------- particle planner
-@dataclass(frozen=True)
-class ParticlePlan:
-    """Outcome of :meth:`ParticleInfotaxisPlanner.plan`.
+class ParticlePlannerParams(Params):
+    """Parameters of :class:`ParticlePlanner`.
 
     Attributes
     ----------
-    index : int or None
-    targets : (M, d) ndarray, metres
-    scores : (M,) ndarray, nats (``inf`` where infeasible)
-    feasible : (M,) bool ndarray
+    candidates : dict
+        ``{type: directions | moves, ...}``.
+    reward : dict
+        ``{type: expected-entropy | predictive-entropy | greedy | mean-distance}``.
+    selection : dict
+        ``{type: best, ties: first | random, tolerance: ...}`` (nats for the entropy rewards).
     """
 
-    index: int | None
-    targets: np.ndarray
-    scores: np.ndarray
-    feasible: np.ndarray
-
-    @property
-    def target(self) -> np.ndarray | None:
-        """The chosen target, ``(d,)`` metres."""
-        return None if self.index is None else self.targets[self.index]
+    candidates: Ref("candidates") = ComponentRef(type="directions")
+    reward: Ref("reward") = ComponentRef(type="expected-entropy")
+    selection: Ref("selection") = ComponentRef(type="best", tolerance=1e-12)
 
 
-class ParticleInfotaxisPlanner:
-    """Infotaxis (or entrotaxis) over weighted particles; candidates and model are pluggable.
+@register("planner", "particle", ParticlePlannerParams, "candidates x reward over particles")
+class ParticlePlanner(Planner):
+    """Candidates x a reward x a selection over weighted particles (module docstring).
 
-    Parameters
-    ----------
-    policy : {"infotaxis", "entrotaxis"}
-    ties : {"first", "random"}
-    tie_tol : float, nats
+    The model's outcome probabilities come from the planner's model bound to the pose's
+    conditions (:meth:`~odorloc.models.base.MeasurementModel.bind`).
     """
 
-    def __init__(
-        self,
-        policy: Literal["infotaxis", "entrotaxis"] = "infotaxis",
-        *,
-        ties: Literal["first", "random"] = "first",
-        tie_tol: float = 1e-12,
-    ) -> None:
-        if policy not in ("infotaxis", "entrotaxis"):
-            raise ConfigError("policy", f"particle beliefs support infotaxis, entrotaxis: {policy}")
-        self.policy = policy
-        self.ties = ties
-        self.tie_tol = float(tie_tol)
+    params: ParticlePlannerParams
+    Params = ParticlePlannerParams
+    belief_estimator: ClassVar[Mapping[str, Any]] = {
+        "type": "particle-filter",
+        "n_particles": 200,
+        "reading": {"type": "outcome-class"},
+        "init": {"type": "uniform"},
+        "resampler": {"type": "systematic", "jitter_std": 0.2},
+        "stopping": {"type": "never"},
+        "found_radius": "half-step",
+    }
+    belief_model: ClassVar[Mapping[str, Any] | None] = {"type": "vergassola"}
 
-    def plan(
-        self,
-        belief: ParticleBelief,
-        targets: np.ndarray,
-        model: OutcomeModel,
-        *,
-        feasible: np.ndarray | None = None,
-        found_radius: float = 0.0,
-        rng: np.random.Generator | None = None,
-    ) -> ParticlePlan:
-        """Score ``targets`` ``(M, d)`` with the outcome law of ``model`` over the particles."""
-        t = np.atleast_2d(np.asarray(targets, float))
-        ok = np.ones(len(t), bool) if feasible is None else np.asarray(feasible, bool).copy()
+    def __init__(self, params: ParticlePlannerParams | None = None) -> None:
+        super().__init__(params or ParticlePlannerParams())
+        self.candidates, self.reward, self.selection = _parts(self.params)
+        if not self.reward.particles:
+            raise ConfigError("searcher.planner.reward", "has no form for particle beliefs")
+
+    def reset(self, ctx: SearchContext, model: Any = None) -> None:
+        if model is None:
+            raise ConfigError("model", "the particle planner needs a measurement model")
+        super().reset(ctx, model)
+        self.candidates.reset(ctx)
+
+    def plan(self, belief: ParticleBelief, pose: Pose, rng: np.random.Generator) -> Plan:
+        """Score the candidates of ``pose`` over the particles of ``belief``."""
+        cs = self.candidates.generate(belief, pose)
+        t = np.atleast_2d(np.asarray(cs.targets, float))
+        ok = np.asarray(cs.feasible, bool).copy()
         scores = np.full(len(t), np.inf)
+        work = 0
         if ok.any():
             x = belief.positions
-            q = model.outcome_probabilities(t[ok], x)
-            found = None
-            if found_radius > 0:
-                found = np.linalg.norm(t[ok][:, None, :] - x[None], axis=2) <= found_radius
-            if self.policy == "infotaxis":
-                scores[ok] = rewards.expected_entropy(belief.log_weights, q, found)
-            else:
-                scores[ok] = -rewards.predictive_entropy(belief.log_weights, q, found)
-        index = select(scores, mode="min", feasible=ok, ties=self.ties, atol=self.tie_tol, rng=rng)
-        return ParticlePlan(index, t, scores, ok)
+            q = None
+            if self.reward.needs_outcomes:
+                q = self.model.bind(**pose.conditions).outcome_probabilities(t[ok], x)
+                work = int(q.size)
+            dist = None
+            if belief.found_radius > 0 or self.reward.needs_distances:
+                dist = np.linalg.norm(t[ok][:, None, :] - x[None], axis=2)
+            found = None if belief.found_radius <= 0 else dist <= belief.found_radius
+            scores[ok] = self.reward.particle(belief.log_weights, q, found, dist)
+        index = self.selection.choose(scores, ok, rng)
+        return Plan(index, t, scores, ok, work)

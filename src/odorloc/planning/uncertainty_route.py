@@ -40,12 +40,22 @@ Readings of the paper:
 * No path yet. If the path map is empty (e.g. before a second wind record exists) there is no
   evidence to weigh; the plan keeps the robot where it is (``reason="empty_path_map"``) rather
   than declaring the mission finished.
+* Standing. With ``avoid_obstacles`` (the planner's :meth:`~UncertaintyRoutePlanner.plan`), a
+  cell whose target (its centre, clamped onto the region as edge targets are) lies in an
+  obstacle is never a candidate.
+
+:meth:`UncertaintyRoutePlanner.plan` is the :class:`~odorloc.planning.base.Planner` interface
+over the belief of the ``ds-map`` estimator
+(:class:`~odorloc.inference.evidence.mapper.EvidenceBelief`); :meth:`~UncertaintyRoutePlanner.
+route` plans from a D-S grid and a path map directly.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any, ClassVar, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -54,10 +64,14 @@ from scipy.signal import correlate
 
 from odorloc.core.errors import ConfigError
 from odorloc.core.params import NonNegative, Params, Positive
+from odorloc.core.registry import register
+from odorloc.core.types import Region, SearchContext
 from odorloc.geometry.grid import CellGrid
 from odorloc.geometry.regions import check_region
 from odorloc.inference.evidence.dempster_shafer import DSGrid
+from odorloc.inference.evidence.mapper import EvidenceBelief, as_distribution
 from odorloc.inference.odor_path.estimator import OdorPathEstimator, PathPatch
+from odorloc.planning.base import Plan, Planner, Pose
 from odorloc.planning.selection import select
 
 FloatArray = NDArray[np.float64]
@@ -85,6 +99,12 @@ class UncertaintyRouteParams(Params):
     edge_reach : float, metres
         Candidates may lie this far outside ``region`` (targets are clamped onto it); see the
         module notes. 0 keeps every candidate inside.
+    fitness_path : {"map", "distribution"}
+        ``pi`` weighing ``X`` in eq. 7 (:meth:`UncertaintyRoutePlanner.plan`): the reading's
+        path map as eq. 4 uses it, or that map divided by its sum.
+    avoid_obstacles : bool
+        :meth:`UncertaintyRoutePlanner.plan` never targets a cell whose target lies in an
+        obstacle (see the module notes).
     """
 
     step_range: Positive = 0.25
@@ -94,6 +114,8 @@ class UncertaintyRouteParams(Params):
     tie_rtol: NonNegative = 1e-9
     include_current: bool = True
     edge_reach: NonNegative = 0.0
+    fitness_path: Literal["map", "distribution"] = "map"
+    avoid_obstacles: bool = True
 
     @model_validator(mode="after")
     def _check(self) -> UncertaintyRouteParams:
@@ -122,6 +144,12 @@ class RoutePlan:
         ``True`` when even the whole area is below ``eta_E``.
     reason : str
         ``"ok"``, ``"widened"``, ``"finished"``, ``"empty_path_map"`` or ``"no_candidates"``.
+    candidates : (M, 2) ndarray, metres
+        The targets of the candidates at that radius (clamped onto the region).
+    fitnesses : (M,) ndarray
+        Their ``E_P``.
+    index : int or None
+        The chosen one among them.
     """
 
     target: FloatArray | None
@@ -130,6 +158,9 @@ class RoutePlan:
     n_candidates: int
     done: bool
     reason: str
+    candidates: FloatArray = field(default_factory=lambda: np.zeros((0, 2)))
+    fitnesses: FloatArray = field(default_factory=lambda: np.zeros(0))
+    index: int | None = None
 
 
 def _as_patch(
@@ -201,7 +232,22 @@ def fitness_map(
     return np.maximum(e, 0.0)  # FFT rounding can dip below zero
 
 
-class UncertaintyRoutePlanner:
+def standable(arena: Any, grid: CellGrid, region: Region | None) -> NDArray[np.bool_] | None:
+    """Cells a route target may lie in, ``(nx, ny)`` bool: those whose target (the cell centre
+    clamped onto ``region``, as edge targets are) is free; ``None`` when the arena has no
+    obstacles."""
+    if arena.occ is None:
+        return None
+    targets = grid.centers().reshape(-1, 2)
+    if region is not None:
+        targets = np.clip(targets, region[0], region[1])
+    return arena.is_free(targets).reshape(grid.shape)
+
+
+@register(
+    "planner", "uncertainty-route", UncertaintyRouteParams, "most uncertainty covered (D-S map)"
+)
+class UncertaintyRoutePlanner(Planner):
     """Chooses the next position maximising the uncertainty covered (D-S paper, section 3).
 
     Parameters
@@ -209,24 +255,62 @@ class UncertaintyRoutePlanner:
     params : UncertaintyRouteParams
     """
 
-    def __init__(self, params: UncertaintyRouteParams) -> None:
-        self.params = params
+    params: UncertaintyRouteParams
+    Params = UncertaintyRouteParams
+    dims = (2,)
+    needs_model = False
+    belief_estimator: ClassVar[Mapping[str, Any]] = {"type": "ds-map"}
 
-    def plan(
-        self,
-        ds_grid: DSGrid,
-        path_model: OdorPathEstimator | PathPatch | ArrayLike,
-        position: ArrayLike,
-        rng: np.random.Generator,
-        allowed: NDArray[np.bool_] | None = None,
-    ) -> FloatArray | None:
-        """Next target position, metres, or ``None`` when the mission is finished.
+    def __init__(self, params: UncertaintyRouteParams | None = None) -> None:
+        super().__init__(params or UncertaintyRouteParams())
 
-        See :meth:`plan_detailed` for the parameters.
+    def reset(self, ctx: SearchContext, model: Any = None) -> None:
+        super().reset(ctx, model)
+        self._standable: tuple[CellGrid, Region | None, NDArray[np.bool_] | None] | None = None
+
+    def _allowed(self, grid: CellGrid, region: Region | None) -> NDArray[np.bool_] | None:
+        """:func:`standable` cells of the belief's grid (computed once per episode)."""
+        if not self.params.avoid_obstacles:
+            return None
+        c = self._standable
+        if c is None or c[0] is not grid or c[1] != region:
+            self._standable = (grid, region, standable(self.ctx.arena, grid, region))
+        return self._standable[2]
+
+    def plan(self, belief: EvidenceBelief, pose: Pose, rng: np.random.Generator) -> Plan:
+        """The next target on the D-S map ``belief`` from ``pose`` (eqs. 6-7).
+
+        :attr:`Plan.scores` are minus the fitness ``E_P`` of the candidates at the radius the
+        decision was taken; :attr:`Plan.extra` holds ``fitness``, ``radius``, ``done`` and
+        ``reason`` (:class:`RoutePlan`). ``index`` is ``None`` when the mission is finished.
         """
-        return self.plan_detailed(ds_grid, path_model, position, rng, allowed).target
+        if belief.uncertainty is None:
+            raise ConfigError("belief", "the route planner needs the map's cell uncertainty")
+        grid = belief.grid
+        region = self.params.region if self.params.region is not None else belief.region
+        pos = np.asarray(pose.position, float)[:2]
+        robot_cell = grid.index(pos)[0]
+        patch = belief.path
+        if patch is None:
+            patch = PathPatch(0, 0, np.zeros((0, 0)), grid, robot_cell)
+        elif self.params.fitness_path == "distribution":
+            patch = as_distribution(patch)
+        rp = self._route(
+            grid,
+            belief.uncertainty,
+            patch,
+            pos,
+            robot_cell,
+            rng,
+            self._allowed(grid, region),
+            region,
+        )
+        work = int(rp.n_candidates * max(patch.values.size, 1))
+        extra = {"fitness": rp.fitness, "radius": rp.radius, "done": rp.done, "reason": rp.reason}
+        m = len(rp.candidates)
+        return Plan(rp.index, rp.candidates, -rp.fitnesses, np.ones(m, bool), work, extra)
 
-    def plan_detailed(
+    def route(
         self,
         ds_grid: DSGrid,
         path_model: OdorPathEstimator | PathPatch | ArrayLike,
@@ -255,33 +339,50 @@ class UncertaintyRoutePlanner:
         -------
         RoutePlan
         """
-        p = self.params
         grid = ds_grid.grid
         pos = np.asarray(position, float).reshape(-1)
         if pos.shape != (2,) or not np.all(np.isfinite(pos)):
             raise ConfigError("position", f"needs 2 finite components, got {position!r}")
         robot_cell = grid.index(pos)[0]
         patch = _as_patch(path_model, grid, robot_cell)
-
-        if p.region is not None and p.edge_reach > 0:
-            (rx0, ry0), (rx1, ry1) = p.region
-            # a hair of tolerance keeps centres lying exactly edge_reach outside
-            e = p.edge_reach * (1.0 + 1e-9) + 1e-12
-            cand_mask = grid.region_mask(((rx0 - e, ry0 - e), (rx1 + e, ry1 + e)))
-        else:
-            cand_mask = grid.region_mask(p.region)
         if allowed is not None:
             allowed = np.asarray(allowed, bool)
             if allowed.shape != grid.shape:
                 raise ConfigError("allowed", f"shape {allowed.shape} != grid {grid.shape}")
+        return self._route(
+            grid, ds_grid.uncertainty(), patch, pos, robot_cell, rng, allowed, self.params.region
+        )
+
+    def _route(
+        self,
+        grid: CellGrid,
+        uncertainty: FloatArray,
+        patch: PathPatch,
+        pos: FloatArray,
+        robot_cell: NDArray[np.intp],
+        rng: np.random.Generator,
+        allowed: NDArray[np.bool_] | None,
+        region: Region | None,
+    ) -> RoutePlan:
+        p = self.params
+        if region is not None and p.edge_reach > 0:
+            (rx0, ry0), (rx1, ry1) = region
+            # a hair of tolerance keeps centres lying exactly edge_reach outside
+            e = p.edge_reach * (1.0 + 1e-9) + 1e-12
+            cand_mask = grid.region_mask(((rx0 - e, ry0 - e), (rx1 + e, ry1 + e)))
+        else:
+            cand_mask = grid.region_mask(region)
+        if allowed is not None:
             cand_mask = cand_mask & allowed
-        x = ds_grid.uncertainty()
-        if p.region is not None:
-            x = np.where(grid.region_mask(p.region), x, 0.0)
+        x = uncertainty
+        if region is not None:
+            x = np.where(grid.region_mask(region), x, 0.0)
 
         if patch.empty:
             here = grid.center(robot_cell)[0]
-            return RoutePlan(here, 0.0, 0.0, 0, False, "empty_path_map")
+            return RoutePlan(
+                here, 0.0, 0.0, 0, False, "empty_path_map", here[None, :], np.zeros(1), 0
+            )
         if not cand_mask.any():
             return RoutePlan(None, 0.0, 0.0, 0, True, "no_candidates")
 
@@ -319,6 +420,7 @@ class UncertaintyRoutePlanner:
                 in_range[rcx, rcy] = p.include_current
             cand = in_range & cand_mask[ix0:ix1, iy0:iy1]
             n_cand = int(np.count_nonzero(cand))
+            e_c = None
             if n_cand:
                 e = fitness_map(x, patch, box)
                 e_c = np.where(cand, e, -np.inf)
@@ -327,11 +429,34 @@ class UncertaintyRoutePlanner:
                     flat = select(e_c.ravel(), mode="max", ties="random", rtol=p.tie_rtol, rng=rng)
                     pick = np.array(np.unravel_index(int(flat), e_c.shape))
                     target = grid.center(pick + np.array([ix0, iy0]))[0]
-                    if p.region is not None:
-                        target = np.clip(target, p.region[0], p.region[1])
+                    targets, fits = _candidates(grid, cand, e_c, (ix0, iy0), region)
+                    if region is not None:
+                        target = np.clip(target, region[0], region[1])
                     reason = "widened" if widened else "ok"
-                    return RoutePlan(target, best_e, r_eff, n_cand, False, reason)
+                    k = int(np.count_nonzero(cand.ravel()[: int(flat)]))
+                    return RoutePlan(target, best_e, r_eff, n_cand, False, reason, targets, fits, k)
             if whole:
-                return RoutePlan(None, best_e, r_eff, n_cand, True, "finished")
+                targets, fits = (
+                    _candidates(grid, cand, e_c, (ix0, iy0), region)
+                    if e_c is not None
+                    else (np.zeros((0, 2)), np.zeros(0))
+                )
+                return RoutePlan(None, best_e, r_eff, n_cand, True, "finished", targets, fits)
             radius *= p.widen_factor
             widened = True
+
+
+def _candidates(
+    grid: CellGrid,
+    cand: NDArray[np.bool_],
+    fitness: FloatArray,
+    offset: tuple[int, int],
+    region: Region | None,
+) -> tuple[FloatArray, FloatArray]:
+    """Targets ``(M, 2)`` (clamped onto ``region``) and fitness ``(M,)`` of the candidate cells
+    of a box, in row-major order."""
+    idx = np.argwhere(cand)
+    targets = grid.center(idx + np.asarray(offset)).reshape(-1, 2)
+    if region is not None:
+        targets = np.clip(targets, region[0], region[1])
+    return targets, fitness[cand]

@@ -17,9 +17,11 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from odorloc.core.errors import ConfigError
-from odorloc.core.types import Message
+from odorloc.core.types import ArrayPayload, Message, Payload
 
-Payload = Mapping[str, ArrayLike]
+Sent = Payload | Mapping[str, ArrayLike]
+"""What a sender may pass: a typed :class:`~odorloc.core.types.Payload`, or a dict of named
+arrays (taken as an :class:`~odorloc.core.types.ArrayPayload`)."""
 
 
 def _payload_array(value: ArrayLike, field: str) -> np.ndarray:
@@ -45,8 +47,23 @@ def _payload_array(value: ArrayLike, field: str) -> np.ndarray:
     return a
 
 
-def message_nbytes(payload: Payload) -> int:
-    """Size of a payload in bytes: the sum of its arrays' ``nbytes``.
+def as_payload(payload: Sent, field: str = "payload") -> Payload:
+    """``payload`` as a typed :class:`~odorloc.core.types.Payload` (a dict of named arrays
+    becomes an :class:`~odorloc.core.types.ArrayPayload` of read-only copies).
+
+    Raises :class:`~odorloc.core.errors.ConfigError` (field ``<field>.<name>``) for a value
+    that is not an array of numbers (e.g. a nested dict), whose size cannot be counted, and for
+    anything that is neither a payload nor a dict.
+    """
+    if isinstance(payload, Payload):
+        return payload
+    if not isinstance(payload, Mapping):
+        raise ConfigError(field, "must be a Payload or a dict of name -> array")
+    return ArrayPayload({str(k): _payload_array(v, f"{field}.{k}") for k, v in payload.items()})
+
+
+def message_nbytes(payload: Sent) -> int:
+    """Size of a payload in bytes: its declared size (a dict of arrays: their ``nbytes``).
 
     Raises :class:`~odorloc.core.errors.ConfigError` (field ``payload.<name>``) for a value
     that is not an array of numbers (e.g. a nested dict), whose size cannot be counted.
@@ -55,7 +72,7 @@ def message_nbytes(payload: Payload) -> int:
     --------
     A Gaussian summary of a 3D belief (mean + covariance, 12 float64 numbers) is 96 bytes.
     """
-    return int(sum(_payload_array(v, f"payload.{k}").nbytes for k, v in payload.items()))
+    return int(as_payload(payload).nbytes)
 
 
 def _positions(positions: ArrayLike) -> np.ndarray:
@@ -186,26 +203,18 @@ class CommGraph:
         """Number of neighbours per agent, ``(N,)``."""
         return self.adjacency.sum(axis=1)
 
-    def _payloads(
-        self, messages: Mapping[int, Payload], n: int
-    ) -> dict[int, dict[str, np.ndarray]]:
-        out: dict[int, dict[str, np.ndarray]] = {}
+    def _payloads(self, messages: Mapping[int, Sent], n: int) -> dict[int, Payload]:
+        out: dict[int, Payload] = {}
         for k, payload in messages.items():
             if isinstance(k, bool) or not (isinstance(k, int | np.integer) and 0 <= int(k) < n):
                 raise ConfigError("messages", f"sender {k!r} is not an agent index in [0, {n})")
-            if not isinstance(payload, Mapping):
-                raise ConfigError(f"messages[{k}]", "payload must be a dict of name -> array")
-            arrs = {}
-            for name, v in payload.items():
-                # a copy: later changes by the sender must not reach receivers
-                a = _payload_array(v, f"messages[{k}].{name}")
-                a.setflags(write=False)
-                arrs[str(name)] = a
-            out[int(k)] = arrs
+            # typed payloads hold read-only copies; a dict's arrays are copied here, so later
+            # changes by the sender never reach receivers
+            out[int(k)] = as_payload(payload, f"messages[{k}]")
         return out
 
     def deliver(
-        self, positions: ArrayLike, messages: Mapping[int, Payload]
+        self, positions: ArrayLike, messages: Mapping[int, Sent]
     ) -> tuple[list[tuple[Message, ...]], int]:
         """Update the graph from ``positions`` and deliver each agent's payload to its neighbours.
 
@@ -257,7 +266,7 @@ class CommGraph:
         self,
         agent: int,
         positions: ArrayLike | None = None,
-        messages: Mapping[int, Payload] | None = None,
+        messages: Mapping[int, Sent] | None = None,
     ) -> int:
         """Bytes ``agent`` sends (summed over recipients) for ``messages`` at ``positions``.
 

@@ -27,7 +27,7 @@ from odorloc.core.params import NonNegative, Params, Positive
 from odorloc.core.registry import register
 from odorloc.core.types import Region
 from odorloc.geometry.arena import Arena
-from odorloc.geometry.regions import check_region
+from odorloc.geometry.regions import check_region, narrow_box
 from odorloc.plume.sources import Source
 
 __all__ = ["SourceDraw", "UniformSourceDraw", "UniformSourceDrawParams"]
@@ -121,15 +121,8 @@ class UniformSourceDraw(SourceDraw):
 
     def check(self, arena: Arena) -> None:
         """The region must fit the arena's dimension and overlap it."""
-        if self.params.region is None:
-            return
-        rlo, rhi = self.params.region
-        if len(rlo) > arena.dim:
-            raise ConfigError("region", f"has more components than the {arena.dim}D arena")
         # a 2-component box in a 3D arena keeps the arena's vertical extent
-        box = zip(rlo, rhi, arena.lo, arena.hi, strict=False)
-        if any(r1 <= a0 or r0 >= a1 for r0, r1, a0, a1 in box):
-            raise ConfigError("region", "does not overlap the arena")
+        narrow_box(arena.lo, arena.hi, self.params.region, "region")
 
     def positions(
         self, n: int, arena: Arena, starts: np.ndarray, rng: np.random.Generator

@@ -1,11 +1,13 @@
 """Estimators replayed offline over a recorded log (a bag, or any stream of observations).
 
-Any registered searcher with a belief is an estimator here: it is fed the log's observations
-step by step and its commands are ignored (the robot in the log went where it went). So the
-particle filter of ``pf-entropy``, the Dempster-Shafer map of ``ds-mapping`` /
-``ds-rectangular-wave`` and any future estimator replay the same way. ``odor-path`` is the
-odor-path estimator alone: the sum, over the readings with a detection, of their odor-path maps
-(where the detected air came from), normalised into a grid belief.
+A single-agent estimator (registry family ``estimator``: ``particle-filter``, ``grid-filter``,
+``ds-map``, ``odor-path``, ...) is fed the log's observations one control period at a time; the
+robot in the log went where it went, so nothing moves. A searcher's name works too when the
+searcher composes an estimator (:meth:`~odorloc.searchers.base.Searcher.estimation`): its
+estimator and measurement model are replayed with the searcher's parameters (``pf-entropy``
+replays its particle filter, ``ds-mapping`` / ``ds-rectangular-wave`` their D-S map).
+``odor-path`` sums the odor-path maps of the readings with a detection (where the detected air
+came from).
 
 ::
 
@@ -14,7 +16,8 @@ odor-path estimator alone: the sum, over the readings with a detection, of their
     plot_belief_map(rec, "belief.png")
 
 The result is an ordinary :class:`~odorloc.engine.recorder.Recording` (path, readings, belief
-snapshots every ``belief_every`` seconds and at the end), so every plot of recordings applies.
+snapshots every ``belief_every`` seconds and at the end, and the estimate as a declaration the
+first time the estimator's stopping rule holds), so every plot of recordings applies.
 """
 
 from __future__ import annotations
@@ -27,52 +30,12 @@ import numpy as np
 
 from odorloc.core import registry
 from odorloc.core.errors import ConfigError
-from odorloc.core.types import Declaration, Observation, SearchContext
+from odorloc.core.types import Observation, SearchContext
 from odorloc.engine.recorder import Recording
-from odorloc.inference.belief import GridBelief
-from odorloc.inference.odor_path.estimator import OdorPathEstimator, OdorPathParams
-from odorloc.searchers.base import Belief, Searcher
+from odorloc.inference.estimator import Estimator
+from odorloc.models.base import MeasurementModel
 
-__all__ = ["OdorPathMap", "check_estimator", "replay_estimator", "snapshot"]
-
-
-class OdorPathMap:
-    """Odor-path maps of the detections, summed over the log (odor-path paper, section IV).
-
-    Parameters
-    ----------
-    params : OdorPathParams, optional
-        Cell size, ``t_thr``, noise scale ... (``dt`` is set to the log's period). Default: the
-        estimator's defaults with 0.25 m cells and cell-integrated kernels, so that a map summed
-        over a whole log is smooth at the scale of a robot's step.
-    """
-
-    def __init__(self, params: OdorPathParams | None = None) -> None:
-        self.params = params or OdorPathParams(cell_size=0.25, kernel="cell")
-
-    def reset(self, ctx: SearchContext, rng: np.random.Generator) -> None:
-        """Start over for a log with context ``ctx``."""
-        p = self.params.model_copy(update={"dt": ctx.dt})
-        lo, hi = ctx.arena.lower[:2], ctx.arena.upper[:2]
-        self.estimator = OdorPathEstimator(p, lo, hi)
-        self.accum = np.zeros(self.estimator.grid.shape)
-        self.n_detections = 0
-
-    def act(self, observations: list[Observation], rng: np.random.Generator) -> Any:
-        """Record one period; accumulate its path map when it has a detection."""
-        o = observations[0]
-        self.estimator.update(o.t, o.position[:2], o.wind[:2], 1.0 if o.detection else 0.0)
-        if o.detection:
-            self.accum += self.estimator.path_map()
-            self.n_detections += 1
-        return None
-
-    def beliefs(self) -> dict[int, Belief]:
-        """The normalised accumulated map (none before the first detection)."""
-        total = float(self.accum.sum())
-        if total <= 0:
-            return {}
-        return {-1: GridBelief(self.estimator.grid, self.accum / total)}
+__all__ = ["check_estimator", "replay_estimator", "resolve_estimator", "snapshot"]
 
 
 def snapshot(belief: Any) -> dict[str, np.ndarray]:
@@ -81,31 +44,66 @@ def snapshot(belief: Any) -> dict[str, np.ndarray]:
 
 
 def check_estimator(name: str, field: str = "estimator") -> None:
-    """Refuse an estimator name that is neither ``odor-path`` nor a registered searcher
+    """Refuse a name that is neither a registered estimator nor a registered searcher
     (:class:`ConfigError` naming ``field``), before any log is read."""
-    if name != "odor-path":
+    if name not in registry.names("estimator"):
         registry.entry("searcher", name, field=field)
 
 
-def _build(estimator: str | Searcher | OdorPathMap, params: Mapping[str, Any] | None) -> Any:
-    if not isinstance(estimator, str):
-        return estimator
-    if estimator == "odor-path":
-        try:
-            values = {"cell_size": 0.25, "kernel": "cell", **dict(params or {})}
-            return OdorPathMap(OdorPathParams(**values))
-        except Exception as exc:
-            raise ConfigError("estimator", f"odor-path parameters: {exc}") from None
-    ref = registry.ComponentRef(type=estimator, **dict(params or {}))
-    return ref.build("searcher", field="estimator")
+def resolve_estimator(
+    estimator: str | Estimator,
+    params: Mapping[str, Any] | None = None,
+    model: Mapping[str, Any] | None = None,
+) -> tuple[Estimator, MeasurementModel | None, str]:
+    """The estimator to replay, its measurement model and its name.
+
+    Parameters
+    ----------
+    estimator : str or Estimator
+        An estimator (built, or a registry name) or the name of a searcher composing one.
+    params : dict, optional
+        Parameters of the named estimator or searcher.
+    model : dict, optional
+        The measurement model, ``{type: name, **params}``; default: the searcher's, else the
+        estimator's ``default_model``.
+
+    Raises
+    ------
+    ConfigError
+        Naming ``estimator`` for an unknown name or a searcher without an estimator,
+        ``model`` for an estimator that needs a model and has none.
+    """
+    values = dict(params or {})
+    built: MeasurementModel | None = None
+    if isinstance(estimator, Estimator):
+        est, name = estimator, type(estimator).__name__
+    elif estimator in registry.names("estimator"):
+        ref = registry.ComponentRef(type=estimator, **values)
+        est, name = ref.build("estimator", field="estimator"), estimator
+    else:
+        ref = registry.ComponentRef(type=estimator, **values)
+        searcher = ref.build("searcher", field="estimator")
+        parts = searcher.estimation()
+        if parts is None:
+            raise ConfigError("estimator", f"searcher {estimator!r} composes no estimator")
+        (est, built), name = parts, estimator
+    if model is not None:
+        built = registry.ComponentRef(**dict(model)).build("model", field="model")
+    elif built is None and est.needs_model:
+        spec = type(est).default_model
+        if spec is None:
+            raise ConfigError("model", f"{name} needs a measurement model")
+        built = registry.ComponentRef(**dict(spec)).build("model", field="model")
+    return est, built, name
 
 
 def replay_estimator(
     observations: Iterable[Observation],
     ctx: SearchContext,
-    estimator: str | Searcher | OdorPathMap = "pf-entropy",
+    estimator: str | Estimator = "pf-entropy",
     params: Mapping[str, Any] | None = None,
     *,
+    model: Mapping[str, Any] | None = None,
     seed: int = 0,
     belief_every: float = 10.0,
     sources: np.ndarray | None = None,
@@ -120,11 +118,13 @@ def replay_estimator(
         consumed as a stream.
     ctx : SearchContext
         What the estimator may know (arena, period, threshold).
-    estimator : str or object
-        A searcher registry name (``pf-entropy``, ``ds-mapping``, ...), ``odor-path``, or a
-        built searcher.
+    estimator : str or Estimator
+        An estimator registry name (``particle-filter``, ``ds-map``, ``odor-path``, ...), a
+        searcher composing one (``pf-entropy``, ``ds-mapping``, ...) or a built estimator.
     params : dict, optional
-        The estimator's parameters.
+        The estimator's (or searcher's) parameters.
+    model : dict, optional
+        The measurement model (default: the searcher's, else the estimator's default).
     seed : int
         Seed of the estimator's random stream.
     belief_every : float, seconds
@@ -138,9 +138,9 @@ def replay_estimator(
     -------
     Recording
     """
-    est = _build(estimator, params)
+    est, mdl, est_name = resolve_estimator(estimator, params, model)
     rng = np.random.default_rng(seed)
-    est.reset(ctx, rng)
+    est.reset(ctx, mdl, rng)
     d = ctx.dim
     t: list[float] = []
     pos: list[np.ndarray] = []
@@ -154,39 +154,35 @@ def replay_estimator(
     for o in observations:
         if len(o.position) != d:
             raise ConfigError("dim", f"observation has {len(o.position)} components, not {d}")
-        action = est.act([o], rng)
-        if action is not None:
-            for decl in action.declarations:
-                declared.append(np.atleast_2d(Declaration(decl.positions).positions))
+        est.update(o)
+        if not declared and est.converged():
+            declared.append(np.atleast_2d(est.estimate()))
         t.append(o.t)
         pos.append(o.position)
         gas.append(o.gas)
         det.append(o.detection)
         wind.append(o.wind)
-        current = dict(est.beliefs())
-        if current:
-            last = (o.t, current)
+        b = est.belief()
+        if b is not None:
+            last = (o.t, b)
             if o.t >= next_snap - 1e-9:
-                for agent, b in current.items():
-                    beliefs.append((o.t, {**snapshot(b), "agent": np.array(int(agent))}))
+                beliefs.append((o.t, {**snapshot(b), "agent": np.array(-1)}))
                 next_snap = o.t + belief_every
     if not t:
         raise ConfigError("log", "no observations (not one full period of data)")
     if last is not None and (not beliefs or beliefs[-1][0] != last[0]):
-        for agent, b in last[1].items():
-            beliefs.append((last[0], {**snapshot(b), "agent": np.array(int(agent))}))
+        beliefs.append((last[0], {**snapshot(last[1]), "agent": np.array(-1)}))
     src = np.zeros((0, d)) if sources is None else np.atleast_2d(np.asarray(sources, float))
     lo, hi = ctx.arena.lo, ctx.arena.hi
     decl = np.vstack(declared) if declared else np.zeros((0, d))
     meta: dict[str, Any] = {
         "scenario": name,
-        "searcher": estimator if isinstance(estimator, str) else type(estimator).__name__,
+        "searcher": est_name,
         "steps": len(t),
         "detections": int(np.sum(det)),
     }
     if len(src) and beliefs:
-        final = [b for b in beliefs if b[0] == beliefs[-1][0]]
-        m = _belief_mean(final[-1][1])
+        m = _belief_mean(beliefs[-1][1])
         if m is not None:
             meta["loc_error"] = float(np.min(np.linalg.norm(src[:, : len(m)] - m, axis=1)))
     return Recording(

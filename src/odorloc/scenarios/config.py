@@ -43,7 +43,7 @@ from odorloc.core.params import (
     refuse_bools_as_numbers,
 )
 from odorloc.core.registry import ComponentRef
-from odorloc.geometry.regions import check_region
+from odorloc.geometry.regions import check_region, narrow_box
 from odorloc.plume.sources import Source
 
 
@@ -307,15 +307,8 @@ class Scenario(_Strict):
             for k, s in enumerate(pts):
                 if len(s) != d:
                     raise ConfigError(f"agents.start_sets.{name}[{k}]", f"needs {d} components")
-        if self.task.region is not None and len(self.task.region[0]) > d:
-            raise ConfigError("task.region", f"has more components than the {d}D arena")
-        if self.task.region is not None:
-            rlo, rhi = self.task.region
-            alo, ahi = self.world.arena.lower, self.world.arena.upper
-            if any(
-                r1 <= a0 or r0 >= a1 for r0, r1, a0, a1 in zip(rlo, rhi, alo, ahi, strict=False)
-            ):
-                raise ConfigError("task.region", "does not overlap the arena")
+        arena = self.world.arena
+        narrow_box(arena.lower, arena.upper, self.task.region, "task.region")
         if self.world.dt > self.limits.control_dt:
             raise ConfigError("world.dt", "must not exceed limits.control_dt")
         ratio = self.limits.control_dt / self.world.dt

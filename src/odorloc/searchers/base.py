@@ -23,6 +23,8 @@ import numpy as np
 from odorloc.core.params import Params
 from odorloc.core.types import Action, Observation, SearchContext
 from odorloc.inference.belief import Belief
+from odorloc.inference.estimator import Estimator
+from odorloc.models.base import MeasurementModel
 
 __all__ = ["Belief", "Searcher"]
 
@@ -64,15 +66,29 @@ class Searcher(ABC):
         """The current belief (particles, grid, evidence map, ...) for recording, or ``None``."""
         return None
 
+    def estimation(self) -> tuple[Estimator, MeasurementModel | None] | None:
+        """The single-agent estimator this recipe composes and the measurement model it feeds
+        it (``None``: none), not yet reset. An offline replay of a log drives them without the
+        searcher, whose motion the log's robot did not follow."""
+        return None
+
     def beliefs(self) -> Mapping[int, Belief]:
         """Every belief to record, keyed by the agent that holds it (``-1``: a central one)."""
         b = self.belief()
         return {} if b is None else {-1: b}
 
-    def diagnostics(self) -> dict[str, float]:
-        """Scalars worth recording each step (entropy, phase code, ...). Default none."""
+    def diagnostics(self) -> dict[str, float | str]:
+        """Scalars worth recording each step: numbers (entropy, ESS, ...) or text (the phase's
+        name, never a numeric code). Default none."""
         return {}
 
     def final_metrics(self) -> dict[str, Any]:
-        """Extra columns for the episode's result row (default none)."""
+        """Extra columns for the episode's result row (default none). A name of a core column
+        of the episode (``success``, ``search_time``, ...) is refused."""
+        return {}
+
+    def agent_metrics(self) -> dict[int, dict[str, Any]]:
+        """Values that belong to one agent each, ``{agent id: {key: value}}`` (default none):
+        stored per agent beside the episode row, never as ``key_<agent>`` columns. Teams give
+        each member's :meth:`final_metrics` under the member's (first) agent."""
         return {}

@@ -1,7 +1,8 @@
 """Dempster-Shafer mapping of several odor sources: the dynamic route and its baseline (D-S paper).
 
-Both searchers build the same map (:class:`~odorloc.inference.evidence.mapper.DSMapper`: odor-path
-maps fused by Dempster's rule) and differ in how they move:
+Both searchers build the same map (the estimator ``ds-map``,
+:class:`~odorloc.inference.evidence.mapper.DSMapEstimator`: odor-path maps fused by Dempster's
+rule) and differ in how they move:
 
 * :class:`DSMappingSearcher` (``ds-mapping``), the paper's dynamic route: the next position
   maximises the uncertainty the next reading would cover
@@ -69,7 +70,6 @@ from collections.abc import Sequence
 from typing import Any, Literal
 
 import numpy as np
-from numpy.typing import NDArray
 from pydantic import Field
 
 from odorloc.behaviours.stop_and_go import StopAndGo
@@ -77,18 +77,15 @@ from odorloc.core.errors import ConfigError
 from odorloc.core.params import NonNegative, Positive
 from odorloc.core.registry import register
 from odorloc.core.types import Action, Command, Declaration, Observation, SearchContext
-from odorloc.geometry.arena import Arena
-from odorloc.geometry.regions import resolve_region
 from odorloc.inference.belief import GridBelief
-from odorloc.inference.evidence.mapper import DSMapParams, DSMapper, as_distribution
+from odorloc.inference.estimator import Estimator
+from odorloc.inference.evidence.mapper import DSMapEstimator, DSMapParams, DSMapper
 from odorloc.inference.odor_path.estimator import PathPatch
+from odorloc.models.base import MeasurementModel
 from odorloc.planning.astar import astar_path
+from odorloc.planning.base import Plan, Pose
 from odorloc.planning.coverage import wave_waypoints
-from odorloc.planning.uncertainty_route import (
-    RoutePlan,
-    UncertaintyRouteParams,
-    UncertaintyRoutePlanner,
-)
+from odorloc.planning.uncertainty_route import UncertaintyRouteParams, UncertaintyRoutePlanner
 from odorloc.searchers.base import Searcher
 
 __all__ = [
@@ -99,36 +96,28 @@ __all__ = [
 ]
 
 
-def _reset_mapper(params: DSMapParams, ctx: SearchContext) -> DSMapper:
-    if ctx.n_agents != 1:
-        raise ConfigError("agents.starts", "the D-S mapping searchers drive a single robot")
-    if params.t_thr < ctx.dt * (1.0 - 1e-9):
-        # one record per control period: a shorter span holds no earlier record, so no
-        # sub-window DW(t_r, t_c) ever opens and the map stays blank (odor-path paper, eq. 16)
-        raise ConfigError(
-            "searcher.t_thr",
-            f"{params.t_thr:g} s is shorter than the control period {ctx.dt:g} s: no air-mass "
-            "path could ever be mapped",
-        )
-    region = resolve_region(ctx, params.region)
-    # the region is horizontal: only the arena's first two axes count
-    arena = zip(region[0], region[1], ctx.arena.lower[:2], ctx.arena.upper[:2], strict=True)
-    if params.region is not None and any(r1 <= a0 or r0 >= a1 for r0, r1, a0, a1 in arena):
-        # the robot could never read there: the map would stay blank and its sources be
-        # declared outside the world
-        raise ConfigError("searcher.region", "does not overlap the arena")
-    return DSMapper(params, region, ctx.dt)
+class _MappingSearcher(Searcher):
+    """A single robot building the D-S map (:attr:`map`, its :class:`DSMapper` :attr:`mapper`)."""
 
+    params: DSMapParams
+    max_agents = 1
+    dims = (2,)
 
-def _standable(arena: Arena, mapper: DSMapper) -> NDArray[np.bool_] | None:
-    """Evidence cells a route target may lie in, ``(nx, ny)`` bool: those whose target (the cell
-    centre clamped onto the region, as the planner clamps edge targets) is free; ``None`` when
-    the arena has no obstacles."""
-    if arena.occ is None:
-        return None
-    g = mapper.grid.grid
-    targets = np.clip(g.centers().reshape(-1, 2), mapper.region[0], mapper.region[1])
-    return arena.is_free(targets).reshape(g.shape)
+    def reset(self, ctx: SearchContext, rng: np.random.Generator) -> None:
+        """A blank map (one robot's)."""
+        super().reset(ctx, rng)
+        if ctx.n_agents != 1:
+            raise ConfigError("agents.starts", "the D-S mapping searchers drive a single robot")
+        self.map = DSMapEstimator(self.params)
+        self.map.reset(ctx, None, rng)
+        self.mapper: DSMapper = self.map.mapper
+
+    def belief(self) -> GridBelief:
+        return self.map.belief()
+
+    def estimation(self) -> tuple[Estimator, MeasurementModel | None]:
+        """The D-S map (it needs no model)."""
+        return DSMapEstimator(self.params), None
 
 
 def _tag(decl: Declaration, agent: int) -> Declaration:
@@ -193,20 +182,17 @@ class DSMappingParams(DSMapParams):
     DSMappingParams,
     "D-S evidence map of several sources + uncertainty-driven route (D-S paper)",
 )
-class DSMappingSearcher(Searcher):
+class DSMappingSearcher(_MappingSearcher):
     """The D-S paper's method: map every reading, go where the most uncertainty is covered.
 
     Declares the mapped sources when no position in the whole region reaches ``eta_E``.
     """
 
     params: DSMappingParams
-    max_agents = 1
-    dims = (2,)
 
     def reset(self, ctx: SearchContext, rng: np.random.Generator) -> None:
         super().reset(ctx, rng)
         p = self.params
-        self.mapper = _reset_mapper(p, ctx)
         # "within the access of the robot in the next time step" (section 3)
         reach = ctx.max_speed * ctx.dt
         if p.step_range is not None:
@@ -234,11 +220,12 @@ class DSMappingSearcher(Searcher):
                 region=self.mapper.region,
                 include_current=p.stay_candidate,
                 edge_reach=edge,
+                fitness_path=p.fitness_path,
             )
         )
+        self.planner.reset(ctx)
         self.motion = StopAndGo(reach, p.dwell_periods)
-        self.last_plan: RoutePlan | None = None
-        self.allowed = _standable(ctx.arena, self.mapper)
+        self.last_plan: Plan | None = None
         # the remaining waypoints of a detour around obstacles (see :meth:`_head_for`)
         self._route: list[np.ndarray] = []
         self.n_plans = 0
@@ -249,8 +236,6 @@ class DSMappingSearcher(Searcher):
         self.n_visits = 0
         self._visit: tuple[int, ...] | None = None
         self._visit_since = math.nan
-        # cells whose visit is over; the map re-places its sources by the visits' readings
-        self.visited = np.zeros(self.mapper.grid.grid.shape, bool)
 
     def _tests_mapped(self, patch: PathPatch) -> bool:
         """Whether a reading's air came over a mapped cell (``pi >= 0.5`` on a cell with
@@ -272,7 +257,7 @@ class DSMappingSearcher(Searcher):
         if not (x0 <= xy[0] <= x1 and y0 <= xy[1] <= y1):
             return None
         up = self._cell(xy)
-        if up == cell or self.visited[up]:
+        if up == cell or self.mapper.visited[up]:
             return None
         if self.mapper.grid.m_s[up] < self.params.source_min_mass:
             return None
@@ -298,7 +283,8 @@ class DSMappingSearcher(Searcher):
 
     def act(self, observations: Sequence[Observation], rng: np.random.Generator) -> Action:
         o = observations[0]
-        patch = self.mapper.update(o.t, o.position, o.wind, o.detection, o.gas)
+        self.map.update(o)
+        patch = self.map.fused
         if patch is not None and patch.values.size and self._tests_mapped(patch):
             # the cell the fused reading was taken in: with ``preprocess`` it is the reading of
             # ``delay`` seconds ago, not the robot's cell now
@@ -311,11 +297,7 @@ class DSMappingSearcher(Searcher):
         if patch is None:  # the first pre-processed reading is not due yet
             return Action([Command.hold()])
         if math.isnan(self.stop_rule_at):
-            if self.params.fitness_path == "distribution":
-                patch = as_distribution(patch)
-            plan = self.planner.plan_detailed(
-                self.mapper.grid, patch, o.position[:2], rng, self.allowed
-            )
+            plan = self.planner.plan(self.map.belief(), Pose(np.asarray(o.position, float)), rng)
             self.last_plan = plan
             self.n_plans += 1
             if plan.target is not None:
@@ -325,8 +307,7 @@ class DSMappingSearcher(Searcher):
             if self.params.visit_readings > 0:
                 # from now on the visited sources are placed by the visits' readings, also if
                 # the time limit ends the stage
-                self.mapper.close_since = self.mapper.n_readings
-                self.mapper.close_cells = self.visited
+                self.mapper.start_close_look()
         target = self._next_visit(o)
         if target is None:
             self.finished_at = o.t
@@ -350,7 +331,7 @@ class DSMappingSearcher(Searcher):
                 and o.t - self._visit_since <= p.visit_dwell
             ):
                 return g.center(np.array(self._visit))[0]
-            self.visited[self._visit] = True
+            self.mapper.mark_visited(self._visit)
             up = self._upwind_of(self._visit)
             if up is not None:
                 # walk on up the mapped plume: the next cell upwind is read in turn
@@ -361,7 +342,8 @@ class DSMappingSearcher(Searcher):
         pending = [
             xy
             for xy in self.mapper.source_positions()
-            if self.tests[self._cell(xy)] < p.visit_readings and not self.visited[self._cell(xy)]
+            if self.tests[self._cell(xy)] < p.visit_readings
+            and not self.mapper.visited[self._cell(xy)]
         ]
         if not pending:
             self._visit = None
@@ -373,21 +355,15 @@ class DSMappingSearcher(Searcher):
         self.n_visits += 1
         return g.center(np.array(self._visit))[0]
 
-    def belief(self) -> GridBelief:
-        return self.mapper.grid.belief()
-
     def diagnostics(self) -> dict[str, float]:
-        fit = self.last_plan.fitness if self.last_plan is not None else math.nan
-        return {
-            "total_uncertainty": self.mapper.total_uncertainty(),
-            "mapped_regions": float(len(self.mapper.sources())),
-            "fitness": float(fit),
-        }
+        plan = self.last_plan
+        fit = plan.extra["fitness"] if plan is not None and plan.extra else math.nan
+        return {**self.map.diagnostics(), "fitness": float(fit)}
 
     def final_metrics(self) -> dict[str, Any]:
         """Extra row fields (see :meth:`DSMapper.final_metrics`) plus the planner's count."""
         return {
-            **self.mapper.final_metrics(),
+            **self.map.final_metrics(),
             "plans": float(self.n_plans),
             "stop_rule_time": float(self.stop_rule_at),
             "source_visits": float(self.n_visits),
@@ -431,7 +407,7 @@ class DSRectangularWaveParams(DSMapParams):
     DSRectangularWaveParams,
     "rectangular-wave coverage building the same D-S map (D-S paper baseline)",
 )
-class DSRectangularWaveSearcher(Searcher):
+class DSRectangularWaveSearcher(_MappingSearcher):
     """The D-S paper's baseline: a predefined rectangular-wave path, the same D-S map.
 
     The lanes are those of :class:`~odorloc.searchers.simple.RectangularWaveSearcher`
@@ -442,13 +418,10 @@ class DSRectangularWaveSearcher(Searcher):
     """
 
     params: DSRectangularWaveParams
-    max_agents = 1
-    dims = (2,)
 
     def reset(self, ctx: SearchContext, rng: np.random.Generator) -> None:
         super().reset(ctx, rng)
         p = self.params
-        self.mapper = _reset_mapper(p, ctx)
         self.waypoints = wave_waypoints(
             self.mapper.region,
             p.lane_spacing,
@@ -470,7 +443,7 @@ class DSRectangularWaveSearcher(Searcher):
 
     def act(self, observations: Sequence[Observation], rng: np.random.Generator) -> Action:
         o = observations[0]
-        self.mapper.update(o.t, o.position, o.wind, o.detection, o.gas)
+        self.map.update(o)
         if not self.done and self.motion.arrived(o.position):
             self.index += 1
             if not self.done:
@@ -479,16 +452,9 @@ class DSRectangularWaveSearcher(Searcher):
             return Action([Command.hold()], declaration=_tag(self.mapper.declaration(), o.agent))
         return Action([self.motion.command(o.position)])
 
-    def belief(self) -> GridBelief:
-        return self.mapper.grid.belief()
-
     def diagnostics(self) -> dict[str, float]:
-        return {
-            "total_uncertainty": self.mapper.total_uncertainty(),
-            "mapped_regions": float(len(self.mapper.sources())),
-            "waypoint": float(self.index),
-        }
+        return {**self.map.diagnostics(), "waypoint": float(self.index)}
 
     def final_metrics(self) -> dict[str, Any]:
         """Extra row fields (see :meth:`DSMapper.final_metrics`)."""
-        return self.mapper.final_metrics()
+        return self.map.final_metrics()

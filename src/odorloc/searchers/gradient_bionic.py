@@ -10,9 +10,8 @@ equations, so this is the standard combination from the literature it cites):
   principal axes) and ``|g| >= min_gradient``, the robot steps along ``g / |g| + b u`` (``u`` the
   upwind unit vector, ``b = upwind_bias``); otherwise it steps upwind (anemotaxis).
 - **Surge** (signal lost for ``lost_after`` steps) and **cast**: the moth-inspired behaviour of
-  :mod:`odorloc.behaviours.surge_cast` (``surge_steps`` steps upwind, then crosswind legs at
-  ``cast_angle_deg`` growing from ``cast_amplitude`` by ``cast_growth``). Casting is also the
-  plume-finding behaviour before the first detection.
+  :mod:`odorloc.behaviours.surge_cast` (``surge_steps`` steps upwind, then the crosswind legs
+  of ``cast``). Casting is also the plume-finding behaviour before the first detection.
 - **Declaration** (peak confirmed): over the last ``declare_steps`` steps the robot has stayed
   within ``declare_radius`` of the mean of those positions (it circles a peak instead of
   climbing), with a detection on at least ``declare_fraction`` of them, and the last fitted
@@ -23,7 +22,8 @@ equations, so this is the standard combination from the literature it cites):
   0), which averages out the turbulent noise of single readings. ``declare_steps`` is 30
   (15 s at 0.5 s): shorter windows let a random walk inside the plume near the start pass for a
   peak.
-- **Blocked steps** turn to the nearest free direction (0, +-45, +-90, +-135, 180 degrees).
+- **Blocked steps** turn to the nearest free direction (0, +-45, +-90, +-135, 180 degrees;
+  :func:`~odorloc.behaviours.escape.free_move`), else the robot holds.
 """
 
 from __future__ import annotations
@@ -35,12 +35,12 @@ from collections.abc import Sequence
 import numpy as np
 from pydantic import Field
 
-from odorloc.behaviours.escape import first_free
-from odorloc.behaviours.surge_cast import SurgeCast, SurgeCastParams
-from odorloc.core.params import Finite, NonNegative, Params, Positive
+from odorloc.behaviours.escape import free_move
+from odorloc.behaviours.surge_cast import CastParams, SurgeCast
+from odorloc.core.params import NonNegative, Params, Positive
 from odorloc.core.registry import register
 from odorloc.core.types import Action, Command, Declaration, Observation, SearchContext
-from odorloc.geometry.vectors import fan, upwind_unit
+from odorloc.geometry.vectors import upwind_unit
 from odorloc.searchers.base import Searcher
 
 __all__ = ["GradientBionicParams", "GradientBionicSearcher", "fit_gradient"]
@@ -76,7 +76,11 @@ def fit_gradient(
 
 
 class GradientBionicParams(Params):
-    """Parameters of :class:`GradientBionicSearcher` (see the module docstring)."""
+    """Parameters of :class:`GradientBionicSearcher` (see the module docstring).
+
+    ``surge_steps`` are the steps of upwind surge after the signal is lost and ``cast`` the
+    casting legs that follow (:class:`~odorloc.behaviours.surge_cast.CastParams`).
+    """
 
     fit_readings: int = Field(6, ge=3, le=10_000)
     min_spread: NonNegative = 0.03
@@ -84,29 +88,13 @@ class GradientBionicParams(Params):
     upwind_bias: NonNegative = 0.0
     lost_after: int = Field(3, ge=1, le=1_000_000)
     surge_steps: int = Field(4, ge=0, le=1_000_000)
-    cast_angle_deg: float = Field(80.0, ge=0.0, le=90.0)
-    cast_amplitude: Positive = 0.4
-    cast_growth: Finite = Field(1.5, ge=1.0)
-    cast_max: Positive = 3.0
+    cast: CastParams = CastParams()
     step_length: Positive | None = None
     declare_radius: Positive = 0.5
     declare_steps: int = Field(30, ge=1, le=1_000_000)
     declare_fraction: float = Field(0.5, ge=0.0, le=1.0)
     declare_gradient: NonNegative = math.inf
     declare_peak_fraction: float = Field(0.0, ge=0.0, le=1.0)
-
-    def surge_cast(self) -> SurgeCastParams:
-        """The surge/cast part of these parameters."""
-        return SurgeCastParams(
-            surge_steps=self.surge_steps,
-            cast_angle_deg=self.cast_angle_deg,
-            cast_amplitude=self.cast_amplitude,
-            cast_growth=self.cast_growth,
-            cast_max=self.cast_max,
-        )
-
-
-_TURNS = (0, 45, -45, 90, -90, 135, -135, 180)
 
 
 @register("searcher", "gradient-bionic", GradientBionicParams, "gradient following + surge/cast")
@@ -128,7 +116,7 @@ class GradientBionicSearcher(Searcher):
         self._readings: deque[tuple[np.ndarray, float]] = deque(maxlen=p.fit_readings)
         self.mode = "cast"
         self._since_detection = math.inf
-        self._surge_cast = SurgeCast(p.surge_cast())
+        self._surge_cast = SurgeCast(p.cast, p.surge_steps)
         self._best = -math.inf
         self._best_pos: np.ndarray | None = None
         self._recent: deque[tuple[np.ndarray, float, bool]] = deque(maxlen=p.declare_steps)
@@ -193,11 +181,8 @@ class GradientBionicSearcher(Searcher):
     # ----------------------------------------------------------------- motion
     def _free_move(self, pos: np.ndarray, direction: np.ndarray) -> Command:
         """Step along ``direction``, or the nearest free rotation of it (±45°, ±90°, ...)."""
-        cand = np.array(
-            [d / max(float(np.linalg.norm(d)), 1e-12) * self.step for d in fan(direction, _TURNS)]
-        )
-        k = first_free(self.ctx.arena, pos, cand)
-        return Command.hold() if k is None else Command.move(cand[k])
+        d = free_move(self.ctx.arena, pos, direction, self.step)
+        return Command.hold() if d is None else Command.move(d)
 
     def _move(self, o: Observation, pos: np.ndarray, rng: np.random.Generator) -> Command:
         p = self.params
@@ -215,11 +200,11 @@ class GradientBionicSearcher(Searcher):
         return self._free_move(pos, d)
 
     def diagnostics(self) -> dict[str, float]:
-        """``phase`` (0 cast, 1 gradient, 2 surge), ``best`` reading, ``gradient`` magnitude."""
-        code = {"cast": 0.0, "gradient": 1.0, "surge": 2.0}[self.mode]
+        """``phase`` (``"cast"``, ``"gradient"`` or ``"surge"``), ``best`` reading,
+        ``gradient`` magnitude."""
         g = self._gradient
         return {
-            "phase": code,
+            "phase": self.mode,
             "best": self._best if math.isfinite(self._best) else math.nan,
             "gradient": math.nan if g is None else float(np.linalg.norm(g)),
         }

@@ -51,7 +51,7 @@ from odorloc.core.registry import ComponentRef, Ref
 from odorloc.core.types import Command, Declaration, Observation, SearchContext
 from odorloc.geometry.vectors import directions_26, lattice_moves
 from odorloc.inference.belief import GridBelief, ParticleBelief
-from odorloc.searchers.base import Searcher
+from odorloc.inference.estimator import Estimator
 
 __all__ = ["ActionParams", "ObservationParams", "PolicyIO", "belief_summary"]
 
@@ -67,8 +67,9 @@ class ObservationParams(Params):
         Base features, in the documented order (a subset of ``gas``, ``detection``, ``wind``,
         ``position``, ``heading``, ``time``).
     belief : dict, optional
-        A searcher run alongside as an estimator (``{type: pf-entropy, ...}``); its belief's
-        mean, spread and entropy are appended. Its commands are ignored.
+        A searcher whose estimator runs alongside (``{type: pf-entropy, ...}``: its particle
+        filter with its model, :meth:`~odorloc.searchers.base.Searcher.estimation`); the
+        belief's mean, spread and entropy are appended.
     neighbours : bool
         In team scenarios, append the neighbours' messages (default ``True``).
     """
@@ -173,15 +174,18 @@ class PolicyIO:
         if self.others > 0:
             self._layout.append(("neighbours", self.others * (d + 3)))
         self.size = sum(s for _, s in self._layout)
-        self.estimators: list[Searcher] = []
-        self._est_rngs: list[np.random.Generator] = []
+        self.estimators: list[Estimator] = []
         if observation.belief is not None:
             ref: ComponentRef = observation.belief
             for a, child in zip(ctx.agent_ids, rng.spawn(self.n), strict=True):
-                est = ref.build("searcher", field="observation.belief")
-                est.reset(ctx.subset([a]), child)
+                parts = ref.build("searcher", field="observation.belief").estimation()
+                if parts is None:
+                    raise ConfigError(
+                        "observation.belief", f"searcher {ref.type!r} composes no estimator"
+                    )
+                est, model = parts
+                est.reset(ctx.subset([a]), model, child)
                 self.estimators.append(est)
-                self._est_rngs.append(child)
         self._beliefs = np.zeros((self.n, 2 * d + 2))
         if action.kind == "discrete":
             base = lattice_moves(d) if action.moves == "axis" else _all_directions(d)
@@ -264,11 +268,10 @@ class PolicyIO:
 
     # ------------------------------------------------------------------ encoding
     def update_beliefs(self, observations: Sequence[Observation]) -> None:
-        """Feed this step's observations to the belief estimators (their actions are ignored)."""
+        """Feed this step's observations to the belief estimators."""
         for i, est in enumerate(self.estimators):
-            est.act([observations[i]], self._est_rngs[i])
-            snaps = list(est.beliefs().values())
-            self._beliefs[i] = belief_summary(snaps[0] if snaps else None, self.dim)
+            est.update(observations[i])
+            self._beliefs[i] = belief_summary(est.belief(), self.dim)
             if self._beliefs[i, 0] > 0:
                 self.last_belief_means[i] = self._beliefs[i, 1 : 1 + self.dim]
             else:

@@ -3,19 +3,21 @@ chemotaxis, anemotaxis and fluxotaxis rules on the robot's own recent samples.
 
 Each is a short recipe over the behaviours of :mod:`odorloc.behaviours`; all move one control
 period at a time (``step_length``, default the platform's speed times the period), turn to the
-nearest free direction when blocked (0, +-45, +-90, +-135, 180 degrees), never declare (they suit
-tasks that end when the source is reached, ``task.end: reach``) and search for the plume by
-casting (:class:`~odorloc.behaviours.surge_cast.SurgeCast`: crosswind legs that grow from
-``cast_amplitude`` by ``cast_growth`` up to ``cast_max``; in 3-D tilted by
-``cast_elevation_deg`` to sweep heights) whenever their rule has nothing to say.
+nearest free direction when blocked (0, +-45, +-90, +-135, 180 degrees, else any free one of 16:
+:func:`~odorloc.behaviours.escape.free_move`), never declare (they suit tasks that end when the
+source is reached, ``task.end: reach``) and search for the plume by casting
+(:class:`~odorloc.behaviours.surge_cast.SurgeCast` with the legs of ``cast``: crosswind legs
+that grow from ``amplitude`` by ``growth`` up to ``max_amplitude``; in 3-D tilted by
+``elevation_deg`` to sweep heights) whenever their rule has nothing to say.
 
 - ``surge-cast`` (Kennedy & Marsh 1974; Li, Farrell & Cardé 2001; MAPIRlab's GSL package): every
   detection (re)starts a surge of ``surge_steps`` periods straight upwind of the averaged wind;
   when it runs out without a detection the robot casts.
 - ``surge-spiral`` (MAPIRlab's GSL package): the same surge, but the plume is searched for by a
-  square spiral (:class:`~odorloc.behaviours.spiral.Spiral`, legs of ``spiral_step`` growing by
-  ``spiral_increment`` every second leg; the package's defaults 1 m and 0.4 m) started where the
-  surge ended (and from the start position before the first detection).
+  square spiral (:class:`~odorloc.behaviours.spiral.Spiral` with the legs of ``spiral``: a first
+  step of ``initial_step`` growing by ``step_increment`` every second leg; the package's
+  defaults 1 m and 0.4 m) started where the surge ended (and from the start position before the
+  first detection).
 - ``chemotaxis``: the virtual-physics paper's chemotaxis rule (eq. 3,
   :func:`~odorloc.behaviours.taxis.chemotaxis`) applied to the last ``memory`` (position,
   reading) samples of the robot around their centroid: it heads from the centroid towards the
@@ -44,16 +46,16 @@ from typing import Any
 import numpy as np
 from pydantic import Field
 
-from odorloc.behaviours.escape import first_free
-from odorloc.behaviours.spiral import Spiral, SpiralParams
-from odorloc.behaviours.surge_cast import SurgeCast, SurgeCastParams
+from odorloc.behaviours.escape import free_move
+from odorloc.behaviours.spiral import Spiral, SpiralLegParams
+from odorloc.behaviours.surge_cast import CastParams, SurgeCast
 from odorloc.behaviours.taxis import anemotaxis, chemotaxis, fluxotaxis
-from odorloc.behaviours.wind import WindAverage
 from odorloc.core.params import Finite, NonNegative, Params, Positive
 from odorloc.core.registry import register
 from odorloc.core.types import Action, Command, Observation, SearchContext
-from odorloc.geometry.vectors import fan, ring
+from odorloc.geometry.vectors import ring
 from odorloc.searchers.base import Searcher
+from odorloc.sensors.preprocessing import WindAverage
 
 __all__ = [
     "AnemotaxisParams",
@@ -69,8 +71,6 @@ __all__ = [
     "SurgeSpiralSearcher",
 ]
 
-_TURNS = (0, 45, -45, 90, -90, 135, -135, 180)
-
 
 class ReactiveParams(Params):
     """Settings shared by the reactive strategies (see the module docstring).
@@ -83,29 +83,14 @@ class ReactiveParams(Params):
         Anemometer readings averaged for the upwind direction.
     threshold : float, optional
         ``rho_T`` of the taxis rules, in the sensor's units (default: its detection threshold).
-    cast_angle_deg, cast_amplitude, cast_growth, cast_max, cast_elevation_deg
-        The casting of :class:`~odorloc.behaviours.surge_cast.SurgeCastParams` (metres, degrees).
+    cast : CastParams
+        The casting legs (:class:`~odorloc.behaviours.surge_cast.CastParams`).
     """
 
     step_length: Positive | None = None
     wind_average: int = Field(4, ge=1, le=10_000)
     threshold: Finite | None = None
-    cast_angle_deg: float = Field(80.0, ge=0.0, le=90.0)
-    cast_amplitude: Positive = 0.4
-    cast_growth: Finite = Field(1.5, ge=1.0)
-    cast_max: Positive = 3.0
-    cast_elevation_deg: float = Field(0.0, ge=0.0, lt=90.0)
-
-    def surge_cast(self, surge_steps: int = 0) -> SurgeCastParams:
-        """The casting part of these parameters."""
-        return SurgeCastParams(
-            surge_steps=surge_steps,
-            cast_angle_deg=self.cast_angle_deg,
-            cast_amplitude=self.cast_amplitude,
-            cast_growth=self.cast_growth,
-            cast_max=self.cast_max,
-            cast_elevation_deg=self.cast_elevation_deg,
-        )
+    cast: CastParams = CastParams()
 
 
 class ReactiveSearcher(Searcher):
@@ -126,7 +111,7 @@ class ReactiveSearcher(Searcher):
             p.threshold if p.threshold is not None else math.nextafter(ctx.gas_threshold, -math.inf)
         )
         self.wind = WindAverage(p.wind_average)
-        self.caster = SurgeCast(p.surge_cast())
+        self.caster = SurgeCast(p.cast)
         self.mode = "cast"
         self.detections = 0
 
@@ -137,17 +122,9 @@ class ReactiveSearcher(Searcher):
         self, pos: np.ndarray, direction: np.ndarray, rng: np.random.Generator
     ) -> Command:
         """A move of ``step`` along ``direction`` or its nearest free rotation, else any free
-        direction of 16, else hold."""
-        arena = self.ctx.arena
-        cand = [
-            d / max(float(np.linalg.norm(d)), 1e-12) * self.step for d in fan(direction, _TURNS)
-        ]
-        k = first_free(arena, pos, np.array(cand))
-        if k is not None:
-            return Command.move(cand[k])
-        moves = ring(16, arena.dim)[rng.permutation(16)] * self.step
-        k = first_free(arena, pos, moves)
-        return Command.hold() if k is None else Command.move(moves[k])
+        direction of 16, else hold (:func:`~odorloc.behaviours.escape.free_move`)."""
+        d = free_move(self.ctx.arena, pos, direction, self.step, rng)
+        return Command.hold() if d is None else Command.move(d)
 
     def cast(self, pos: np.ndarray, up: np.ndarray, rng: np.random.Generator) -> Command:
         """One step of the casting search."""
@@ -155,8 +132,9 @@ class ReactiveSearcher(Searcher):
         return self.free_move(pos, self.caster.direction(self.ctx.arena, pos, up, self.step), rng)
 
     def diagnostics(self) -> dict[str, float]:
-        """``phase``: 0 casting, 1 following the rule (surge, taxis), 2 spiral."""
-        return {"phase": {"cast": 0.0, "track": 1.0, "spiral": 2.0}[self.mode]}
+        """``phase``: ``"cast"``, ``"track"`` (following the rule: surge, taxis) or
+        ``"spiral"``."""
+        return {"phase": self.mode}
 
     def final_metrics(self) -> dict[str, Any]:
         """Number of detections."""
@@ -178,7 +156,7 @@ class SurgeCastSearcher(ReactiveSearcher):
 
     def reset(self, ctx: SearchContext, rng: np.random.Generator) -> None:
         super().reset(ctx, rng)
-        self.caster = SurgeCast(self.params.surge_cast(self.params.surge_steps))
+        self.caster = SurgeCast(self.params.cast, self.params.surge_steps)
 
     def act(self, observations: Sequence[Observation], rng: np.random.Generator) -> Action:
         o = observations[0]
@@ -197,6 +175,13 @@ class SurgeCastSearcher(ReactiveSearcher):
 
 
 # ---------------------------------------------------------------------- surge-spiral
+class GSLSpiralLegs(SpiralLegParams):
+    """The spiral legs of MAPIRlab's GSL package: 1 m growing by 0.4 m every second leg."""
+
+    initial_step: Positive = 1.0
+    step_increment: NonNegative = 0.4
+
+
 class SurgeSpiralParams(ReactiveParams):
     """:class:`ReactiveParams` and the surge and spiral settings.
 
@@ -204,15 +189,15 @@ class SurgeSpiralParams(ReactiveParams):
     ----------
     surge_steps : int
         Periods of upwind surge per detection.
-    spiral_step, spiral_increment : float, metres
-        First spiral leg and its growth every second leg (MAPIRlab's GSL defaults 1.0, 0.4).
+    spiral : SpiralLegParams
+        The spiral's legs, metres (MAPIRlab's GSL defaults: ``initial_step`` 1.0,
+        ``step_increment`` 0.4).
     max_skips : int
         Blocked spiral legs skipped before the spiral restarts.
     """
 
     surge_steps: int = Field(4, ge=1, le=1_000_000)
-    spiral_step: Positive = 1.0
-    spiral_increment: NonNegative = 0.4
+    spiral: GSLSpiralLegs = GSLSpiralLegs()
     max_skips: int = Field(3, ge=0, le=10_000)
 
 
@@ -224,10 +209,7 @@ class SurgeSpiralSearcher(ReactiveSearcher):
 
     def reset(self, ctx: SearchContext, rng: np.random.Generator) -> None:
         super().reset(ctx, rng)
-        p = self.params
-        self.spiral = Spiral(
-            SpiralParams(initial_step=p.spiral_step, step_increment=p.spiral_increment)
-        )
+        self.spiral = Spiral(self.params.spiral)
         self.surge_left = 0
         self.on_leg = False
         self.spiral_started = False
@@ -265,15 +247,10 @@ class SurgeSpiralSearcher(ReactiveSearcher):
     def _leg(self, pos: np.ndarray, rng: np.random.Generator) -> Command:
         self.mode = "spiral"
         arena = self.ctx.arena
-        for attempt in range(2):
-            for _ in range(self.params.max_skips + 1):
-                target = pos.copy()
-                target[:2] += self.spiral.next_offset()
-                if arena.segment_free(pos, target)[0]:
-                    self.on_leg = True
-                    return Command.move(target - pos)
-            if attempt == 0:
-                self.spiral.restart(self.spiral.heading)
+        target = self.spiral.free_leg(arena, pos, self.params.max_skips)
+        if target is not None:
+            self.on_leg = True
+            return Command.move(target - pos)
         return self.free_move(pos, ring(1, arena.dim, rng.uniform(0, 2 * math.pi))[0], rng)
 
 

@@ -23,7 +23,6 @@ from pydantic import Field
 
 from odorloc.behaviours.escape import first_free, free_step
 from odorloc.behaviours.monitor import MaxTracker, PassiveMonitor
-from odorloc.behaviours.wind import WindAverage
 from odorloc.behaviours.zigzag import Zigzag
 from odorloc.core.params import NonNegative, Params, Positive
 from odorloc.core.registry import register
@@ -32,6 +31,7 @@ from odorloc.geometry.regions import resolve_region
 from odorloc.geometry.vectors import heading_vector, rotate2
 from odorloc.planning.coverage import route_around_obstacles, wave_waypoints
 from odorloc.searchers.base import Searcher
+from odorloc.sensors.preprocessing import WindAverage
 
 
 # ---------------------------------------------------------------------- random walk

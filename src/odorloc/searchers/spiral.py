@@ -17,11 +17,10 @@ from typing import Any
 import numpy as np
 from pydantic import Field
 
-from odorloc.behaviours.escape import first_free
+from odorloc.behaviours.escape import escape_move
 from odorloc.behaviours.spiral import Spiral, SpiralParams, proximity_index
 from odorloc.core.registry import register
 from odorloc.core.types import Action, Command, Observation, SearchContext
-from odorloc.geometry.vectors import ring
 from odorloc.searchers.base import Searcher
 
 __all__ = ["SpiralSearchParams", "SpiralSearcher"]
@@ -61,25 +60,19 @@ class SpiralSearcher(Searcher):
             p = self.params
             index = proximity_index(np.array(self.window[i]), self.ctx.dt, p.kmu, p.kp)
             self.window[i] = []
-            self.spirals[i].judge(index, o.heading)
+            self.spirals[i].judge(index, o.heading, p.patience, p.decay)
             cmds.append(self._leg(i, o, rng))
             self.moving[i] = cmds[-1].kind == "waypoint"
         return Action(cmds)
 
     def _leg(self, i: int, o: Observation, rng: np.random.Generator) -> Command:
-        arena, sp = self.ctx.arena, self.spirals[i]
+        arena = self.ctx.arena
         pos = np.asarray(o.position, float)
-        for attempt in range(2):
-            for _ in range(self.params.max_skips + 1):
-                target = pos.copy()
-                target[:2] += sp.next_offset()
-                if arena.segment_free(pos, target)[0]:
-                    return Command.waypoint(target)
-            if attempt == 0:
-                sp.restart(o.heading)
-        moves = ring(16, arena.dim)[rng.permutation(16)] * self.params.initial_step
-        k = first_free(arena, pos, moves)
-        return Command.hold() if k is None else Command.waypoint(pos + moves[k])
+        target = self.spirals[i].free_leg(arena, pos, self.params.max_skips, o.heading)
+        if target is not None:
+            return Command.waypoint(target)
+        d = escape_move(arena, pos, self.params.initial_step, rng)
+        return Command.hold() if d is None else Command.waypoint(pos + d)
 
     def diagnostics(self) -> dict[str, float]:
         return {"proximity_best": self.spirals[0].best, "spiral_step": self.spirals[0].step}

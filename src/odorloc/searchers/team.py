@@ -163,12 +163,16 @@ class PerAgentTeam(Searcher):
                 out[key if k == 0 else f"{key}_{agents[0]}"] = v
         return out
 
-    def final_metrics(self) -> dict[str, Any]:
-        """The first member's extra columns as they are, the others' suffixed ``_<agent>``."""
-        out: dict[str, Any] = {}
-        for k, (m, (agents, _)) in enumerate(zip(self.members, self.units, strict=True)):
-            for key, v in m.final_metrics().items():
-                out[key if k == 0 else f"{key}_{agents[0]}"] = v
+    def agent_metrics(self) -> dict[int, dict[str, Any]]:
+        """Each member's :meth:`final_metrics` (and its own per-agent values) under the
+        member's first agent."""
+        out: dict[int, dict[str, Any]] = {}
+        for m, (agents, _) in zip(self.members, self.units, strict=True):
+            for a, values in m.agent_metrics().items():
+                out.setdefault(int(a), {}).update(values)
+            own = m.final_metrics()
+            if own:
+                out.setdefault(int(agents[0]), {}).update(own)
         return out
 
 

@@ -215,10 +215,10 @@ class UAVPlannerMember(Searcher):
             self._cues.append(pos)
         self._counts.append(est.pf.n)
         payload = est.message()
-        messages = {o.agent: payload} if payload else {}
-        if payload:
+        messages = {o.agent: payload} if payload is not None else {}
+        if payload is not None:
             self._sent += 1
-            self._numbers_sent += int(sum(np.asarray(v).size for v in payload.values()))
+            self._numbers_sent += payload.numbers
         declaration = None
         estimate = est.estimate()
         self.planner.processed = 0.0

@@ -64,6 +64,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import Any, Literal
 
 import numpy as np
@@ -80,13 +81,38 @@ from odorloc.behaviours.taxis import anemotaxis, chemotaxis, fluxotaxis, mass_fl
 from odorloc.core.errors import ConfigError
 from odorloc.core.params import Finite, NonNegative, Params, Positive
 from odorloc.core.registry import register
-from odorloc.core.types import Action, Command, Declaration, Observation, SearchContext
+from odorloc.core.types import (
+    Action,
+    Command,
+    Declaration,
+    Observation,
+    Payload,
+    SearchContext,
+    frozen_array,
+)
 from odorloc.searchers.base import Searcher
 
-__all__ = ["VirtualPhysicsParams", "VirtualPhysicsSearcher"]
+__all__ = ["GroupMessage", "VirtualPhysicsParams", "VirtualPhysicsSearcher"]
 
 Rule = Literal["chemotaxis", "anemotaxis", "fluxotaxis"]
 _EPS = 1e-12
+
+
+@dataclass(frozen=True, eq=False)
+class GroupMessage(Payload):
+    """What a group tells the others: its virtual robot ``vr`` (``(2,)``, metres, two float64)
+    and whether it has declared (one byte): 17 bytes."""
+
+    vr: np.ndarray
+    declared: bool
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "vr", frozen_array(np.ravel(self.vr)[:2]))
+        object.__setattr__(self, "declared", bool(self.declared))
+
+    @property
+    def nbytes(self) -> int:
+        return int(self.vr.nbytes) + 1
 
 
 class VirtualPhysicsParams(Params):
@@ -232,12 +258,12 @@ class VirtualPhysicsSearcher(Searcher):
         for o in observations:
             for m in o.messages:
                 # every robot in range hears the same broadcast: read it once
-                if m.sender in seen or m.sender in self.own or "vr" not in m.payload:
+                if m.sender in seen or m.sender in self.own:
+                    continue
+                if not isinstance(m.payload, GroupMessage):
                     continue
                 seen.add(m.sender)
-                vr = np.asarray(m.payload["vr"], float).reshape(-1)[:2]
-                declared = bool(np.asarray(m.payload.get("declared", 0)).reshape(-1)[0])
-                self.heard[int(m.sender)] = (vr, declared)
+                self.heard[int(m.sender)] = (m.payload.vr.copy(), m.payload.declared)
 
     def _goal(self, x: np.ndarray, gas: np.ndarray, wind: np.ndarray) -> np.ndarray | None:
         p = self.params
@@ -251,9 +277,8 @@ class VirtualPhysicsSearcher(Searcher):
             goal = chemotaxis(self.vr, x, np.where(gas >= p.k_c, gas, 0.0))
         return goal
 
-    def _message(self) -> dict[int, dict[str, np.ndarray]]:
-        declared = np.array([self.declared_at is not None], np.uint8)
-        return {self.sender: {"vr": self.vr.copy(), "declared": declared}}
+    def _message(self) -> dict[int, GroupMessage]:
+        return {self.sender: GroupMessage(self.vr, self.declared_at is not None)}
 
     # ------------------------------------------------------------------ step
     def act(self, observations: Sequence[Observation], rng: np.random.Generator) -> Action:

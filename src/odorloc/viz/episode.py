@@ -10,11 +10,6 @@ import shutil
 from pathlib import Path
 from typing import Any
 
-import matplotlib
-
-matplotlib.use("Agg")
-
-import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib import animation, colors, transforms
 from matplotlib.axes import Axes
@@ -22,6 +17,7 @@ from matplotlib.legend_handler import HandlerTuple
 from matplotlib.lines import Line2D
 
 from odorloc.engine.recorder import Recording
+from odorloc.viz.backend import pyplot
 
 AGENT_COLORS = ["tab:red", "tab:blue", "tab:green", "tab:orange", "tab:purple", "tab:brown"]
 
@@ -173,6 +169,7 @@ def plot_trajectory(rec: Recording, path: str | Path | None = None, ax: Axes | N
 
     Returns the figure (saved as PNG when ``path`` is given).
     """
+    plt = pyplot()
     own = ax is None
     if ax is None:
         b = rec.arena_bounds
@@ -321,6 +318,7 @@ def animate(
     Path
         ``path``.
     """
+    plt = pyplot()
     path = Path(path)
     b = rec.arena_bounds
     w, h = b[1, 0] - b[0, 0], b[1, 1] - b[0, 1]
@@ -452,6 +450,7 @@ def plot_traces(rec: Recording, path: str | Path | None = None) -> Any:
     -------
     Figure
     """
+    plt = pyplot()
     diag = {
         k: v for k, v in rec.diagnostics.items() if k in TRACE_DIAGNOSTICS and np.isfinite(v).any()
     }
@@ -563,6 +562,7 @@ def plot_belief_map(
     -------
     Figure
     """
+    plt = pyplot()
     own = ax is None
     if ax is None:
         b = rec.arena_bounds

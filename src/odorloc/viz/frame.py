@@ -4,13 +4,8 @@ for environments' ``render()`` and quick looks; no figure is created.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-
-import matplotlib
-
-matplotlib.use("Agg")
-
 import itertools
+from collections.abc import Sequence
 
 import numpy as np
 from matplotlib import colormaps

@@ -12,15 +12,11 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-import matplotlib
-
-matplotlib.use("Agg")
-
-import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib import animation
 
 from odorloc.engine.recorder import Recording
+from odorloc.viz.backend import pyplot
 from odorloc.viz.episode import AGENT_COLORS
 
 __all__ = ["animate_team_3d", "beliefs_at", "key_moments", "plot_team_3d"]
@@ -149,6 +145,7 @@ def plot_team_3d(
     titles : sequence of str, optional
         Panel titles (default the times).
     """
+    plt = pyplot()
     if rec.positions.shape[2] != 3:
         raise ValueError("plot_team_3d needs a 3-D recording")
     if times is None:
@@ -183,6 +180,7 @@ def animate_team_3d(
     rec: Recording, path: str | Path, *, fps: int = 8, max_frames: int = 80, dpi: int = 90
 ) -> Path:
     """Animation of :func:`plot_team_3d`'s view over the episode (GIF, or MP4 for ``.mp4``)."""
+    plt = pyplot()
     path = Path(path)
     fig = plt.figure(figsize=(7, 5.6))
     ax = fig.add_subplot(1, 1, 1, projection="3d")

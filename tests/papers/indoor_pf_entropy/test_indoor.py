@@ -71,17 +71,17 @@ def test_particle_snapshots_run_only_the_stored_episode(tmp_path, monkeypatch) -
         return real(sc, world_seed, agent_seed, **kw)
 
     monkeypatch.setattr(episode_mod, "run_episode", counted)
-    changed = ind._episode_figures(df, store, tmp_path / "particle_snapshots.png")
+    changed = ind.episode_figures(df, store, tmp_path / "particle_snapshots.png")
     assert calls == [(int(df.world_seed.iloc[0]), int(df.agent_seed.iloc[0]))]
     assert changed == []
     for name in ("particle_snapshots.png", "entropy_curve.png", "traces.png"):
         assert (tmp_path / name).stat().st_size > 0
 
 
-def test_snapshot_episode_is_the_first_stored_success_of_the_farthest_pf_start() -> None:
+def testsnapshot_episode_is_the_first_stored_success_of_the_farthest_pf_start() -> None:
     import pandas as pd
 
-    from odorloc.papers.indoor_pf_entropy.reproduction import _snapshot_episode
+    from odorloc.papers.indoor_pf_entropy.reproduction import snapshot_episode
 
     def row(searcher: str, start: int, ep: int, success: bool | None, status: str = "ok"):
         return {
@@ -102,10 +102,10 @@ def test_snapshot_episode_is_the_first_stored_success_of_the_farthest_pf_start()
         row("pf-entropy-literal", 4, 0, True),
     ]
     df = pd.DataFrame(rows).astype({"success": "boolean"})
-    assert _snapshot_episode(df) == ("indoor-ventilated[start_index=4]/pf-entropy", 2)
+    assert snapshot_episode(df) == ("indoor-ventilated[start_index=4]/pf-entropy", 2)
     # no success: the first episode that ran; nothing that ran: none
-    assert _snapshot_episode(df.iloc[:2]) == ("indoor-ventilated[start_index=4]/pf-entropy", 1)
-    assert _snapshot_episode(df.iloc[:1]) is None
+    assert snapshot_episode(df.iloc[:2]) == ("indoor-ventilated[start_index=4]/pf-entropy", 1)
+    assert snapshot_episode(df.iloc[:1]) is None
 
 
 def test_entropy_table_reports_start_end_and_share_that_fell() -> None:

@@ -1,6 +1,7 @@
 """The D-S map of several sources: odor-path maps fused by Dempster's rule (D-S paper).
 
-:class:`DSMapper` bundles two parts so that any motion strategy can build the same map:
+:class:`DSMapper` bundles two parts so that any motion strategy can build the same map (the
+estimator ``ds-map``, :class:`DSMapEstimator`, holds one):
 
 * :class:`~odorloc.inference.odor_path.estimator.OdorPathEstimator` turns the robot's wind
   record into the air-mass path map ``pi`` of the air now at the robot (odor-path paper,
@@ -32,14 +33,15 @@ Readings of the paper (each configurable, :class:`DSMapParams`):
   downwind of a source are not sources), two sources side by side across the wind are found even
   where their footprints join into one region, and cells within ``source_exclusion`` (along,
   across the mean wind) of a chosen source are not candidates. Once a route has taken a close
-  look at its mapped sources (``close_since``, set by the dynamic route's visits), each visited
-  likelihood source is re-placed along its own strip by the readings of that look alone
-  (:meth:`DSMapper.refined`): readings taken metres downwind of a source cannot tell where along
-  those metres it lies, and, being many, would otherwise place it just upwind of the nearest of
-  them. The region rules read the connected regions with ``m(S) >= source_min_mass``, one
-  estimate each: ``peak`` the region's strongest cell, ranked by the exactly stored doubt
-  ``m(notS) + m(U)`` because long runs of detections round ``m(S)`` to exactly 1.0; ``centroid``
-  the ``m(S)``-weighted centroid; ``upwind`` the centroid of the region's upwind end. A region
+  look at its mapped sources (:meth:`DSMapper.start_close_look`, by the dynamic route's
+  visits), each visited likelihood source is re-placed along its own strip by the readings of
+  that look alone (:meth:`DSMapper.refined`): readings taken metres downwind of a source cannot
+  tell where along those metres it lies, and, being many, would otherwise place it just upwind
+  of the nearest of them. The region rules read the connected regions with
+  ``m(S) >= source_min_mass``, one estimate each: ``peak`` the region's strongest cell, ranked
+  by the exactly stored doubt ``m(notS) + m(U)`` because long runs of detections round ``m(S)``
+  to exactly 1.0; ``centroid`` the ``m(S)``-weighted centroid; ``upwind`` the centroid of the
+  region's upwind end. A region
   is the footprint of where the robot detected (the source plus the plume downwind of it), so
   the centroid is pulled downwind, the peak may lie inside the footprint, and two joined
   footprints give one estimate; the README compares the rules.
@@ -49,6 +51,7 @@ from __future__ import annotations
 
 import math
 from collections import deque
+from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
@@ -58,13 +61,26 @@ from scipy import ndimage
 
 from odorloc.core.errors import ConfigError
 from odorloc.core.params import NonNegative, Params, Positive
-from odorloc.core.types import Declaration, Region
-from odorloc.geometry.regions import check_region
+from odorloc.core.registry import register
+from odorloc.core.types import Declaration, Observation, Region, SearchContext
+from odorloc.geometry.regions import check_region, narrow_box, resolve_region
+from odorloc.inference.belief import GridBelief
+from odorloc.inference.estimator import Estimator
 from odorloc.inference.evidence.dempster_shafer import DSGrid, DSParams, EvidenceSource
 from odorloc.inference.odor_path.estimator import OdorPathEstimator, OdorPathParams, PathPatch
+from odorloc.models.base import MeasurementModel
 from odorloc.sensors.preprocessing import OnlinePreprocessor, PreprocessorParams
 
-__all__ = ["RULES", "DSMapParams", "DSMapper", "ReadingLog", "as_distribution"]
+__all__ = [
+    "RULES",
+    "DSMapEstimator",
+    "DSMapParams",
+    "DSMapper",
+    "EvidenceBelief",
+    "ReadingLog",
+    "as_distribution",
+    "evidence_belief",
+]
 
 FloatArray = NDArray[np.float64]
 
@@ -171,6 +187,33 @@ def as_distribution(patch: PathPatch) -> PathPatch:
     return PathPatch(patch.ix0, patch.iy0, patch.values / total, patch.grid, patch.ref_cell)
 
 
+@dataclass(frozen=True, eq=False)
+class EvidenceBelief(GridBelief):
+    """The D-S map as a belief, with what a route planner weighs.
+
+    Attributes
+    ----------
+    uncertainty : (nx, ny) ndarray
+        Cell uncertainty ``X_i`` (eq. 5).
+    path : PathPatch or None
+        The air-mass path map of the reading fused last (``None``: none yet).
+    region : ((x0, y0), (x1, y1))
+        The search region, metres.
+    """
+
+    uncertainty: FloatArray | None = None
+    path: PathPatch | None = None
+    region: Region | None = None
+
+
+def evidence_belief(
+    grid: DSGrid, path: PathPatch | None, region: Region | None = None
+) -> EvidenceBelief:
+    """The belief of a D-S grid (:meth:`DSGrid.belief`) with its uncertainty and ``path``."""
+    b = grid.belief()
+    return EvidenceBelief(b.grid, b.prob, b.extra, grid.uncertainty(), path, region)
+
+
 class DSMapper:
     """Odor-path estimator + Dempster-Shafer grid: the map both mapping searchers build.
 
@@ -235,9 +278,10 @@ class DSMapper:
         self._pending: deque[tuple[float, np.ndarray]] = deque()
         self._log = ReadingLog(self.grid.grid.shape)
         self._likely: tuple[int, FloatArray, FloatArray] | None = None
-        # first reading of a route's close look at its mapped sources (see :meth:`refined`)
-        self.close_since: int | None = None
-        self.close_cells: NDArray[np.bool_] | None = None
+        # first reading of a route's close look at its mapped sources and the cells it read
+        # from (see :meth:`start_close_look` and :meth:`refined`)
+        self._close_since: int | None = None
+        self._visited = np.zeros(self.grid.grid.shape, bool)
 
     def update(
         self,
@@ -287,13 +331,42 @@ class DSMapper:
         patch = self.estimator.path_patch()
         if self.params.path_normalise == "total":
             patch = as_distribution(patch)
+        self.add_reading(patch, detected, u)
+        return patch
+
+    def add_reading(self, patch: PathPatch, detected: bool, wind: np.ndarray) -> None:
+        """Fuse one reading whose air-mass path map is ``patch`` (eq. 4) and log it.
+
+        Parameters
+        ----------
+        patch : PathPatch
+            The reading's path map on this map's grid.
+        detected : bool
+        wind : (2,) ndarray, m/s
+            The reading's wind (summed for the mean wind direction).
+        """
         self.grid.update(patch, bool(detected))
         self._log.add(patch, bool(detected))
         self.n_readings += 1
         self.n_detections += int(bool(detected))
-        self.wind_sum += u
+        self.wind_sum += np.asarray(wind, float)[:2]
         self.last_patch = patch
-        return patch
+
+    def start_close_look(self, since: int | None = None) -> None:
+        """From now on place the visited sources by the readings from index ``since`` (default:
+        the next reading) on (:meth:`refined`): a route's close look at its mapped sources."""
+        self._close_since = self.n_readings if since is None else int(since)
+
+    def mark_visited(self, cell: tuple[int, ...]) -> None:
+        """The close look has read from ``cell`` (index of the map's grid)."""
+        self._visited[cell] = True
+
+    @property
+    def visited(self) -> NDArray[np.bool_]:
+        """Cells the close look has read from, ``(nx, ny)`` bool (read-only view)."""
+        v = self._visited.view()
+        v.setflags(write=False)
+        return v
 
     def total_uncertainty(self) -> float:
         """``sum_i X_i`` over the search region (eq. 5)."""
@@ -450,8 +523,8 @@ class DSMapper:
         """``(K, 2)`` mapped source positions under ``rule`` (one of ``source_rule``'s)."""
         if rule == "likelihood":
             pos = self.likelihood_sources()[0]
-            if self.close_since is not None:
-                pos = self.refined(pos, self.close_since, self.close_cells)
+            if self._close_since is not None:
+                pos = self.refined(pos, self._close_since, self._visited)
             # no reading explains a mapped region (e.g. masses set without readings): the
             # regions' own peaks rather than nothing
             return pos if len(pos) else self.peaks()
@@ -618,3 +691,77 @@ class ReadingLog:
             free &= ~near
             free[c] = False
         return np.asarray(chosen, np.intp), np.asarray(gains)
+
+
+# ---------------------------------------------------------------------- the estimator
+@register("estimator", "ds-map", DSMapParams, "Dempster-Shafer map of several sources (D-S paper)")
+class DSMapEstimator(Estimator):
+    """The D-S map of several sources as an estimator: :class:`DSMapper` over the search region
+    (``region``, else the task's, else the arena), one reading per control period.
+
+    The map is horizontal: it is drawn over the first two axes and its estimates (the mapped
+    sources by ``source_rule``) are ``(K, 2)``, hence ``dims = (2,)``. The route-specific parts
+    of the map (its grid, the path map of each fused reading, the close look at mapped sources)
+    are those of :attr:`mapper`.
+    """
+
+    params: DSMapParams
+    Params = DSMapParams
+    dims = (2,)
+    needs_model = False
+
+    def __init__(self, params: DSMapParams | None = None) -> None:
+        super().__init__(params or DSMapParams())
+
+    def reset(
+        self, ctx: SearchContext, model: MeasurementModel | None, rng: np.random.Generator
+    ) -> None:
+        """A blank map over the search region.
+
+        Raises
+        ------
+        ConfigError
+            If ``t_thr`` is shorter than the control period (no air-mass path could ever be
+            mapped) or the region does not overlap the arena.
+        """
+        p = self.params
+        if p.t_thr < ctx.dt * (1.0 - 1e-9):
+            # one record per control period: a shorter span holds no earlier record, so no
+            # sub-window DW(t_r, t_c) ever opens and the map stays blank (odor-path paper, eq. 16)
+            raise ConfigError(
+                "searcher.t_thr",
+                f"{p.t_thr:g} s is shorter than the control period {ctx.dt:g} s: no air-mass "
+                "path could ever be mapped",
+            )
+        region = resolve_region(ctx, p.region)
+        if p.region is not None:
+            # the robot could never read there: the map would stay blank and its sources be
+            # declared outside the world (the region is horizontal: the first two axes count)
+            narrow_box(ctx.arena.lower[:2], ctx.arena.upper[:2], region, "searcher.region")
+        self.mapper = DSMapper(p, region, ctx.dt)
+        self.fused: PathPatch | None = None
+
+    def update(self, observation: Observation) -> None:
+        """Fuse the reading (or, with ``preprocess``, the aligned reading now due)."""
+        o = observation
+        self.fused = self.mapper.update(o.t, o.position, o.wind, o.detection, o.gas)
+
+    def belief(self) -> EvidenceBelief:
+        """The map: ``prob`` from ``m(S)``, the masses as extra layers, the cell uncertainty,
+        the path map of the reading fused at the last update and the search region."""
+        return evidence_belief(self.mapper.grid, self.fused, self.mapper.region)
+
+    def estimate(self) -> np.ndarray:
+        """The mapped sources by ``source_rule``, ``(K, 2)`` metres, strongest first."""
+        return self.mapper.source_positions()
+
+    def diagnostics(self) -> dict[str, float]:
+        """``total_uncertainty`` (eq. 5 summed over the region) and ``mapped_regions``."""
+        return {
+            "total_uncertainty": self.mapper.total_uncertainty(),
+            "mapped_regions": float(len(self.mapper.sources())),
+        }
+
+    def final_metrics(self) -> dict[str, float]:
+        """:meth:`DSMapper.final_metrics`."""
+        return self.mapper.final_metrics()

@@ -350,16 +350,6 @@ class OdorPathEstimator:
         """``(n,)`` stored record times, seconds."""
         return self._tt[self._lo : self._hi].copy()
 
-    @property
-    def last_time(self) -> float | None:
-        """Time of the newest record, or ``None``."""
-        return float(self._tt[self._hi - 1]) if self._hi > self._lo else None
-
-    @property
-    def last_position(self) -> FloatArray | None:
-        """Robot position of the newest record, metres, or ``None``."""
-        return self._pp[self._hi - 1].copy() if self._hi > self._lo else None
-
     def detected(self, t_c: float | None = None) -> bool:
         """``True`` when the signal of the record at ``t_c`` (default newest) is positive."""
         return bool(self._ss[self._record_index(t_c)] > 0.0)

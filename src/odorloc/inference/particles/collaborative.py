@@ -14,22 +14,30 @@ Multi-UAV paper (MUC-OSL), Sect. III.3 and IV.1-2:
   space this is ``log w += ll_i + sum_j beta_ij ll_j``.
 
 The neighbour's likelihood ``p(d_j | o_n)`` needs its measurement ``d_j`` and where it was taken;
-:func:`fit_payload` is the message that carries both beside the fit.
+:class:`FitMessage` (built by :func:`fit_payload`) is the message that carries both beside the
+fit. The baselines' filters send :class:`ParticleSetMessage` (collaborative infotaxis shares the
+particle set) or :class:`MeasurementMessage`. Every one is a frozen payload of float64 numbers
+whose size is declared: ``nbytes = 8 x numbers``, with ``numbers`` counted as the paper counts
+them.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
 
 from odorloc.core.errors import ConfigError
+from odorloc.core.types import Payload, frozen_array
 from odorloc.inference.weights import kl_gaussian, kl_gaussians
 
 __all__ = [
+    "FitMessage",
+    "MeasurementMessage",
     "NeighbourFit",
+    "ParticleSetMessage",
+    "TeamMessage",
     "collaborative_log_likelihood",
     "confidence_factor",
     "confidence_factors",
@@ -143,38 +151,99 @@ class NeighbourFit:
     cue_captured: bool
 
 
+class TeamMessage(Payload):
+    """A payload of float64 numbers: ``numbers`` of them, ``8 x numbers`` bytes."""
+
+    @property
+    def numbers(self) -> int:
+        """Numbers sent (what the multi-UAV paper counts per message)."""
+        raise NotImplementedError
+
+    @property
+    def nbytes(self) -> int:
+        return 8 * self.numbers
+
+
+@dataclass(frozen=True, eq=False)
+class MeasurementMessage(TeamMessage):
+    """One measurement: the count ``d_j`` (encounters), where it was taken (``(d,)``, metres)
+    and whether the sender has captured a cue so far: ``d + 2`` numbers."""
+
+    count: float
+    position: np.ndarray
+    cue_captured: bool
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "count", float(self.count))
+        object.__setattr__(self, "position", frozen_array(np.ravel(self.position)))
+        object.__setattr__(self, "cue_captured", bool(self.cue_captured))
+
+    @property
+    def numbers(self) -> int:
+        return int(self.position.size) + 2
+
+
+@dataclass(frozen=True, eq=False)
+class FitMessage(TeamMessage):
+    """The Col-PF message: the Gaussian fit of the sender's particles (mean ``(d,)`` m,
+    covariance ``(d, d)`` m^2; eqs. 19-20: ``d + d^2`` numbers, 12 in 3-D, as the paper counts
+    it) and the measurement the neighbour's likelihood needs (``d + 2``). A 3-D message is 17
+    numbers = 136 bytes."""
+
+    mean: np.ndarray
+    cov: np.ndarray
+    measurement: MeasurementMessage
+
+    def __post_init__(self) -> None:
+        m = frozen_array(np.ravel(self.mean))
+        object.__setattr__(self, "mean", m)
+        object.__setattr__(self, "cov", frozen_array(np.reshape(self.cov, (m.size, m.size))))
+
+    @property
+    def numbers(self) -> int:
+        d = int(self.mean.size)
+        return d + d * d + self.measurement.numbers
+
+
+@dataclass(frozen=True, eq=False)
+class ParticleSetMessage(TeamMessage):
+    """A whole particle set: positions ``(N, d)`` (metres) and weights ``(N,)``:
+    ``N (d + 1)`` numbers."""
+
+    positions: np.ndarray
+    weights: np.ndarray
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "positions", frozen_array(self.positions))
+        object.__setattr__(self, "weights", frozen_array(np.ravel(self.weights)))
+
+    @property
+    def numbers(self) -> int:
+        return int(self.positions.size + self.weights.size)
+
+
 def fit_payload(
     mean: np.ndarray, cov: np.ndarray, count: float, position: np.ndarray, cue_captured: bool
-) -> dict[str, np.ndarray]:
-    """The Col-PF message: the fit (``d + d^2`` numbers, 12 in 3-D, as the paper counts it) and
-    the measurement the neighbour's likelihood needs (count, position, cue flag: ``d + 2``).
-
-    Every number is a float64, so a 3-D message is 17 numbers = 136 bytes.
-    """
-    m = np.asarray(mean, float).reshape(-1)
-    c = np.asarray(cov, float).reshape(m.size, m.size)
-    pos = np.asarray(position, float).reshape(-1)
-    return {
-        "fit": np.concatenate([m, c.ravel()]),
-        "measurement": np.concatenate([[float(count)], pos, [1.0 if cue_captured else 0.0]]),
-    }
+) -> FitMessage:
+    """The Col-PF message (:class:`FitMessage`) of a fit and the last measurement."""
+    return FitMessage(mean, cov, MeasurementMessage(count, position, cue_captured))
 
 
-def read_fit_payload(sender: int, payload: Mapping[str, np.ndarray]) -> NeighbourFit:
-    """Inverse of :func:`fit_payload`; :class:`ConfigError` for a payload of another shape."""
-    if "fit" not in payload or "measurement" not in payload:
+def read_fit_payload(sender: int, payload: Payload) -> NeighbourFit:
+    """What a :class:`FitMessage` tells a neighbour; :class:`ConfigError` for another payload
+    or one whose parts do not fit together."""
+    if not isinstance(payload, FitMessage):
         raise ConfigError("message", f"agent {sender} sent no Gaussian fit")
-    fit = np.asarray(payload["fit"], float)
-    meas = np.asarray(payload["measurement"], float)
-    # fit holds d + d^2 numbers
-    d = round((-1 + math.sqrt(1 + 4 * fit.size)) / 2)
-    if d + d * d != fit.size or meas.size != d + 2:
-        raise ConfigError("message", f"agent {sender}: fit of {fit.size}, measurement {meas.size}")
+    d, meas = payload.mean.size, payload.measurement
+    if meas.position.size != d:
+        raise ConfigError(
+            "message", f"agent {sender}: fit in {d}-D, position in {meas.position.size}-D"
+        )
     return NeighbourFit(
         sender=int(sender),
-        mean=fit[:d].copy(),
-        cov=fit[d:].reshape(d, d).copy(),
-        count=float(meas[0]),
-        position=meas[1 : 1 + d].copy(),
-        cue_captured=bool(meas[-1] > 0.5),
+        mean=payload.mean.copy(),
+        cov=payload.cov.copy(),
+        count=meas.count,
+        position=meas.position.copy(),
+        cue_captured=meas.cue_captured,
     )

@@ -10,11 +10,16 @@
   per filter update; the flattened ``P_j | z_j = 1`` is read as ``j = 1..20``); it must be full
   and every element within ``R_err`` of the history mean.
 - The current estimate must be admissible (not inside an obstacle nor outside the arena).
+
+Stopping rules form the registry family ``stopping_rule``: ``dual-convergence``
+(:class:`DualConvergence`) and ``never`` (:class:`NeverStop`, for searches that end otherwise,
+e.g. when the source is reached).
 """
 
 from __future__ import annotations
 
 import math
+from abc import ABC, abstractmethod
 from dataclasses import dataclass
 from typing import Any, Literal, Protocol
 
@@ -22,7 +27,8 @@ import numpy as np
 from pydantic import Field
 
 from odorloc.core.errors import ConfigError
-from odorloc.core.params import Params, Positive
+from odorloc.core.params import Configured, Params, Positive
+from odorloc.core.registry import register
 
 
 class ParticleFilter(Protocol):
@@ -43,7 +49,14 @@ class ParticleFilter(Protocol):
     def estimate(self) -> np.ndarray: ...
 
 
-__all__ = ["ConvergenceParams", "ConvergenceStatus", "DualConvergence", "spread"]
+__all__ = [
+    "ConvergenceParams",
+    "ConvergenceStatus",
+    "DualConvergence",
+    "NeverStop",
+    "StoppingRule",
+    "spread",
+]
 
 
 def spread(
@@ -106,11 +119,54 @@ class ConvergenceStatus:
         )
 
 
-class DualConvergence:
+class StoppingRule(Configured, ABC):
+    """Base class of the ``stopping_rule`` family: when a filter's estimate may be declared."""
+
+    @property
+    def history(self) -> int:
+        """Estimates the rule needs the filter to keep (default 1)."""
+        return 1
+
+    @abstractmethod
+    def converged(self, pf: ParticleFilter) -> bool:
+        """Whether ``pf``'s estimate may be declared."""
+
+    def diagnostics(self, pf: ParticleFilter) -> dict[str, float]:
+        """Scalars of the rule worth recording (default none)."""
+        return {}
+
+
+class NeverParams(Params):
+    """The ``never`` rule has no settings."""
+
+
+@register("stopping_rule", "never", NeverParams, "never declare (the search ends otherwise)")
+class NeverStop(StoppingRule):
+    """A rule that never holds: for searches that end when the source is reached."""
+
+    params: NeverParams
+    Params = NeverParams
+
+    def converged(self, pf: ParticleFilter) -> bool:
+        return False
+
+
+@register(
+    "stopping_rule", "dual-convergence", ConvergenceParams, "particle and estimate convergence"
+)
+class DualConvergence(StoppingRule):
     """The stopping rule of eqs. 15-16: ``converged(filter)`` when every criterion holds."""
 
+    params: ConvergenceParams
+    Params = ConvergenceParams
+
     def __init__(self, params: ConvergenceParams | None = None) -> None:
-        self.params = params or ConvergenceParams()
+        super().__init__(params or ConvergenceParams())
+
+    @property
+    def history(self) -> int:
+        """The ``history`` of the test."""
+        return self.params.history
 
     def status(self, pf: ParticleFilter) -> ConvergenceStatus:
         """Each criterion of the test, evaluated on ``pf``.
@@ -146,3 +202,7 @@ class DualConvergence:
     def converged(self, pf: ParticleFilter) -> bool:
         """``True`` when the filter has converged."""
         return self.status(pf).converged
+
+    def diagnostics(self, pf: ParticleFilter) -> dict[str, float]:
+        """``spread``: the particle spread in the test's measure (m^2 or m)."""
+        return {"spread": pf.spread(self.params.variance)}

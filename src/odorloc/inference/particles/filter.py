@@ -18,7 +18,7 @@ Nothing here assumes a fixed ``N``.
 from __future__ import annotations
 
 from collections import deque
-from typing import Literal, Protocol
+from typing import Literal
 
 import numpy as np
 
@@ -29,6 +29,7 @@ from odorloc.inference.particles.convergence import (
     ConvergenceParams,
     ConvergenceStatus,
     DualConvergence,
+    StoppingRule,
 )
 from odorloc.inference.particles.convergence import spread as _spread
 from odorloc.inference.particles.resampling import Resampler
@@ -57,12 +58,6 @@ def _particle_set(
     if np.any(np.isnan(lw)) or np.any(lw == np.inf):
         raise ConfigError("log_weights", "must not contain NaN or +inf")
     return pos, lw
-
-
-class StoppingRule(Protocol):
-    """A rule that says when a filter's estimate may be declared."""
-
-    def converged(self, pf: ParticleFilter) -> bool: ...
 
 
 class ParticleFilter:

@@ -1,33 +1,64 @@
-"""Initial particle sets: uniform over free space, and back-tracking the recorded wind."""
+"""Initial particle sets: uniform over free space, and back-tracking the recorded wind.
+
+The functions draw particle sets; the ``particle_init`` family (:class:`UniformInit`,
+:class:`BacktrackInit`) says when a particle filter draws them and how.
+"""
 
 from __future__ import annotations
 
 import math
+from abc import ABC
+from typing import Any
 
 import numpy as np
+from pydantic import Field
 
 from odorloc.core.errors import ConfigError
-from odorloc.core.params import NonNegative
+from odorloc.core.params import Configured, NonNegative, Params
+from odorloc.core.registry import register
+from odorloc.core.types import Observation, Region, SearchContext
 from odorloc.geometry.arena import Arena
+from odorloc.geometry.regions import narrow_box, task_region
+from odorloc.models.base import MeasurementModel
 from odorloc.models.pang_farrell import PangFarrellModel
 
-__all__ = ["backtrack_initialise", "sample_free_uniform"]
+__all__ = [
+    "BacktrackInit",
+    "BacktrackParams",
+    "ParticleInit",
+    "UniformInit",
+    "UniformInitParams",
+    "backtrack_initialise",
+    "sample_free_uniform",
+]
 
 
-def sample_free_uniform(arena: Arena, n: int, rng: np.random.Generator) -> np.ndarray:
-    """``n`` points uniform over the free space of ``arena``, ``(n, d)`` metres.
+def sample_free_uniform(
+    arena: Arena,
+    n: int,
+    rng: np.random.Generator,
+    box: tuple[np.ndarray, np.ndarray] | None = None,
+    field: str = "arena",
+) -> np.ndarray:
+    """``n`` points uniform over the free space of ``arena`` (inside ``box``), ``(n, d)`` metres.
 
-    Rejection sampling from the bounding box; raises :class:`ConfigError` when the arena has
-    (almost) no free space.
+    Rejection sampling from ``box`` (default the arena's bounds, e.g.
+    :func:`~odorloc.geometry.regions.narrow_box` of a search region).
+
+    Raises
+    ------
+    ConfigError
+        Naming ``field`` when the box holds (almost) no free space.
     """
+    lo, size = (arena.lo, arena.size) if box is None else (box[0], box[1] - box[0])
     out = np.zeros((0, arena.dim))
     for _ in range(100):
         if len(out) >= n:
             break
-        cand = arena.lo + rng.random((max(2 * (n - len(out)), 16), arena.dim)) * arena.size
+        cand = lo + rng.random((max(2 * (n - len(out)), 16), arena.dim)) * size
         out = np.concatenate([out, cand[arena.is_free(cand)]], axis=0)
     if len(out) < n:
-        raise ConfigError("arena", "too little free space to sample particles")
+        raise ConfigError(field, "too little free space to sample particles")
     return out[:n]
 
 
@@ -134,3 +165,132 @@ def backtrack_initialise(
         assert arena is not None
         pos = np.concatenate([pos, sample_free_uniform(arena, n_uni, rng)], axis=0)
     return pos
+
+
+# ---------------------------------------------------------------------- particle_init family
+class ParticleInit(Configured, ABC):
+    """How a particle filter gets its first particles (registry family ``particle_init``).
+
+    :meth:`start` may give them at the start of the episode; otherwise :meth:`on_reading` is
+    asked at every reading until it gives them. :meth:`redraw` gives fresh hypotheses when every
+    particle has been ruled out.
+    """
+
+    def reset(self, ctx: SearchContext, model: MeasurementModel | None) -> None:
+        """A new episode (check that the model suits the initialisation)."""
+        self.ctx = ctx
+
+    def start(self, n: int, rng: np.random.Generator) -> np.ndarray | None:
+        """``(n, d)`` particles at the start of the episode, or ``None`` to wait for a reading."""
+        return None
+
+    def on_reading(
+        self,
+        o: Observation,
+        conditions: dict[str, Any],
+        n: int,
+        rng: np.random.Generator,
+    ) -> np.ndarray | None:
+        """``(n, d)`` particles drawn at the reading ``o`` (read under ``conditions``), or
+        ``None`` to wait for another."""
+        return None
+
+    def redraw(self, n: int, rng: np.random.Generator) -> np.ndarray:
+        """``(n, d)`` fresh hypotheses, uniform over the arena's free space by default."""
+        return sample_free_uniform(self.ctx.arena, n, rng)
+
+
+class UniformInitParams(Params):
+    """Settings of :class:`UniformInit`.
+
+    Attributes
+    ----------
+    region : ((x0, y0[, z0]), (x1, y1[, z1])), optional
+        Where the particles lie (default: the task's search region, else the arena).
+    """
+
+    region: Region | None = None
+
+
+@register("particle_init", "uniform", UniformInitParams, "uniform over the free search region")
+class UniformInit(ParticleInit):
+    """Particles uniform over the free part of the search region, at the start."""
+
+    params: UniformInitParams
+    Params = UniformInitParams
+
+    def reset(self, ctx: SearchContext, model: MeasurementModel | None) -> None:
+        super().reset(ctx, model)
+        region = task_region(ctx, self.params.region)
+        self.box = narrow_box(ctx.arena.lo, ctx.arena.hi, region, "searcher.region")
+
+    def start(self, n: int, rng: np.random.Generator) -> np.ndarray:
+        return sample_free_uniform(self.ctx.arena, n, rng, self.box, "searcher.region")
+
+    def redraw(self, n: int, rng: np.random.Generator) -> np.ndarray:
+        return self.start(n, rng)
+
+
+class BacktrackParams(Params):
+    """Settings of :class:`BacktrackInit`.
+
+    Attributes
+    ----------
+    min_std : float, metres
+        Floor on the back-tracking spread.
+    uniform_fraction : float
+        Fraction of the particles drawn uniformly over free space instead.
+    """
+
+    min_std: NonNegative = 0.1
+    uniform_fraction: float = Field(0.0, ge=0.0, le=1.0)
+
+
+@register(
+    "particle_init", "backtrack", BacktrackParams, "back-tracking the wind at the first detection"
+)
+class BacktrackInit(ParticleInit):
+    """Particles drawn at the first detection by back-tracking the recorded wind
+    (:func:`backtrack_initialise`; indoor PF paper, section 2.2, step 1).
+
+    Needs the Pang & Farrell model (its puff geometry) and a reading read under a recorded wind
+    window (``reading: {type: wind-window}``).
+    """
+
+    params: BacktrackParams
+    Params = BacktrackParams
+
+    def reset(self, ctx: SearchContext, model: MeasurementModel | None) -> None:
+        super().reset(ctx, model)
+        if not isinstance(model, PangFarrellModel):
+            raise ConfigError(
+                "searcher.estimator.init",
+                "back-tracking needs the pang-farrell model (its puff geometry)",
+            )
+        self.model = model
+
+    def on_reading(
+        self,
+        o: Observation,
+        conditions: dict[str, Any],
+        n: int,
+        rng: np.random.Generator,
+    ) -> np.ndarray | None:
+        if not o.detection:
+            return None
+        if "wind_window" not in conditions:
+            raise ConfigError(
+                "searcher.estimator.init", "back-tracking needs a reading of type wind-window"
+            )
+        return backtrack_initialise(
+            np.asarray(o.position, float),
+            conditions["wind_window"],
+            self.ctx.dt,
+            n,
+            rng,
+            arena=self.ctx.arena,
+            model=self.model,
+            wind_var=conditions.get("wind_var"),
+            min_std=self.params.min_std,
+            uniform_fraction=self.params.uniform_fraction,
+        )

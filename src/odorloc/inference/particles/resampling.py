@@ -18,7 +18,8 @@ A resampler (registry family ``"resampler"``) is called as
 ``resample(positions, log_weights, rng, n=None, constraint=None)`` and returns
 ``(positions, log_weights)`` with uniform weights. The index resamplers copy ancestors chosen by
 their scheme and may roughen the copies; :class:`RouletteResampler` is the Russian-roulette
-scheme of the indoor PF paper. *When* to resample is the filter's policy, not the resampler's.
+scheme of the indoor PF paper. *When* to resample is a policy of its own (registry family
+``resampling_policy``: ``ess``, ``every-step``), not the resampler's.
 Degenerate input (every log-weight ``-inf`` or NaN) is read as uniform weights, so no resampler
 ever produces NaN.
 """
@@ -34,15 +35,18 @@ import numpy as np
 from pydantic import Field, model_validator
 
 from odorloc.core.errors import ConfigError
-from odorloc.core.params import NonNegative, Params
+from odorloc.core.params import Configured, NonNegative, Params
 from odorloc.core.registry import register
 from odorloc.inference.particles.constraints import Constraint, place_admissible
 from odorloc.inference.weights import effective_sample_size, normalise_log_weights
 
 __all__ = [
+    "EssPolicy",
+    "EveryStepPolicy",
     "IndexResampler",
     "MultinomialResampler",
     "Resampler",
+    "ResamplingPolicy",
     "ResidualResampler",
     "RouletteParams",
     "RouletteResampler",
@@ -116,15 +120,8 @@ def _check_inputs(positions: np.ndarray, log_weights: np.ndarray) -> tuple[np.nd
     return pos, normalise_log_weights(lw)[1]
 
 
-class Resampler(ABC):
+class Resampler(Configured, ABC):
     """Base class: ``resample(positions, log_weights, rng, n=None, constraint=None)``."""
-
-    params: Params
-    #: Parameter model used when the constructor gets ``None``.
-    Params: ClassVar[type[Params]]
-
-    def __init__(self, params: Params | None = None) -> None:
-        self.params = params if params is not None else type(self).Params()
 
     def resample(
         self,
@@ -352,3 +349,50 @@ class RouletteResampler(Resampler):
             extra_parents = positions[_search_pointers(weights, rng.random(lo - m))]
             out = np.concatenate([out, self._children(extra_parents, rng, constraint)], axis=0)
         return out
+
+
+# ---------------------------------------------------------------------- when to resample
+class ResamplingPolicy(Configured, ABC):
+    """Base class of the ``resampling_policy`` family: *when* a filter resamples."""
+
+    @abstractmethod
+    def due(self, ess: float, n: int) -> bool:
+        """Whether a filter of ``n`` particles with effective sample size ``ess`` resamples."""
+
+
+class EssParams(Params):
+    """Settings of :class:`EssPolicy`.
+
+    Attributes
+    ----------
+    threshold : float
+        Resample when ``N_eff < threshold * N`` (indoor PF paper: 0.5, eq. 12).
+    """
+
+    threshold: float = Field(0.5, ge=0.0, le=1.0)
+
+
+@register("resampling_policy", "ess", EssParams, "resample when N_eff < threshold N")
+class EssPolicy(ResamplingPolicy):
+    """Resample when the effective sample size falls below a fraction of the count (eq. 12)."""
+
+    params: EssParams
+    Params = EssParams
+
+    def due(self, ess: float, n: int) -> bool:
+        return ess < self.params.threshold * n
+
+
+class EveryStepParams(Params):
+    """The ``every-step`` policy has no settings."""
+
+
+@register("resampling_policy", "every-step", EveryStepParams, "resample after every update")
+class EveryStepPolicy(ResamplingPolicy):
+    """Resample after every update (the bootstrap filter)."""
+
+    params: EveryStepParams
+    Params = EveryStepParams
+
+    def due(self, ess: float, n: int) -> bool:
+        return True

@@ -37,11 +37,14 @@ from pydantic import Field, model_validator
 from odorloc.core.errors import ConfigError
 from odorloc.core.params import NonNegative, Params, Positive
 from odorloc.core.registry import ComponentRef, Ref, register
-from odorloc.core.types import SearchContext
+from odorloc.core.types import Payload, SearchContext
 from odorloc.inference.belief import ParticleBelief
 from odorloc.inference.particles.adaptive_count import CueDistanceCount, spacing_minimum
 from odorloc.inference.particles.collaborative import (
+    MeasurementMessage,
     NeighbourFit,
+    ParticleSetMessage,
+    TeamMessage,
     collaborative_log_likelihood,
     confidence_factors,
     fit_payload,
@@ -68,8 +71,6 @@ __all__ = [
     "StandardPFParams",
     "TeamEstimator",
 ]
-
-Payload = Mapping[str, np.ndarray]
 
 
 @dataclass(frozen=True)
@@ -154,8 +155,8 @@ class TeamEstimator(ABC):
         """One iteration with the own measurement ``m`` and the neighbours' latest messages."""
 
     @abstractmethod
-    def message(self) -> dict[str, np.ndarray]:
-        """The payload to broadcast after the last update (empty: say nothing)."""
+    def message(self) -> TeamMessage | None:
+        """The payload to broadcast after the last update (``None``: say nothing)."""
 
     # ----------------------------------------------------------------- reading
     @property
@@ -404,10 +405,10 @@ class ColPFEstimator(TeamEstimator):
         pf.replace(x, pf.log_weights)
         return n_s
 
-    def message(self) -> dict[str, np.ndarray]:
+    def message(self) -> TeamMessage | None:
         """The fit (eqs. 19-20) and the last measurement with its position and the cue flag."""
         if self.last is None:
-            return {}
+            return None
         mean, cov = self.fit
         return fit_payload(mean, cov, self.last.count, self.last.position, self.cue_captured)
 
@@ -455,34 +456,33 @@ class StandardPFEstimator(TeamEstimator):
         if p.share == "measurements":
             cond = m.conditions()
             for s in sorted(inbox):
-                meas = np.asarray(inbox[s].get("measurement", ()), float)
-                if meas.size != d + 2:
+                got = inbox[s]
+                if not isinstance(got, MeasurementMessage) or got.position.size != d:
                     raise ConfigError("message", f"agent {s} sent no measurement")
-                ll = ll + self.model.log_likelihood(meas[0], meas[1 : 1 + d], pf.positions, **cond)
+                ll = ll + self.model.log_likelihood(got.count, got.position, pf.positions, **cond)
                 evaluated += pf.n
-                received += meas.size
+                received += got.position.size + 2
         pf.update(ll)
         pf.resample_if_needed(rng, n=p.n_particles)
         self.processed = float(evaluated * (d + 1) + received)
 
-    def message(self) -> dict[str, np.ndarray]:
+    def message(self) -> TeamMessage | None:
         """Positions and weights of every particle, the measurement, or nothing (``share``)."""
         p = self.params
         if p.share == "particles":
-            return {"positions": self.pf.positions.copy(), "weights": self.pf.weights.copy()}
+            return ParticleSetMessage(self.pf.positions, self.pf.weights)
         if p.share == "measurements" and self.last is not None:
             last = self.last
-            flag = 1.0 if self.cue_captured else 0.0
-            return {"measurement": np.concatenate([[last.count], last.position, [flag]])}
-        return {}
+            return MeasurementMessage(last.count, last.position, self.cue_captured)
+        return None
 
 
 def _read_particles(sender: int, payload: Payload, d: int) -> tuple[np.ndarray, np.ndarray]:
     """A neighbour's particle set: positions ``(N, d)`` and normalised log-weights ``(N,)``."""
-    if "positions" not in payload or "weights" not in payload:
+    if not isinstance(payload, ParticleSetMessage):
         raise ConfigError("message", f"agent {sender} sent no particle set")
-    x = np.asarray(payload["positions"], float).reshape(-1, d)
-    w = np.asarray(payload["weights"], float).reshape(-1)
+    x = np.asarray(payload.positions, float).reshape(-1, d)
+    w = np.asarray(payload.weights, float).reshape(-1)
     if len(w) != len(x) or len(w) == 0:
         raise ConfigError("message", f"agent {sender}: {len(x)} positions, {len(w)} weights")
     with np.errstate(divide="ignore"):

@@ -24,6 +24,7 @@ import pandas as pd
 
 from odorloc.core.registry import register
 from odorloc.experiments.reproduction import Figure, Reproduction, ReproductionParams, Table, fmt
+from odorloc.experiments.stats import mean_sd
 from odorloc.inference.evidence.mapper import RULES as MAP_RULES
 from odorloc.inference.evidence.mapper import DSMapParams
 from odorloc.papers.ds_multi_source.reference import PAPER, RATIOS, SCENES
@@ -111,7 +112,7 @@ def _prepare(sc: Any, task: Any) -> Any:
     )
 
 
-def _extras(task: Any, res: Any, rows: dict[str, dict[str, Any]]) -> dict[str, Any]:
+def ds_extras(task: Any, res: Any, rows: dict[str, dict[str, Any]]) -> dict[str, Any]:
     from odorloc.experiments.runner import cell_scenario
 
     radius = cell_scenario(task.cell).task.success_radius
@@ -135,53 +136,36 @@ def _extras(task: Any, res: Any, rows: dict[str, dict[str, Any]]) -> dict[str, A
     return out
 
 
+def _wave_of(probe: Any) -> Any:
+    """The wave's task of ``probe``'s flow (run again when a resumed group lacks it)."""
+    from dataclasses import replace
+
+    cell = {**probe.cell, "searcher": WAVE, "searcher_label": WAVE}
+    cell["searcher_params"] = dict(SEARCHERS[WAVE])
+    cell_id = probe.cell_id.rsplit("/", 1)[0] + f"/{WAVE}"
+    return replace(probe, cell=cell, cell_id=cell_id, keep_arrays=False)
+
+
 def ds_group(tasks: list[Any]) -> list[dict[str, Any]]:
     """Run one flow's group: the wave first (its final residual is the dynamic route's target).
 
     If the group lacks the wave (a resumed run that stored only it), the wave's episode is run
     again to get its residual; it is not stored twice.
     """
-    from odorloc.experiments.runner import run_replay_group
+    from odorloc.experiments.runner import run_with_reference
 
-    order = sorted(range(len(tasks)), key=lambda i: _label(tasks[i]) != WAVE)
-    ordered = [tasks[i] for i in order]
-    if ordered and _label(ordered[0]) != WAVE:
-        from dataclasses import replace
-
-        probe = ordered[0]
-        wave_cell = {
-            **probe.cell,
-            "searcher": WAVE,
-            "searcher_label": WAVE,
-            "searcher_params": dict(SEARCHERS[WAVE]),
-        }
-        wave_task = replace(
-            probe,
-            cell=wave_cell,
-            cell_id=probe.cell_id.rsplit("/", 1)[0] + f"/{WAVE}",
-            keep_arrays=False,
-        )
-        rows = run_replay_group(
-            [wave_task, *ordered], record=True, extras=_extras, prepare=_prepare
-        )[1:]
-    else:
-        rows = run_replay_group(ordered, record=True, extras=_extras, prepare=_prepare)
-    back: list[dict[str, Any]] = [{}] * len(tasks)
-    for i, r in zip(order, rows, strict=True):
-        back[i] = r
-    return back
-
-
-def _mean_sd(x: Any) -> tuple[float, float]:
-    a = np.asarray(x, float)
-    a = a[np.isfinite(a)]
-    if a.size == 0:
-        return math.nan, math.nan
-    return float(a.mean()), float(a.std(ddof=1)) if a.size > 1 else 0.0
+    return run_with_reference(
+        tasks,
+        lambda t: _label(t) == WAVE,
+        _wave_of,
+        record=True,
+        extras=ds_extras,
+        prepare=_prepare,
+    )
 
 
 def _ms(x: Any, d: int = 1) -> str:
-    m, s = _mean_sd(x)
+    m, s = mean_sd(x)
     return f"{fmt(m, d)} ± {fmt(s, d)}"
 
 
@@ -303,7 +287,7 @@ class DSReproduction(Reproduction):
                     _ms(g.search_time),
                     _ms(g.path_length),
                     _ms(g.residual_uncertainty),
-                    fmt(_mean_sd(g.initial_uncertainty)[0], 0),
+                    fmt(mean_sd(g.initial_uncertainty)[0], 0),
                     _ms(g.source_error_0, 2),
                     _ms(g.source_error_1, 2),
                     *[
@@ -483,8 +467,11 @@ def _snapshots(entry: dict[str, Any], label: str) -> list[tuple[float, dict[str,
 
 
 def _state_map_figure(recs: dict[str, Any], path: Path) -> None:
-    import matplotlib.pyplot as plt
     from matplotlib.colors import ListedColormap
+
+    from odorloc.viz.backend import pyplot
+
+    plt = pyplot()
     from matplotlib.patches import Patch, Rectangle
 
     from odorloc.inference.evidence.dempster_shafer import cell_uncertainty
@@ -560,7 +547,9 @@ def _state_map_figure(recs: dict[str, Any], path: Path) -> None:
 
 
 def _uncertainty_figure(recs: dict[str, Any], path: Path) -> None:
-    import matplotlib.pyplot as plt
+    from odorloc.viz.backend import pyplot
+
+    plt = pyplot()
 
     fig, ax = plt.subplots(figsize=(7, 3.6))
     colors = {DYNAMIC: "tab:red", WAVE: "tab:blue"}

@@ -31,9 +31,9 @@ from odorloc.viz.intervals import errorbar_lengths
 __all__ = ["PF_LITERAL", "PF_LITERAL_PARAMS", "IndoorReproduction", "table1_wall_time"]
 
 SCENARIO = "indoor-ventilated"
-#: The paper's convergence test read literally (see ``PFEntropyParams``).
+#: The paper's convergence test read literally (see ``ParticleFilterParams.stopping``).
 PF_LITERAL = "pf-entropy-literal"
-PF_LITERAL_PARAMS = {"variance": "trace", "r_err": 0.5}
+PF_LITERAL_PARAMS = {"estimator": {"stopping": {"variance": "trace", "r_err": 0.5}}}
 METHODS = ("pf-entropy", PF_LITERAL, "gradient-bionic")
 
 
@@ -200,7 +200,7 @@ class IndoorReproduction(Reproduction):
 
     def figures(self, df: Any, store: Any, out: Path, seed: int) -> list[Figure]:
         summ = self._summary(df, seed)
-        pick = _snapshot_episode(df)
+        pick = snapshot_episode(df)
         which = (
             f"stored episode {pick[1]} of {pick[0]}"
             if pick is not None
@@ -217,18 +217,15 @@ class IndoorReproduction(Reproduction):
                 "particle_snapshots.png",
                 "Particles at the first detection, mid-search and the end of one PF episode "
                 f"from the farthest start ({which}, run again with every belief recorded)",
-                lambda p: _episode_figures(df, store.path, p),
+                lambda p: episode_figures(df, store.path, p),
             ),
         ]
 
 
-def _errorbar(center: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> list[np.ndarray]:
-    """Non-negative error-bar lengths (see :func:`odorloc.viz.intervals.errorbar_lengths`)."""
-    return list(errorbar_lengths(center, lo, hi))
-
-
 def _fig8(summ: Any, path: Path) -> None:
-    import matplotlib.pyplot as plt
+    from odorloc.viz.backend import pyplot
+
+    plt = pyplot()
 
     fig, axes = plt.subplots(1, 2, figsize=(10, 3.8))
     styles = {
@@ -245,7 +242,7 @@ def _fig8(summ: Any, path: Path) -> None:
         axes[0].errorbar(
             d,
             t,
-            yerr=_errorbar(t, g.mean_time_lo, g.mean_time_hi),
+            yerr=errorbar_lengths(t, g.mean_time_lo, g.mean_time_hi),
             color=col,
             marker=mk,
             capsize=3,
@@ -255,7 +252,7 @@ def _fig8(summ: Any, path: Path) -> None:
         axes[1].errorbar(
             d,
             sr,
-            yerr=_errorbar(sr, 100 * g.success_lo, 100 * g.success_hi),
+            yerr=errorbar_lengths(sr, 100 * g.success_lo, 100 * g.success_hi),
             color=col,
             marker=mk,
             capsize=3,
@@ -345,7 +342,7 @@ def _entropy_rows(df: Any, seed: int) -> list[list[str]]:
     return rows
 
 
-def _snapshot_episode(df: Any) -> tuple[str, int] | None:
+def snapshot_episode(df: Any) -> tuple[str, int] | None:
     """``(cell_id, episode)`` of the stored episode the particle snapshots show.
 
     The first stored success of :data:`SNAPSHOT_SEARCHER` from :data:`SNAPSHOT_START`, else
@@ -366,10 +363,10 @@ def _snapshot_episode(df: Any) -> tuple[str, int] | None:
     return str(r["cell_id"]), int(r["episode"])
 
 
-def _episode_figures(df: Any, store: Path, path: Path) -> list[str]:
+def episode_figures(df: Any, store: Path, path: Path) -> list[str]:
     """Particle snapshots (``path``), entropy curve and traces of one stored episode.
 
-    The episode is :func:`_snapshot_episode`'s pick among the stored rows ``df``: it is run
+    The episode is :func:`snapshot_episode`'s pick among the stored rows ``df``: it is run
     once more with the seeds and cell its row holds (:mod:`odorloc.experiments.rerun`), now
     with every belief recorded, which the batch does not keep. No other episode runs.
 
@@ -394,23 +391,20 @@ def _episode_figures(df: Any, store: Path, path: Path) -> list[str]:
     RuntimeError
         No stored episode to draw, or one whose robot never detected.
     """
-    import matplotlib.pyplot as plt
+    from odorloc.viz.backend import pyplot
 
-    from odorloc.engine.episode import run_episode
-    from odorloc.experiments.rerun import differences, stored_episode
-    from odorloc.experiments.runner import cell_scenario
+    plt = pyplot()
+
+    from odorloc.experiments.rerun import differences, rerun, stored_episode
     from odorloc.viz.episode import plot_traces
 
-    pick = _snapshot_episode(df)
+    pick = snapshot_episode(df)
     if pick is None:
         raise RuntimeError(
             f"no stored {SNAPSHOT_SEARCHER} episode of start {SNAPSHOT_START} ran without error"
         )
     stored = stored_episode(store, *pick, field="store")
-    sc = cell_scenario(stored.cell)
-    sc = sc.model_copy(update={"recording": sc.recording.model_copy(update={"belief_stride": 1})})
-    # the sweep runs live plumes (no replay), so the stored seeds alone give the episode again
-    res = run_episode(sc, stored.world_seed, stored.agent_seed, record=True)
+    _, res = rerun(stored, recording={"belief_stride": 1})
     changed = differences(stored, res.metrics)
     rec = res.recording
     rec.meta.update(searcher="pf-entropy")

@@ -30,7 +30,6 @@ follow the size of each world. No world setting is changed for any strategy.
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 from typing import Any
 
@@ -46,6 +45,7 @@ __all__ = [
     "STRATEGIES",
     "WORLDS",
     "SingleAgentReproduction",
+    "prepare",
     "single_agent_group",
 ]
 
@@ -122,9 +122,9 @@ _PARTICLE = {
     "uav3d": {"step": 2.0, "found_radius": 4.0, "n_classes": 4},
 }
 _CAST = {
-    "farrell": {"cast_amplitude": 1.0, "cast_max": 8.0},
-    "indoor": {"cast_amplitude": 0.3, "cast_max": 1.5},
-    "uav3d": {"cast_amplitude": 4.0, "cast_max": 20.0, "cast_elevation_deg": 30.0},
+    "farrell": {"amplitude": 1.0, "max_amplitude": 8.0},
+    "indoor": {"amplitude": 0.3, "max_amplitude": 1.5},
+    "uav3d": {"amplitude": 4.0, "max_amplitude": 20.0, "elevation_deg": 30.0},
 }
 _SURGE = {"farrell": 8, "indoor": 4, "uav3d": 5}
 _SPIRAL = {
@@ -137,21 +137,24 @@ _SPIRAL = {
 def _searcher_params(world: str) -> dict[str, dict[str, Any]]:
     model = FITTED_MODELS[world]
     out: dict[str, dict[str, Any]] = {}
+    grid, part = dict(_GRID[world]), dict(_PARTICLE[world])
+    classes = {"n_classes": grid.pop("n_classes")} if "n_classes" in grid else {}
     for s in GRID_POLICIES:
-        out[s] = {"model": model, **_GRID[world]}
-    out["particle-infotaxis"] = {"model": model, "n_particles": 500, **_PARTICLE[world]}
+        out[s] = {"model": model, "estimator": {**grid, "reading": classes}}
+    step = part.pop("step")
+    part.pop("n_classes", None)
+    out["particle-infotaxis"] = {
+        "model": model,
+        "estimator": {"n_particles": 500, **part, "reading": classes},
+        "planner": {"candidates": {"step": step}},
+    }
     cast = _CAST[world]
     sp = _SPIRAL[world]
-    out["surge-cast"] = {"surge_steps": _SURGE[world], **cast}
-    out["surge-spiral"] = {
-        "surge_steps": _SURGE[world],
-        "spiral_step": sp["initial_step"],
-        "spiral_increment": sp["step_increment"],
-        **cast,
-    }
+    out["surge-cast"] = {"surge_steps": _SURGE[world], "cast": dict(cast)}
+    out["surge-spiral"] = {"surge_steps": _SURGE[world], "spiral": dict(sp), "cast": dict(cast)}
     out["spiral"] = dict(sp)
     for s in ("chemotaxis", "anemotaxis", "fluxotaxis"):
-        out[s] = dict(cast)
+        out[s] = {"cast": dict(cast)}
     return out
 
 
@@ -159,7 +162,7 @@ def _searcher_params(world: str) -> dict[str, dict[str, Any]]:
 SEARCHER_PARAMS: dict[str, dict[str, dict[str, Any]]] = {w: _searcher_params(w) for w in WORLDS}
 
 
-def _prepare(sc: Any, task: Any) -> Any:
+def prepare(sc: Any, task: Any) -> Any:
     """The strategy's settings for its world; light recording except for kept episodes."""
     from odorloc.scenarios.config import Scenario
 
@@ -185,25 +188,11 @@ REPLAYED = ("farrell", "indoor")
 
 def single_agent_group(tasks: list[Any]) -> list[dict[str, Any]]:
     """One flow per world and episode for every strategy, each with its world's settings."""
-    from odorloc.engine.episode import run_episode
-    from odorloc.experiments.runner import ROW_DEFAULTS, cell_scenario, run_replay_group
+    from odorloc.experiments.runner import run_live_group, run_replay_group
 
     if not tasks or str(tasks[0].cell["scenario_label"]) in REPLAYED:
-        return run_replay_group(tasks, prepare=_prepare)
-    rows = []
-    for task in tasks:
-        row = dict(ROW_DEFAULTS)
-        try:
-            sc = _prepare(cell_scenario(task.cell), task)
-            res = run_episode(sc, task.world_seed, task.agent_seed, record=task.keep_arrays)
-            row.update(res.metrics)
-            row.update(status="ok", error="")
-            if task.keep_arrays and res.recording is not None:
-                row["arrays"] = res.recording.to_arrays()
-        except Exception as exc:  # one bad episode must not stop the group
-            row.update(status="error", error=f"{type(exc).__name__}: {exc}")
-        rows.append(row)
-    return rows
+        return run_replay_group(tasks, prepare=prepare)
+    return run_live_group(tasks, prepare=prepare)
 
 
 @register("reproduction", "single-agent", ReproductionParams, "single-agent strategies compared")
@@ -236,46 +225,14 @@ class SingleAgentReproduction(Reproduction):
 
     @staticmethod
     def summary_table(df: Any, seed: int) -> Any:
-        """Per world and strategy: success and the intervals of time and path length."""
-        import pandas as pd
+        """Per world and strategy: success and the intervals of time and path length
+        (:func:`~odorloc.experiments.stats.outcome_table`), with each strategy's family."""
+        from odorloc.experiments.stats import outcome_table
 
-        from odorloc.experiments import stats
-
-        rows = []
-        for (world, strat), g in df.groupby(["scenario", "searcher"], sort=False):
-            ok = g[g["status"] != "error"]
-            n = len(ok)
-            k = int(ok["success"].fillna(False).astype(bool).sum())
-            lo, hi = stats.wilson_interval(k, n)
-            succ = ok[ok["success"].fillna(False).astype(bool)]
-            rng = np.random.default_rng([seed, len(rows)])
-            t = succ["search_time"].to_numpy(float)
-            p = succ["path_length"].to_numpy(float)
-            tl, th = stats.bootstrap_ci(t, rng)
-            pl, ph = stats.bootstrap_ci(p, rng)
-            rows.append(
-                {
-                    "world": world,
-                    "strategy": strat,
-                    "family": FAMILIES.get(strat, ""),
-                    "n": n,
-                    "errors": int(len(g) - n),
-                    "successes": k,
-                    "success_rate": k / n if n else math.nan,
-                    "success_lo": lo,
-                    "success_hi": hi,
-                    "mean_time": float(t.mean()) if t.size else math.nan,
-                    "time_lo": tl,
-                    "time_hi": th,
-                    "mean_path": float(p.mean()) if p.size else math.nan,
-                    "path_lo": pl,
-                    "path_hi": ph,
-                    "detected": float(np.isfinite(ok["first_detection_time"].astype(float)).mean())
-                    if n
-                    else math.nan,
-                }
-            )
-        return pd.DataFrame(rows)
+        summ = outcome_table(df, ("scenario", "searcher"), seed)
+        summ = summ.rename(columns={"scenario": "world", "searcher": "strategy"})
+        summ.insert(2, "family", [FAMILIES.get(s, "") for s in summ["strategy"]])
+        return summ
 
     def tables(self, df: Any, seed: int) -> list[Table]:
         summ = self.summary_table(df, seed)
@@ -348,7 +305,9 @@ class SingleAgentReproduction(Reproduction):
 
 
 def _figure(summ: Any, path: Path) -> None:
-    import matplotlib.pyplot as plt
+    from odorloc.viz.backend import pyplot
+
+    plt = pyplot()
 
     worlds = list(WORLDS)
     fig, axes = plt.subplots(3, len(worlds), figsize=(4.6 * len(worlds), 10.2), sharey="row")

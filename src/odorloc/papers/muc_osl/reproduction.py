@@ -47,6 +47,7 @@ from odorloc.core.errors import ConfigError
 from odorloc.core.registry import register
 from odorloc.core.seeds import episode_seeds
 from odorloc.experiments.reproduction import Figure, Reproduction, ReproductionParams, Table, fmt
+from odorloc.experiments.store import agent_values
 from odorloc.papers.muc_osl.analysis import Cells, add_uav_search_time, summarize_point
 from odorloc.papers.muc_osl.claims import evaluate_claims, when_text
 from odorloc.papers.muc_osl.reference import (
@@ -635,26 +636,22 @@ def _mst(p: Any) -> str:
 
 
 def _agent_sum(g: Any, key: str) -> np.ndarray:
-    """Per-episode sum over the UAVs of a per-agent column (``key``, ``key_1``, ...)."""
-    cols = [
-        c
-        for c in g.columns
-        if c == key or (c.startswith(f"{key}_") and c[len(key) + 1 :].isdigit())
-    ]
-    return np.nansum(g[cols].to_numpy(float), axis=1) if cols else np.zeros(len(g))
+    """Per-episode sum over the UAVs of a per-agent value (the ``agents`` column)."""
+    v = agent_values(g, key).to_numpy(float)
+    return np.nansum(v, axis=1) if v.shape[1] else np.zeros(len(g))
 
 
 def _numbers_per_message(g: Any) -> float:
-    cols = [c for c in g.columns if c.startswith("numbers_per_message")]
-    sent = [c.replace("numbers_per_message", "messages_sent") for c in cols]
-    tot = sum(float(np.nansum(g[s] * g[c])) for c, s in zip(cols, sent, strict=True) if s in g)
-    n = sum(float(np.nansum(g[s])) for s in sent if s in g)
+    npm = agent_values(g, "numbers_per_message")
+    sent = agent_values(g, "messages_sent").reindex(columns=npm.columns).to_numpy(float)
+    tot = float(np.nansum(sent * npm.to_numpy(float)))
+    n = float(np.nansum(sent))
     return tot / n if n else math.nan
 
 
 def _particles_mean(g: Any) -> float:
-    cols = [c for c in g.columns if c.startswith("particles_mean")]
-    return float(np.nanmean(g[cols].to_numpy(float))) if cols else math.nan
+    v = agent_values(g, "particles_mean").to_numpy(float)
+    return float(np.nanmean(v)) if v.size else math.nan
 
 
 def _saving_note(ok: Any) -> str:

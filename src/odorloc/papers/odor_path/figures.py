@@ -45,10 +45,9 @@ def odor_path_figure(path: Path, seed: int = 7) -> Path:
     (8, 5) m, 10 s of wind (20 records at 0.5 s) with direction standard deviation 5 deg
     (calm) and 35 deg (gusty).
     """
-    import matplotlib
+    from odorloc.viz.backend import pyplot
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
     from matplotlib.colors import PowerNorm
     from matplotlib.patches import Ellipse
 
