@@ -17,7 +17,7 @@ planner of positions applies) that also carries the whole ``theta`` matrix. It g
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import KW_ONLY, dataclass
 
 import numpy as np
 
@@ -142,6 +142,8 @@ class SourceTermBelief(ParticleBelief):
         Particles kept by :meth:`snapshot` (thinned, equal weights).
     """
 
+    # keyword-only: the base's fields end with a default (``found_radius``)
+    _: KW_ONLY
     theta: np.ndarray
     layout: ThetaLayout
     snapshot_size: int = 2000
@@ -153,7 +155,13 @@ class SourceTermBelief(ParticleBelief):
         """A belief over ``theta`` with (not necessarily normalised) ``log_weights``."""
         lw = normalise_log_weights(log_weights)[0]
         th = np.asarray(theta, float)
-        return SourceTermBelief(th[:, layout.position_columns(0)], lw, th, layout, snapshot_size)
+        return SourceTermBelief(
+            th[:, layout.position_columns(0)],
+            lw,
+            theta=th,
+            layout=layout,
+            snapshot_size=snapshot_size,
+        )
 
     @staticmethod
     def from_snapshot(snap: dict[str, np.ndarray]) -> SourceTermBelief:
