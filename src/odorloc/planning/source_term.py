@@ -20,6 +20,7 @@ conditions of the next reading (the measured wind, the exposure):
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import Any, ClassVar, Literal
 
 import numpy as np
@@ -29,7 +30,7 @@ from odorloc.core.errors import ConfigError
 from odorloc.core.params import NonNegative, Params, Positive
 from odorloc.core.registry import register
 from odorloc.core.types import Region, SearchContext
-from odorloc.geometry.regions import check_region
+from odorloc.geometry.regions import check_region, narrow_box, task_region
 from odorloc.geometry.vectors import ring
 from odorloc.planning import rewards
 from odorloc.planning.base import Plan, Planner, Pose
@@ -83,6 +84,10 @@ class _InformationPlanner(Planner):
 
     params: SourceTermPlannerParams
     policy: ClassVar[str] = ""
+    #: the posterior planned on: the source-term filter (fewer particles than its default, for a
+    #: contract check) over a Gaussian plume
+    belief_estimator: ClassVar[Mapping[str, Any]] = {"type": "ste-pf", "n_particles": 1000}
+    belief_model: ClassVar[Mapping[str, Any] | None] = {"type": "ste-gaussian"}
 
     def __init__(self, params: SourceTermPlannerParams | None = None) -> None:
         super().__init__(params or SourceTermPlannerParams())
@@ -167,6 +172,9 @@ class LawnmowerPlanner(Planner):
 
     params: LawnmowerParams
     Params = LawnmowerParams
+    needs_model: ClassVar[bool] = False
+    belief_estimator: ClassVar[Mapping[str, Any]] = {"type": "ste-pf", "n_particles": 1000}
+    belief_model: ClassVar[Mapping[str, Any] | None] = {"type": "ste-gaussian"}
 
     def __init__(self, params: LawnmowerParams | None = None) -> None:
         super().__init__(params or LawnmowerParams())
@@ -175,13 +183,12 @@ class LawnmowerPlanner(Planner):
         super().reset(ctx, model)
         p = self.params
         if p.region is not None:
-            lo, hi = check_region(p.region, "planner.region")
-        elif ctx.search_region is not None:
-            lo, hi = check_region(ctx.search_region, "task.region")
+            region, field = check_region(p.region, "planner.region"), "planner.region"
         else:
-            lo, hi = tuple(ctx.arena.lower), tuple(ctx.arena.upper)
-        lo2 = np.maximum(np.asarray(lo[:2]), ctx.arena.lo[:2]) + p.margin
-        hi2 = np.minimum(np.asarray(hi[:2]), ctx.arena.hi[:2]) - p.margin
+            region, field = task_region(ctx), "task.region"
+        horizontal = None if region is None else (region[0][:2], region[1][:2])
+        lo2, hi2 = narrow_box(ctx.arena.lo[:2], ctx.arena.hi[:2], horizontal, field)
+        lo2, hi2 = lo2 + p.margin, hi2 - p.margin
         if np.any(hi2 <= lo2):
             raise ConfigError("planner.margin", "leaves nothing of the region to sweep")
         start = ctx.start[0]

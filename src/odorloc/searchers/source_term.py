@@ -149,7 +149,11 @@ class SourceTermSearcher(Searcher):
         """The source-term posterior."""
         return self.estimator.belief()
 
-    def diagnostics(self) -> dict[str, float]:
+    def estimation(self) -> tuple[SourceTermEstimator, SourceTermModel]:
+        """The posterior and its model (an offline replay drives them alone)."""
+        return self.estimator, self.model
+
+    def diagnostics(self) -> dict[str, float | str]:
         """The estimator's scalars and the chosen move's score."""
         return {**self.estimator.diagnostics(), "score": self.last_score}
 

@@ -40,8 +40,8 @@ most probable count has probability >= 1/2 and each of its sources spreads less 
 from __future__ import annotations
 
 import math
-from collections import deque
-from typing import Any, Literal
+from collections.abc import Mapping
+from typing import Any, ClassVar, Literal
 
 import numpy as np
 from pydantic import Field, model_validator
@@ -50,7 +50,7 @@ from odorloc.core.errors import ConfigError
 from odorloc.core.params import Params, Positive
 from odorloc.core.registry import register
 from odorloc.core.types import Observation, Region, SearchContext
-from odorloc.geometry.regions import check_region
+from odorloc.geometry.regions import check_region, narrow_box, task_region
 from odorloc.inference.estimator import Estimator
 from odorloc.inference.particles.resampling import systematic
 from odorloc.inference.source_terms.belief import SourceTermBelief
@@ -69,6 +69,7 @@ from odorloc.inference.source_terms.priors import (
 from odorloc.inference.weights import normalise_log_weights
 from odorloc.models.base import MeasurementModel
 from odorloc.models.source_term import SourceTermModel, SourceTerms, ThetaLayout
+from odorloc.sensors.preprocessing import WindAverage
 
 __all__ = ["SourceTermEstimator", "SourceTermParams"]
 
@@ -168,6 +169,8 @@ class SourceTermEstimator(Estimator):
 
     params: SourceTermParams
     Params = SourceTermParams
+    #: an offline replay's model (a steady Gaussian plume with Pasquill-Gifford dispersion)
+    default_model: ClassVar[Mapping[str, Any] | None] = {"type": "ste-gaussian"}
 
     def __init__(self, params: SourceTermParams | None = None) -> None:
         super().__init__(params or SourceTermParams())
@@ -208,7 +211,7 @@ class SourceTermEstimator(Estimator):
         self._w = np.zeros((64, d))
         self._t = np.zeros(64)
         self.n_read = 0
-        self._winds: deque[np.ndarray] = deque(maxlen=p.wind_average)
+        self._winds = WindAverage(p.wind_average)
         self.scale = 2.38 / math.sqrt(self._moved_dimension())
         self.n_moves = 0
         self.n_resamples = 0
@@ -220,17 +223,11 @@ class SourceTermEstimator(Estimator):
         self._belief: SourceTermBelief | None = None
 
     def _box(self, ctx: SearchContext) -> tuple[np.ndarray, np.ndarray]:
-        lo, hi = ctx.arena.lo.copy(), ctx.arena.hi.copy()
-        region = self.params.region if self.params.region is not None else ctx.search_region
-        if region is not None:
-            field = "estimator.region" if self.params.region is not None else "task.region"
-            rlo, rhi = check_region(region, field)
-            k = min(len(rlo), len(lo))
-            lo[:k] = np.maximum(lo[:k], rlo[:k])
-            hi[:k] = np.minimum(hi[:k], rhi[:k])
-            if np.any(hi <= lo):
-                raise ConfigError(field, "does not overlap the arena")
-        return lo, hi
+        if self.params.region is not None:
+            region, field = check_region(self.params.region, "estimator.region"), "estimator.region"
+        else:
+            region, field = task_region(ctx), "task.region"
+        return narrow_box(ctx.arena.lo, ctx.arena.hi, region, field)
 
     def _moved_dimension(self) -> int:
         lay = self.layout
@@ -279,7 +276,7 @@ class SourceTermEstimator(Estimator):
     def conditions(self) -> dict[str, Any]:
         """Conditions of the next reading for a planner: the measured mean ``wind`` and ``dt``."""
         d = self.ctx.dim
-        wind = np.mean(self._winds, axis=0) if self._winds else np.zeros(d)
+        wind = self._winds.mean if self.n_read else np.zeros(d)
         return {"wind": wind, "dt": self.dt}
 
     def update(self, observation: Observation) -> None:
@@ -295,8 +292,7 @@ class SourceTermEstimator(Estimator):
         z = float(self.model.reading(o))
         if not math.isfinite(z):
             raise ConfigError("reading", f"must be finite, got {z}")
-        self._winds.append(w)
-        wind = np.mean(self._winds, axis=0)
+        wind = self._winds.add(w)
         if self.prior is None:
             self._start(wind)
         self._append(z, pos, wind)

@@ -30,6 +30,7 @@ from scipy.special import gammaln, i0e, ndtr, ndtri
 from odorloc.core.errors import ConfigError
 from odorloc.core.params import Finite, Params, Positive
 from odorloc.geometry.arena import Arena
+from odorloc.inference.particles.init import sample_free_uniform
 from odorloc.models.source_term import ThetaLayout
 
 __all__ = [
@@ -297,17 +298,10 @@ class SourceTermPrior:
     # ------------------------------------------------------------------ slots
     def sample_positions(self, n: int, rng: np.random.Generator) -> np.ndarray:
         """``(n, d)`` uniform positions in the free part of the box."""
-        d = len(self.lower)
-        out = np.zeros((0, d))
-        for _ in range(200):
-            m = max(2 * (n - len(out)), 16)
-            cand = self.lower + rng.random((m, d)) * (self.upper - self.lower)
-            if self.arena is not None:
-                cand = cand[self.arena.is_free(cand)]
-            out = np.concatenate([out, cand])
-            if len(out) >= n:
-                return out[:n]
-        raise ConfigError("estimator.region", "too little free space for the particles")
+        if self.arena is None:
+            return self.lower + rng.random((n, len(self.lower))) * (self.upper - self.lower)
+        box = (self.lower, self.upper)
+        return sample_free_uniform(self.arena, n, rng, box=box, field="estimator.region")
 
     def redraw_slot(
         self, theta: np.ndarray, rows: np.ndarray, k: int, rng: np.random.Generator
