@@ -1022,6 +1022,8 @@ def check_step_planner(
         _require(plans[0][0].index is not None, f"{tag}: no direction feasible from the corner")
         done.append(f"{dim}D")
     return f"step planner {name}: {', '.join(done)}"
+
+
 # ---------------------------------------------------------------------- gas maps
 def check_gas_map(
     name: str, params: Mapping[str, Any] | None = None, dims: Sequence[int] | None = None

@@ -8,6 +8,7 @@ Command-line usage errors (an unknown option, a value of the wrong type) are one
 
 from __future__ import annotations
 
+import math
 import shlex
 import sys
 from collections.abc import Callable

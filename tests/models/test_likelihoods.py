@@ -267,6 +267,30 @@ def _outcome_cases() -> dict[str, list[tuple[object, np.ndarray, np.ndarray, dic
             for fixed in ({}, {"n_classes": 7})
         ],
         "lattice-isotropic": [(lattice, s2, h2, {}), (lattice, s3, h3, {})],
+        **_source_term_cases(s2, h2, s3, h3),
+    }
+
+
+def _source_term_cases(s2, h2, s3, h3):  # type: ignore[no-untyped-def]
+    """The source-term models over plain positions (single sources of the default rate)."""
+    from odorloc.models.source_term import (
+        AdapterSourceTermModel,
+        GaussianSourceTermModel,
+        GaussianSourceTermParams,
+        VergassolaSourceTermModel,
+    )
+
+    wind2, wind3 = np.array([0.5, 0.0]), np.array([0.0, -1.0, 0.0])
+    gauss = [
+        GaussianSourceTermModel(GaussianSourceTermParams(reading=r, threshold=0.2))
+        for r in ("censored", "detection")
+    ]
+    return {
+        "ste-gaussian": [
+            (m, s, h, {"wind": w}) for m in gauss for s, h, w in ((s2, h2, wind2), (s3, h3, wind3))
+        ],
+        "ste-vergassola": [(VergassolaSourceTermModel(), s3, h3, {"dt": 1.0, "wind": wind3})],
+        "ste-adapter": [(AdapterSourceTermModel(), s2, h2, {"wind": wind2})],
     }
 
 

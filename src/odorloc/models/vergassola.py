@@ -52,6 +52,7 @@ __all__ = [
     "VergassolaModelParams",
     "correlation_length",
     "vergassola_rate",
+    "vergassola_rate_matrix",
 ]
 
 _AQ_KEEP = 8
@@ -108,6 +109,56 @@ def vergassola_rate(
     z = r / lam
     # K0(z) = k0e(z) exp(-z): the scaled form keeps far-field values finite.
     return q / np.log(lam / a) * k0e(z) * np.exp(V * along / (2.0 * D) - z)
+
+
+def vergassola_rate_matrix(
+    sensor: ArrayLike,
+    sources: ArrayLike,
+    release: ArrayLike,
+    *,
+    V: ArrayLike,
+    D: ArrayLike,
+    tau: ArrayLike,
+    a: float,
+    direction: ArrayLike,
+) -> np.ndarray:
+    """Encounter rates ``(M, N)`` when wind and dispersion differ between hypotheses.
+
+    The same eqs. 1-2 (muc-osl-multi-uav paper; 2-D: Vergassola et al. 2007) as
+    :func:`vergassola_rate`, with ``V``, ``D``, ``tau`` and the wind direction given per
+    hypothesis (a source-term posterior over them).
+
+    Parameters
+    ----------
+    sensor : (M, d) array_like, metres
+    sources : (N, d) array_like, metres
+    release : (N,) array_like, particles/s
+    V, D, tau : float or (N,) array_like
+        Wind speed (m/s), diffusivity (m^2/s), lifetime (s) of each hypothesis.
+    a : float, metres
+        Sensor radius.
+    direction : (N, d) or (M, N, d) array_like
+        Unit vector the wind blows towards, per hypothesis (or per reading and hypothesis).
+
+    Raises
+    ------
+    ConfigError
+        In 2-D when a hypothesis has ``lambda <= a`` (the 2-D rate needs ``lambda > a``).
+    """
+    x = np.atleast_2d(np.asarray(sensor, float))
+    s = np.atleast_2d(np.asarray(sources, float))
+    V_, D_, tau_ = (np.asarray(v, float) for v in (V, D, tau))
+    lam = np.sqrt(D_ * tau_ / (1.0 + V_ * V_ * tau_ / (4.0 * D_)))
+    rel = x[:, None, :] - s[None, :, :]
+    r = np.maximum(np.sqrt((rel * rel).sum(axis=2)), a)
+    along = (rel * np.asarray(direction, float)).sum(axis=-1)
+    q = np.asarray(release, float)
+    if x.shape[1] == 3:
+        return (a * q) * np.exp(along * (V_ / (2.0 * D_)) - r / lam) / r
+    if np.any(lam <= a):
+        raise ConfigError("sensor_radius", "must be below lambda of every hypothesis in 2D")
+    z = r / lam
+    return q / np.log(lam / a) * k0e(z) * np.exp(V_ * along / (2.0 * D_) - z)
 
 
 def _rate_inputs(

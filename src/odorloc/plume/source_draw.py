@@ -8,19 +8,22 @@ numbers) and the draw is part of the world seed.
 Members (registry family ``"source_draw"``):
 
 - ``uniform``: uniform over a box (default the arena), in free space, at least
-  ``min_start_distance`` from every agent start and ``min_separation`` from each other.
+  ``min_start_distance`` from every agent start and ``min_separation`` from each other; with
+  ``rates``, each source's release rate is drawn too (log-uniform or uniform), after the
+  positions (so draws without it are unchanged).
 """
 
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from collections.abc import Sequence
+from typing import Literal
 
 import numpy as np
 from pydantic import Field, model_validator
 
 from odorloc.core.errors import ConfigError
-from odorloc.core.params import NonNegative, Params
+from odorloc.core.params import NonNegative, Params, Positive
 from odorloc.core.registry import register
 from odorloc.core.types import Region
 from odorloc.geometry.arena import Arena
@@ -42,12 +45,21 @@ class SourceDraw(ABC):
         starts: np.ndarray,
         rng: np.random.Generator,
     ) -> list[Source]:
-        """The sources with new positions (rates and modulations kept)."""
+        """The sources with new positions (and, if the draw says so, rates; modulations
+        kept)."""
         pos = self.positions(len(sources), arena, np.atleast_2d(starts), rng)
-        return [
-            s.model_copy(update={"position": tuple(float(v) for v in p)})
-            for s, p in zip(sources, pos, strict=True)
-        ]
+        rates = self.rates(len(sources), rng)
+        out = []
+        for i, (s, p) in enumerate(zip(sources, pos, strict=True)):
+            update: dict[str, object] = {"position": tuple(float(v) for v in p)}
+            if rates is not None:
+                update["rate"] = float(rates[i])
+            out.append(s.model_copy(update=update))
+        return out
+
+    def rates(self, n: int, rng: np.random.Generator) -> np.ndarray | None:
+        """``(n,)`` release rates, or ``None`` to keep the configured ones (default)."""
+        return None
 
     def check(self, arena: Arena) -> None:
         """Raise :class:`ConfigError` if the draw cannot work in ``arena`` (called when the
@@ -75,18 +87,26 @@ class UniformSourceDrawParams(Params):
         Least distance between two sources.
     max_tries : int
         Candidate batches tried before giving up with an error.
+    rates : (low, high), optional
+        Draw each source's release rate from ``[low, high]`` (``0 < low < high``).
+    rate_law : {"log-uniform", "uniform"}
+        The law of the rates.
     """
 
     region: Region | None = None
     min_start_distance: NonNegative = 0.0
     min_separation: NonNegative = 0.0
     max_tries: int = Field(1000, ge=1, le=1_000_000)
+    rates: tuple[Positive, Positive] | None = None
+    rate_law: Literal["log-uniform", "uniform"] = "log-uniform"
 
     @model_validator(mode="after")
     def _check(self) -> UniformSourceDrawParams:
         if self.region is not None:
             # a NaN or inverted box is refused with the scenario, not at the first draw
             check_region(self.region, "region")
+        if self.rates is not None and not self.rates[1] > self.rates[0]:
+            raise ConfigError("rates", f"high ({self.rates[1]}) must exceed low ({self.rates[0]})")
         return self
 
 
@@ -128,3 +148,13 @@ class UniformSourceDraw(SourceDraw):
         raise ConfigError(
             "world.source_draw", f"found no place for {n} source(s) in {p.max_tries} tries"
         )
+
+    def rates(self, n: int, rng: np.random.Generator) -> np.ndarray | None:
+        """Rates drawn from ``rates`` by ``rate_law`` (``None`` without ``rates``)."""
+        p = self.params
+        if p.rates is None:
+            return None
+        lo, hi = p.rates
+        if p.rate_law == "uniform":
+            return rng.uniform(lo, hi, n)
+        return np.exp(rng.uniform(np.log(lo), np.log(hi), n))
