@@ -84,6 +84,9 @@ class MeasurementModel(ABC):
 
         A measurement history evaluated at once (a tempered product of likelihoods: a
         neighbour's reading counted with its confidence factor, eq. 11 of the multi-UAV paper).
+        The readings are checked by :meth:`prepare_readings` and evaluated by
+        :meth:`prepared_log_likelihood`; a caller that evaluates the same readings at many
+        hypothesis sets (a Metropolis-Hastings move) prepares them once.
 
         Parameters
         ----------
@@ -99,10 +102,6 @@ class MeasurementModel(ABC):
             the model's default.
         **conditions
             Conditions shared by every reading.
-
-        The readings are checked by :meth:`prepare_readings` and evaluated by
-        :meth:`prepared_log_likelihood`; a caller that evaluates the same readings at many
-        hypothesis sets (a Metropolis-Hastings move) prepares them once.
         """
         prepared = self.prepare_readings(
             z, sensor_positions, exponents, record_conditions, **conditions
