@@ -13,7 +13,7 @@ residuals ``V`` (eq. 6).
 - :func:`isotropic_sums`: ``Sigma = sigma^2 I`` (Kernel DM+V, TD Kernel DM+V). The Gaussian
   factorises over the axes, so only ``d`` short rows of exponentials are evaluated per reading;
   the accumulation over the reading's window of cells is a loop by nature and is compiled with
-  numba when the ``fast`` extra is installed. The NumPy pass (:func:`isotropic_sums` with
+  numba. The NumPy pass (:func:`isotropic_sums` with
   ``backend="numpy"``) is the reference: both take the same NumPy exponentials and add the
   same products in the same order, so they agree to the bit.
 - :func:`anisotropic_sums`: one covariance per reading (the wind-stretched kernel of Kernel
@@ -134,7 +134,9 @@ def isotropic_sums(
     """
     _check_inputs(grid, centres, scale, values)
     if backend == "numba" and not HAVE_NUMBA:
-        raise ConfigError("backend", "numba is not installed (the fast extra)")
+        raise ConfigError(
+            "backend", "numba cannot be imported (a core dependency: reinstall odorloc)"
+        )
     use_numba = backend == "numba" or (backend == "auto" and HAVE_NUMBA)
     m = values.shape[1]
     out = np.zeros((m, grid.n_cells))
