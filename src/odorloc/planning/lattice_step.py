@@ -143,102 +143,6 @@ def _move(ag: np.ndarray, a: int, dim: int, shape0: int, shape1: int, shape2: in
     return out
 
 
-def _move_score(
-    b: np.ndarray,
-    logb: np.ndarray,
-    x: np.ndarray,
-    s_b: float,
-    ch: np.ndarray,
-    half: np.ndarray,
-    policy: int,
-    acc: np.ndarray,
-) -> float:
-    """The reference's score of a move to ``x`` (module docstring), ``acc`` a ``(5, Z)``
-    workspace."""
-    z = ch.shape[0]
-    n0, n1, n2 = b.shape
-    p_end = b[x[0], x[1], x[2]]
-    if policy == 2:
-        return 1.0 - p_end
-    if policy == 0 and p_end > 1.0 - 1e-10:
-        return -1e-10 - s_b
-    o2 = half[2] - x[2]
-    acc[:] = 0.0
-    tot = 0.0
-    # pass 1: J_h = sum b P_h and M_h = sum b P_h |x - x'|_1 (the found cell has P = 0)
-    for i0 in range(n0):
-        r0 = i0 - x[0] + half[0]
-        for i1 in range(n1):
-            r1 = i1 - x[1] + half[1]
-            brow = b[i0, i1]
-            st = 0.0
-            for i2 in range(n2):
-                st += brow[i2]
-            tot += st
-            for h in range(z):
-                p = ch[h, 0, r0, r1]
-                sj = 0.0
-                for i2 in range(n2):
-                    sj += brow[i2] * p[i2 + o2]
-                acc[0, h] += sj
-                if policy != 0:
-                    pd = ch[h, 2, r0, r1]
-                    sm = 0.0
-                    for i2 in range(n2):
-                        sm += brow[i2] * pd[i2 + o2]
-                    acc[3, h] += sm
-    tot -= p_end
-    sn = tot if tot > 1e-10 else 1.0
-    if policy == 3:
-        out = 0.0
-        for h in range(z):
-            ph = acc[0, h] / sn
-            hn = ph if ph > 1e-10 else 1.0
-            out += ph * (acc[3, h] / (sn * hn))
-        return (1.0 - p_end) * out
-    # pass 2: over the posterior cells above 1e-10, A_h = sum b P (log b + log P), T_h = sum b P
-    for h in range(z):
-        ph = acc[0, h] / sn
-        hn = ph if ph > 1e-10 else 1.0
-        acc[1, h] = 1e-10 * sn * hn
-    for i0 in range(n0):
-        r0 = i0 - x[0] + half[0]
-        for i1 in range(n1):
-            r1 = i1 - x[1] + half[1]
-            brow = b[i0, i1]
-            lrow = logb[i0, i1]
-            for h in range(z):
-                p = ch[h, 0, r0, r1]
-                lp = ch[h, 1, r0, r1]
-                thr = acc[1, h]
-                sa = 0.0
-                sk = 0.0
-                for i2 in range(n2):
-                    t = brow[i2] * p[i2 + o2]
-                    if t > thr:
-                        sa += t * (lrow[i2] + lp[i2 + o2])
-                        sk += t
-                acc[2, h] += sa
-                acc[4, h] += sk
-    out = 0.0
-    for h in range(z):
-        j = acc[0, h]
-        if j <= 0.0:
-            continue
-        ph = j / sn
-        hn = ph if ph > 1e-10 else 1.0
-        c = sn * hn
-        # the cells below the threshold are left out of the entropy, not of the mass
-        ent = -(acc[2, h] - math.log(c) * acc[4, h]) / (c * math.log(2.0))
-        if policy == 0:
-            out += ph * ent
-        else:
-            out += ph * _g(acc[3, h] / c + 2.0 ** (ent - 1.0) - 0.5)
-    if policy == 0:
-        return (1.0 - p_end) * out - s_b
-    return (1.0 - p_end) * out
-
-
 def _g(v: float) -> float:
     return math.log2(v) if v > 0.0 else v
 
@@ -254,21 +158,128 @@ def _decide(
     policy: int,
     scores: np.ndarray,
 ) -> int:
-    """Scores of the ``2 d`` moves into ``scores`` and the choice: the lowest move among the
-    scores within ``1e-10`` of the best (``inf`` for a move that leaves the grid)."""
+    """Scores of the ``2 d`` moves into ``scores`` (module docstring; ``inf`` for a move that
+    leaves the grid) and the choice: the lowest move among the scores within ``1e-10`` of the
+    best. Every belief row is read once for all the moves and classes."""
     n0, n1, n2 = b.shape
     nm = 2 * dim
-    acc = np.empty((5, ch.shape[0]))
-    best = np.inf
+    z = ch.shape[0]
+    xs = np.empty((nm, 3), np.int64)
+    p_end = np.zeros(nm)
+    valid = np.zeros(nm, np.bool_)
     for a in range(nm):
         x = _move(ag, a, dim, n0, n1, n2)
-        if x[0] < 0:
+        xs[a] = x
+        valid[a] = x[0] >= 0
+        if valid[a]:
+            p_end[a] = b[x[0], x[1], x[2]]
+    if policy == 2:
+        for a in range(nm):
+            scores[a] = 1.0 - p_end[a] if valid[a] else np.inf
+        return _first_best(scores, nm)
+    tot = 0.0
+    for i0 in range(n0):
+        for i1 in range(n1):
+            brow = b[i0, i1]
+            for i2 in range(n2):
+                tot += brow[i2]
+    jj = np.zeros((nm, z))
+    mm = np.zeros((nm, z))
+    # pass 1: J_h and M_h
+    for i0 in range(n0):
+        for i1 in range(n1):
+            brow = b[i0, i1]
+            for a in range(nm):
+                if not valid[a]:
+                    continue
+                r0 = i0 - xs[a, 0] + half[0]
+                r1 = i1 - xs[a, 1] + half[1]
+                o2 = half[2] - xs[a, 2]
+                for h in range(z):
+                    p = ch[h, 0, r0, r1, o2 : o2 + n2]
+                    sj = 0.0
+                    for i2 in range(n2):
+                        sj += brow[i2] * p[i2]
+                    jj[a, h] += sj
+                    if policy != 0:
+                        pd = ch[h, 2, r0, r1, o2 : o2 + n2]
+                        sm = 0.0
+                        for i2 in range(n2):
+                            sm += brow[i2] * pd[i2]
+                        mm[a, h] += sm
+    cc = np.ones((nm, z))
+    sn = np.ones(nm)
+    for a in range(nm):
+        s = tot - p_end[a]
+        sn[a] = s if s > 1e-10 else 1.0
+        for h in range(z):
+            ph = jj[a, h] / sn[a]
+            cc[a, h] = sn[a] * (ph if ph > 1e-10 else 1.0)
+    if policy == 3:
+        for a in range(nm):
+            if not valid[a]:
+                scores[a] = np.inf
+                continue
+            out = 0.0
+            for h in range(z):
+                out += jj[a, h] / sn[a] * (mm[a, h] / cc[a, h])
+            scores[a] = (1.0 - p_end[a]) * out
+        return _first_best(scores, nm)
+    # pass 2: over the posterior cells above 1e-10 (b P_h > 1e-10 c_h), A_h and T_h
+    aa = np.zeros((nm, z))
+    tt = np.zeros((nm, z))
+    for i0 in range(n0):
+        for i1 in range(n1):
+            brow = b[i0, i1]
+            lrow = logb[i0, i1]
+            for a in range(nm):
+                if not valid[a]:
+                    continue
+                r0 = i0 - xs[a, 0] + half[0]
+                r1 = i1 - xs[a, 1] + half[1]
+                o2 = half[2] - xs[a, 2]
+                for h in range(z):
+                    p = ch[h, 0, r0, r1, o2 : o2 + n2]
+                    lp = ch[h, 1, r0, r1, o2 : o2 + n2]
+                    thr = 1e-10 * cc[a, h]
+                    sa = 0.0
+                    sk = 0.0
+                    for i2 in range(n2):
+                        t = brow[i2] * p[i2]
+                        if t > thr:
+                            sa += t * (lrow[i2] + lp[i2])
+                            sk += t
+                    aa[a, h] += sa
+                    tt[a, h] += sk
+    for a in range(nm):
+        if not valid[a]:
             scores[a] = np.inf
             continue
-        sc = _move_score(b, logb, x, s_b, ch, half, policy, acc)
-        scores[a] = sc
-        if sc < best:
-            best = sc
+        if policy == 0 and p_end[a] > 1.0 - 1e-10:
+            scores[a] = -1e-10 - s_b
+            continue
+        out = 0.0
+        for h in range(z):
+            j = jj[a, h]
+            if j <= 0.0:
+                continue
+            ph = j / sn[a]
+            c = cc[a, h]
+            # the cells below the floor are left out of the entropy, not of the mass
+            ent = -(aa[a, h] - math.log(c) * tt[a, h]) / (c * math.log(2.0))
+            if policy == 0:
+                out += ph * ent
+            else:
+                out += ph * _g(mm[a, h] / c + 2.0 ** (ent - 1.0) - 0.5)
+        scores[a] = (1.0 - p_end[a]) * out - (s_b if policy == 0 else 0.0)
+    return _first_best(scores, nm)
+
+
+def _first_best(scores: np.ndarray, nm: int) -> int:
+    best = np.inf
+    for a in range(nm):
+        if scores[a] < best:
+            best = scores[a]
     for a in range(nm):
         if abs(scores[a] - best) < 1e-10:
             return a
@@ -276,10 +287,17 @@ def _decide(
 
 
 def _observe(
-    b: np.ndarray, logb: np.ndarray, ag: np.ndarray, prob: np.ndarray, half: np.ndarray, hit: int
+    b: np.ndarray,
+    logb: np.ndarray,
+    ag: np.ndarray,
+    prob: np.ndarray,
+    logp: np.ndarray,
+    half: np.ndarray,
+    hit: int,
 ) -> float:
-    """Bayes update of ``b`` in place after ``hit`` at ``ag``; fills ``logb`` (``-inf`` where
-    ``b = 0``) and returns the entropy (bits, cells above ``1e-10``)."""
+    """Bayes update of ``b`` in place after ``hit`` at ``ag``; ``logb`` follows as
+    ``log b + log P_hit - log(mass)`` (no logarithm per cell); returns the entropy (bits,
+    cells above ``1e-10``)."""
     n0, n1, n2 = b.shape
     b[ag[0], ag[1], ag[2]] = 0.0
     tot = 0.0
@@ -288,30 +306,33 @@ def _observe(
         for i1 in range(n1):
             r1 = i1 - ag[1] + half[1]
             o2 = half[2] - ag[2]
-            p = prob[hit, r0, r1]
+            p = prob[hit, r0, r1, o2 : o2 + n2]
             row = b[i0, i1]
             for i2 in range(n2):
-                v = row[i2] * p[i2 + o2]
+                v = row[i2] * p[i2]
                 if v < 0.0 and v > -1e-15:
                     v = 0.0
                 row[i2] = v
                 tot += v
     scale = 1.0 / tot if tot > 1e-10 else 1.0
+    shift = math.log(scale)
     ent = 0.0
     for i0 in range(n0):
+        r0 = i0 - ag[0] + half[0]
         for i1 in range(n1):
+            r1 = i1 - ag[1] + half[1]
+            o2 = half[2] - ag[2]
+            lp = logp[hit, 1, r0, r1, o2 : o2 + n2]
             row = b[i0, i1]
             lrow = logb[i0, i1]
             for i2 in range(n2):
                 v = row[i2] * scale
                 row[i2] = v
-                if v > 0.0:
-                    lv = math.log(v)
-                    lrow[i2] = lv
-                    if v > 1e-10:
-                        ent -= v * lv
-                else:
-                    lrow[i2] = -np.inf
+                lv = lrow[i2] + lp[i2] + shift
+                lrow[i2] = lv
+                if v > 1e-10:
+                    ent -= v * lv
+    logb[ag[0], ag[1], ag[2]] = -np.inf
     return ent / math.log(2.0)
 
 
@@ -376,16 +397,16 @@ def _search_step(
     hit = _draw_hit(ag, src, prob, half, u)
     if given >= 0:
         hit = given
-    return a, hit, _observe(b, logb, ag, prob, half, hit)
+    return a, hit, _observe(b, logb, ag, prob, ch, half, hit)
 
 
 _move = jit(_move)
 _g = jit(_g)
+_first_best = jit(_first_best)
 # reassociation lets the correlation sums run in SIMD lanes; nothing is assumed about
 # infinities (log 0 = -inf is read behind the threshold test)
-_move_score = jit(_move_score, fastmath={"reassoc", "contract", "arcp", "nsz"})
-_decide = jit(_decide)
-_observe = jit(_observe)
+_decide = jit(_decide, fastmath={"reassoc", "contract", "arcp", "nsz"})
+_observe = jit(_observe, fastmath={"reassoc", "contract", "arcp", "nsz"})
 _log_belief = jit(_log_belief)
 _draw_hit = jit(_draw_hit)
 _search_step = jit(_search_step)
@@ -405,7 +426,7 @@ def observe(
     cell ``agent``; returns the new entropy (bits)."""
     if not 0 <= int(hit) < k.n_classes:
         raise ConfigError("hit", f"{hit} is not a class of 0..{k.n_classes - 1}")
-    return float(_observe(b, logb, k.agent3(agent), k.prob, k.half, int(hit)))
+    return float(_observe(b, logb, k.agent3(agent), k.prob, k.channels, k.half, int(hit)))
 
 
 def draw_hit(k: LatticeKernels, agent: np.ndarray, source: np.ndarray, u: float) -> int:
