@@ -10,9 +10,14 @@ from odorloc.core.types import SearchContext
 from odorloc.geometry.arena import Arena
 from odorloc.geometry.grid import CellGrid
 from odorloc.inference.grid_estimator import LatticeBelief
-from odorloc.models.lattice import IsotropicHitModel, IsotropicHitParams, initial_belief, tabulate
+from odorloc.models.lattice import (
+    IsotropicHitModel,
+    IsotropicHitParams,
+    initial_belief,
+    isotropic_mean_hits,
+    tabulate,
+)
 from odorloc.models.poisson import censored_poisson
-from odorloc.models.lattice import isotropic_mean_hits
 from odorloc.planning.base import Pose
 from odorloc.planning.infotaxis import LatticePlanner, LatticePlannerParams
 from odorloc.planning.lattice_step import (
@@ -53,7 +58,7 @@ def _episode_states(k: LatticeKernels, b0: np.ndarray, steps: int, seed: int):
     out = []
     for _ in range(steps):
         out.append((b.copy(), ag.copy()))
-        a, h, ag3, b = step_numpy(k, b, ag, src, rng.random())
+        _, h, ag3, b = step_numpy(k, b, ag, src, rng.random())
         ag = ag3[3 - k.dim :]
         if h < 0:
             break
@@ -143,7 +148,7 @@ def test_first_move_ties_and_otto_check_values() -> None:
     a, sc = scores(k, b, logb, ent, ag)
     np.testing.assert_allclose(sc, ref, rtol=0, atol=1e-12)
     assert a == 0
-    a, _, _ = search_step(k, b.copy(), logb, ent, k.agent3(ag), k.agent3(ag + [5, 0]), 0.5)
+    a, _, _ = search_step(k, b.copy(), logb, ent, k.agent3(ag), k.agent3(ag + np.array([5, 0])), 0.5)
     assert a == 0
 
 

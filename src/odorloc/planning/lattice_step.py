@@ -490,7 +490,7 @@ def search_step(
 # ---------------------------------------------------------------------- NumPy reference
 def _window(k: LatticeKernels, cell: np.ndarray) -> tuple[slice, ...]:
     c = k.agent3(cell)
-    return tuple(slice(int(h - x), int(h - x + n)) for h, x, n in zip(k.half, c, k.shape))
+    return tuple(slice(int(h - x), int(h - x + n)) for h, x, n in zip(k.half, c, k.shape, strict=True))
 
 
 def scores_numpy(k: LatticeKernels, b: np.ndarray, agent: np.ndarray) -> np.ndarray:
@@ -533,7 +533,7 @@ def scores_numpy(k: LatticeKernels, b: np.ndarray, agent: np.ndarray) -> np.ndar
         big = post > FLOOR
         lg[big] = -np.log2(post[big])
         ent = (post * lg).sum(axis=(1, 2, 3))
-        dist = sum(np.abs(g - c) for g, c in zip(grids, x))
+        dist = sum(np.abs(g - c) for g, c in zip(grids, x, strict=True))
         d_h = (post * dist[None]).sum(axis=(1, 2, 3))
         if k.code == 0:
             out[a] = (1.0 - p_end) * float((ph * ent).sum()) - s_b
@@ -559,7 +559,7 @@ def step_numpy(
     src = k.agent3(source)
     if np.array_equal(ag, src):
         return a, -1, ag, b.copy()
-    r = tuple(int(s - x + h) for s, x, h in zip(src, ag, k.half))
+    r = tuple(int(s - x + h) for s, x, h in zip(src, ag, k.half, strict=True))
     cum = np.cumsum(k.prob[(slice(None), *r)])[:-1]
     drawn = int(np.searchsorted(cum, u, side="right"))
     h = drawn if hit < 0 else int(hit)
