@@ -384,8 +384,9 @@ def main(argv: list[str] | None = None) -> None:
 
     use_otto = bool(args.otto_python and args.otto_src)
     sides = ("otto", "otto_env", "ours", "ours_step")
-    rounds: dict[int, dict[str, list]] = {n: {k: [] for k in (*sides, "same", "same_step")}
-                                          for n in SETTINGS}
+    rounds: dict[int, dict[str, list]] = {
+        n: {k: [] for k in (*sides, "same", "same_step")} for n in SETTINGS
+    }
     otto_rounds, otto_failed = 0, False
     with tempfile.TemporaryDirectory(dir=args.out) as tmp:
         data: dict[int, tuple[np.ndarray, ...]] = {}
@@ -464,9 +465,7 @@ def main(argv: list[str] | None = None) -> None:
     print(" draws its hit through scipy.stats, whose cost depends on the SciPy version: the")
     print(" RESULT's step_vs_otto_decision_* sets our whole step against OTTO's decision alone)")
     if not ran:
-        note = ", ".join(
-            f"{OTTO_DECISION_MS[SETTINGS[n][0]]:.2f} ms (N = {n})" for n in STATISTICS
-        )
+        note = ", ".join(f"{OTTO_DECISION_MS[SETTINGS[n][0]]:.2f} ms (N = {n})" for n in STATISTICS)
         print(
             f"OTTO not run. For information only, not a measurement here: the note's OTTO "
             f"decision times, {note}, were taken on another machine under another load"

@@ -148,7 +148,8 @@ def test_first_move_ties_and_otto_check_values() -> None:
     a, sc = scores(k, b, logb, ent, ag)
     np.testing.assert_allclose(sc, ref, rtol=0, atol=1e-12)
     assert a == 0
-    a, _, _ = search_step(k, b.copy(), logb, ent, k.agent3(ag), k.agent3(ag + np.array([5, 0])), 0.5)
+    src = k.agent3(ag + np.array([5, 0]))
+    a, _, _ = search_step(k, b.copy(), logb, ent, k.agent3(ag), src, 0.5)
     assert a == 0
 
 

@@ -354,9 +354,7 @@ def _log_belief(b: np.ndarray, logb: np.ndarray) -> float:
     return ent / math.log(2.0)
 
 
-def _draw_hit(
-    ag: np.ndarray, src: np.ndarray, prob: np.ndarray, half: np.ndarray, u: float
-) -> int:
+def _draw_hit(ag: np.ndarray, src: np.ndarray, prob: np.ndarray, half: np.ndarray, u: float) -> int:
     z = prob.shape[0]
     r0 = src[0] - ag[0] + half[0]
     r1 = src[1] - ag[1] + half[1]
@@ -481,8 +479,19 @@ def search_step(
     """
     sc = np.empty(2 * k.dim) if scores is None else scores
     a, h, s = _search_step(
-        b, logb, float(entropy), agent, source, k.channels, k.prob, k.half, k.dim, k.code,
-        float(u), int(hit), sc,
+        b,
+        logb,
+        float(entropy),
+        agent,
+        source,
+        k.channels,
+        k.prob,
+        k.half,
+        k.dim,
+        k.code,
+        float(u),
+        int(hit),
+        sc,
     )
     return int(a), int(h), float(s)
 
@@ -490,7 +499,8 @@ def search_step(
 # ---------------------------------------------------------------------- NumPy reference
 def _window(k: LatticeKernels, cell: np.ndarray) -> tuple[slice, ...]:
     c = k.agent3(cell)
-    return tuple(slice(int(h - x), int(h - x + n)) for h, x, n in zip(k.half, c, k.shape, strict=True))
+    pairs = zip(k.half, c, k.shape, strict=True)
+    return tuple(slice(int(h - x), int(h - x + n)) for h, x, n in pairs)
 
 
 def scores_numpy(k: LatticeKernels, b: np.ndarray, agent: np.ndarray) -> np.ndarray:
@@ -547,7 +557,11 @@ def scores_numpy(k: LatticeKernels, b: np.ndarray, agent: np.ndarray) -> np.ndar
 
 
 def step_numpy(
-    k: LatticeKernels, b: np.ndarray, agent: np.ndarray, source: np.ndarray, u: float,
+    k: LatticeKernels,
+    b: np.ndarray,
+    agent: np.ndarray,
+    source: np.ndarray,
+    u: float,
     hit: int = -1,
 ) -> tuple[int, int, np.ndarray, np.ndarray]:
     """:func:`search_step` in NumPy (the reference): returns the move, the hit (``-1``: found),
