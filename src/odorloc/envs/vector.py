@@ -168,13 +168,13 @@ def _features(
     dim: int,
     z: int,
     ent_max: float,
+    rows: np.ndarray,
     out: np.ndarray,
 ) -> None:
-    """The observation rows (module docstring) into ``out`` ``(B, F)`` float32."""
-    nb = ag.shape[0]
+    """The observation rows ``rows`` (module docstring) into ``out`` ``(B, F)`` float32."""
     shape = b.shape[1:]
     lead = 3 - dim
-    for i in range(nb):
+    for i in rows:
         k = 0
         for a in range(dim):
             n = shape[lead + a]
@@ -222,6 +222,13 @@ _features = jit(_features)
 
 
 # ---------------------------------------------------------------------- the environment
+def _cdf(p: np.ndarray) -> np.ndarray:
+    """The cumulative sum ``numpy.random.Generator.choice`` searches for ``p``."""
+    cdf = np.asarray(p, float).cumsum()
+    cdf /= cdf[-1]
+    return cdf
+
+
 class _Problem:
     """What a lattice scenario fixes for every episode (checked once, from its built parts)."""
 
@@ -275,6 +282,9 @@ class _Problem:
         d = np.linalg.norm(centres - plume.origin, axis=1)
         mu0 = isotropic_mean_hits(d, self.length, self.intensity, cell, dim)
         like = censored_poisson(mu0, self.z)
+        # Generator.choice(p=...) draws one uniform number and searches the normalised
+        # cumulative sum: the same search on the same sums draws the same index
+        self.cdf_h0 = _cdf(self.p_h0)
         self.b0: list[np.ndarray | None] = []
         for h in range(self.z):
             if self.p_h0[h] > 0:
@@ -282,6 +292,7 @@ class _Problem:
                 self.b0.append(b0.reshape(-1))
             else:
                 self.b0.append(None)
+        self.cdf_b0 = [None if b is None else _cdf(b) for b in self.b0]
         # the searcher's belief update: the problem's own model, tabulated over the offsets
         model = IsotropicHitModel(IsotropicHitParams(length=self.length, intensity=self.intensity))
         table = tabulate(model, cell, tuple(n - 1 for n in shape))
@@ -376,6 +387,7 @@ class LatticeVectorEnv(VectorEnv):
         self._episode = np.full(nb, -1, np.int64)
         self._sense: list[np.random.Generator | None] = [None] * nb
         self._obs = np.zeros((nb, f), np.float32)
+        self._all = np.arange(nb, dtype=np.int64)
         self._ent_max = math.log2(math.prod(pr.shape))
         # the start beliefs of each first hit, kernel-shaped, with their logarithm and entropy
         self._starts: list[tuple[np.ndarray, np.ndarray, float] | None] = []
@@ -415,11 +427,11 @@ class LatticeVectorEnv(VectorEnv):
         assert self.root is not None
         ws, ag_seed = episode_seeds(self.root, self.world_key, episode)
         rng_world, rng_sense, _ = episode_generators(ws, ag_seed)
-        h0 = int(rng_world.choice(pr.z, p=pr.p_h0))
-        b0 = pr.b0[h0]
+        h0 = int(pr.cdf_h0.searchsorted(rng_world.random(), side="right"))
+        cdf = pr.cdf_b0[h0]
         start = self._starts[h0]
-        assert b0 is not None and start is not None
-        cell = int(rng_world.choice(b0.size, p=b0))
+        assert cdf is not None and start is not None
+        cell = int(cdf.searchsorted(rng_world.random(), side="right"))
         src = np.unravel_index(cell, pr.shape)
         lead = 3 - pr.dim
         self._src[i] = 0
@@ -448,9 +460,12 @@ class LatticeVectorEnv(VectorEnv):
             self._u[i, _BLOCK - p :] = rng.random(p)
             self._upos[i] = 0
 
-    def _observe(self) -> np.ndarray:
+    def _observe(self, rows: np.ndarray | None = None) -> np.ndarray:
         pr = self.problem
-        _features(self._ag, self._b, self._ent, self._last, pr.dim, pr.z, self._ent_max, self._obs)
+        r = self._all if rows is None else rows
+        _features(
+            self._ag, self._b, self._ent, self._last, pr.dim, pr.z, self._ent_max, r, self._obs
+        )
         return self._obs.copy()
 
     def reset(
@@ -525,5 +540,5 @@ class LatticeVectorEnv(VectorEnv):
             for i in done:
                 self._start(int(i), self._next)
                 self._next += 1
-            obs = self._observe()
+            obs = self._observe(done.astype(np.int64))
         return obs, reward.astype(np.float64), terminated, truncated, info
