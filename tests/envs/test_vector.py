@@ -93,8 +93,18 @@ def test_vector_contract_and_determinism() -> None:
         o2, r2, *_ = v.step(a)
         np.testing.assert_array_equal(o, o2)
         np.testing.assert_array_equal(r, r2)
-    # beliefs are distributions over the grid
-    np.testing.assert_allclose(v.belief.reshape(5, -1).sum(axis=1), 1.0, rtol=1e-12)
+    # beliefs are distributions over the grid, and the features describe them
+    bel = v.belief
+    np.testing.assert_allclose(bel.reshape(5, -1).sum(axis=1), 1.0, rtol=1e-12)
+    n = bel.shape[1]
+    grid = np.stack(np.meshgrid(np.arange(n), np.arange(n), indexing="ij"))
+    mean = np.einsum("bij,aij->ba", bel, grid)
+    names = v.feature_names
+    cols = [names.index("mean_offset_x"), names.index("mean_offset_y")]
+    np.testing.assert_allclose(o[:, cols], (mean - v.positions) / n, atol=1e-6)
+    cells = v.positions
+    left = [bel[i, c[0] - 1, c[1]] if c[0] > 0 else 0.0 for i, c in enumerate(cells)]
+    np.testing.assert_allclose(o[:, names.index("belief_-x")], left, atol=1e-7)
 
 
 def test_bad_input() -> None:

@@ -96,6 +96,7 @@ def _batch_step(
     b: np.ndarray,
     logb: np.ndarray,
     ent: np.ndarray,
+    mom: np.ndarray,
     last: np.ndarray,
     u: np.ndarray,
     upos: np.ndarray,
@@ -153,7 +154,7 @@ def _batch_step(
         if reached:
             status[i] = 1
             continue
-        ent[i] = _observe_kernel(b[i], logb[i], ag[i], prob, ch, half, h)
+        ent[i] = _observe_kernel(b[i], logb[i], ag[i], prob, ch, half, h, mom[i])
         if stuck >= 0 and back[i] > stuck and steps[i] < n_steps:
             status[i] = 3
         else:
@@ -164,6 +165,7 @@ def _features(
     ag: np.ndarray,
     b: np.ndarray,
     ent: np.ndarray,
+    mom: np.ndarray,
     last: np.ndarray,
     dim: int,
     z: int,
@@ -200,19 +202,8 @@ def _features(
             inside = 0 <= c0 < shape[0] and 0 <= c1 < shape[1] and 0 <= c2 < shape[2]
             out[i, k] = b[i, c0, c1, c2] if inside else 0.0
             k += 1
-        m0 = 0.0
-        m1 = 0.0
-        m2 = 0.0
-        for i0 in range(shape[0]):
-            for i1 in range(shape[1]):
-                for i2 in range(shape[2]):
-                    w = b[i, i0, i1, i2]
-                    m0 += w * (i0 - ag[i, 0])
-                    m1 += w * (i1 - ag[i, 1])
-                    m2 += w * (i2 - ag[i, 2])
-        ms = (m0, m1, m2)
         for a in range(dim):
-            out[i, k] = ms[lead + a] / shape[lead + a]
+            out[i, k] = (mom[i, lead + a] - ag[i, lead + a]) / shape[lead + a]
             k += 1
 
 
@@ -375,6 +366,7 @@ class LatticeVectorEnv(VectorEnv):
         self._b = np.zeros((nb, *k.shape))
         self._logb = np.zeros((nb, *k.shape))
         self._ent = np.zeros(nb)
+        self._mom = np.zeros((nb, 3))
         self._ag = np.zeros((nb, 3), np.int64)
         self._src = np.zeros((nb, 3), np.int64)
         self._prev = np.zeros((nb, 3), np.int64)
@@ -390,14 +382,16 @@ class LatticeVectorEnv(VectorEnv):
         self._all = np.arange(nb, dtype=np.int64)
         self._ent_max = math.log2(math.prod(pr.shape))
         # the start beliefs of each first hit, kernel-shaped, with their logarithm and entropy
-        self._starts: list[tuple[np.ndarray, np.ndarray, float] | None] = []
+        self._starts: list[tuple[np.ndarray, np.ndarray, float, np.ndarray] | None] = []
         for b0 in pr.b0:
             if b0 is None:
                 self._starts.append(None)
                 continue
             bk = k.as_kernel(b0.copy())
             logb, ent = log_belief(k, bk)
-            self._starts.append((bk, logb, ent))
+            grids = np.meshgrid(*[np.arange(n) for n in k.shape], indexing="ij")
+            mom = np.array([float((bk * g).sum()) for g in grids])
+            self._starts.append((bk, logb, ent, mom))
         self.root: int | None = None
         self._next = 0
 
@@ -445,6 +439,7 @@ class LatticeVectorEnv(VectorEnv):
         self._b[i] = start[0]
         self._logb[i] = start[1]
         self._ent[i] = start[2]
+        self._mom[i] = start[3]
         self._u[i] = rng_sense.random(_BLOCK)
         self._upos[i] = 0
         self._sense[i] = rng_sense
@@ -464,7 +459,16 @@ class LatticeVectorEnv(VectorEnv):
         pr = self.problem
         r = self._all if rows is None else rows
         _features(
-            self._ag, self._b, self._ent, self._last, pr.dim, pr.z, self._ent_max, r, self._obs
+            self._ag,
+            self._b,
+            self._ent,
+            self._mom,
+            self._last,
+            pr.dim,
+            pr.z,
+            self._ent_max,
+            r,
+            self._obs,
         )
         return self._obs.copy()
 
@@ -508,6 +512,7 @@ class LatticeVectorEnv(VectorEnv):
             self._b,
             self._logb,
             self._ent,
+            self._mom,
             self._last,
             self._u,
             self._upos,

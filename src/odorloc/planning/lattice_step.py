@@ -294,10 +294,12 @@ def _observe(
     logp: np.ndarray,
     half: np.ndarray,
     hit: int,
+    mom: np.ndarray,
 ) -> float:
     """Bayes update of ``b`` in place after ``hit`` at ``ag``; ``logb`` follows as
     ``log b + log P_hit - log(mass)`` (no logarithm per cell); returns the entropy (bits,
-    cells above ``1e-10``)."""
+    cells above ``1e-10``) and puts the belief's first moments ``sum b x`` per axis (cells)
+    into ``mom`` ``(3,)``."""
     n0, n1, n2 = b.shape
     b[ag[0], ag[1], ag[2]] = 0.0
     tot = 0.0
@@ -317,6 +319,9 @@ def _observe(
     scale = 1.0 / tot if tot > 1e-10 else 1.0
     shift = math.log(scale)
     ent = 0.0
+    m0 = 0.0
+    m1 = 0.0
+    m2 = 0.0
     for i0 in range(n0):
         r0 = i0 - ag[0] + half[0]
         for i1 in range(n1):
@@ -325,13 +330,21 @@ def _observe(
             lp = logp[hit, 1, r0, r1, o2 : o2 + n2]
             row = b[i0, i1]
             lrow = logb[i0, i1]
+            srow = 0.0
             for i2 in range(n2):
                 v = row[i2] * scale
                 row[i2] = v
+                srow += v
+                m2 += v * i2
                 lv = lrow[i2] + lp[i2] + shift
                 lrow[i2] = lv
                 if v > 1e-10:
                     ent -= v * lv
+            m0 += srow * i0
+            m1 += srow * i1
+    mom[0] = m0
+    mom[1] = m1
+    mom[2] = m2
     logb[ag[0], ag[1], ag[2]] = -np.inf
     return ent / math.log(2.0)
 
@@ -395,7 +408,7 @@ def _search_step(
     hit = _draw_hit(ag, src, prob, half, u)
     if given >= 0:
         hit = given
-    return a, hit, _observe(b, logb, ag, prob, ch, half, hit)
+    return a, hit, _observe(b, logb, ag, prob, ch, half, hit, np.empty(3))
 
 
 _move = jit(_move)
@@ -424,7 +437,8 @@ def observe(
     cell ``agent``; returns the new entropy (bits)."""
     if not 0 <= int(hit) < k.n_classes:
         raise ConfigError("hit", f"{hit} is not a class of 0..{k.n_classes - 1}")
-    return float(_observe(b, logb, k.agent3(agent), k.prob, k.channels, k.half, int(hit)))
+    mom = np.empty(3)
+    return float(_observe(b, logb, k.agent3(agent), k.prob, k.channels, k.half, int(hit), mom))
 
 
 def draw_hit(k: LatticeKernels, agent: np.ndarray, source: np.ndarray, u: float) -> int:
