@@ -310,10 +310,10 @@ def _observe(
             o2 = half[2] - ag[2]
             p = prob[hit, r0, r1, o2 : o2 + n2]
             row = b[i0, i1]
+            # both factors are >= 0, so the reference's clipping of values in (-1e-15, 0)
+            # never applies
             for i2 in range(n2):
                 v = row[i2] * p[i2]
-                if v < 0.0 and v > -1e-15:
-                    v = 0.0
                 row[i2] = v
                 tot += v
     scale = 1.0 / tot if tot > 1e-10 else 1.0
