@@ -20,6 +20,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from odorloc.core.errors import ConfigError
+from odorloc.core.jit import HAVE_NUMBA, jit
 
 __all__ = ["MAX_GRID_CELLS", "CellGrid", "check_cell_count", "multilinear"]
 
@@ -285,6 +286,8 @@ def multilinear(values: np.ndarray, axes: Sequence[np.ndarray], points: np.ndarr
     dim = len(axes)
     q = len(points)
     m = values.shape[-1]
+    if HAVE_NUMBA and q >= _COMPILED_FROM and any(len(ax) > 1 for ax in axes):
+        return _multilinear_compiled(values, axes, points)
     # One contiguous 1D array per component: 1D gathers are far cheaper than row gathers.
     comps = [np.ascontiguousarray(values[..., c]).ravel() for c in range(m)]
     strides = np.cumprod([1] + [len(ax) for ax in axes[:0:-1]])[::-1]
@@ -331,3 +334,106 @@ def multilinear(values: np.ndarray, axes: Sequence[np.ndarray], points: np.ndarr
             vals = comps[c][idx]
             out[:, c] += vals if w is None else w * vals
     return out
+
+
+#: Points from which :func:`multilinear` runs compiled (below, NumPy's call overhead is small).
+_COMPILED_FROM = 16
+
+
+def _multilinear_compiled(
+    values: np.ndarray, axes: Sequence[np.ndarray], points: np.ndarray
+) -> FloatArray:
+    """:func:`multilinear` in one compiled pass, equal to the NumPy code to the bit (the same
+    operations in the same order per point). The lattice's arrays are prepared once per
+    (values, axes) objects: a wind field is interpolated at every step."""
+    key = (id(values), *(id(ax) for ax in axes))
+    hit = _PREPARED.get(key)
+    if hit is not None and hit[0] is values and all(a is b for a, b in zip(hit[1], axes)):
+        prepared = hit[2]
+    else:
+        prepared = _prepare(values, axes)
+        if len(_PREPARED) >= 8:
+            _PREPARED.clear()
+        _PREPARED[key] = (values, tuple(axes), prepared)
+    pts = np.ascontiguousarray(points, dtype=float)
+    out = np.empty((len(pts), values.shape[-1]))
+    _multilinear_kernel(*prepared, pts, out)
+    return out
+
+
+_PREPARED: dict[tuple[int, ...], tuple[np.ndarray, tuple[np.ndarray, ...], tuple]] = {}
+
+
+def _prepare(values: np.ndarray, axes: Sequence[np.ndarray]) -> tuple:
+    """The kernel's lattice arrays: components, padded axes, lengths, uniform flags, inverse
+    steps and strides."""
+    dim = len(axes)
+    m = values.shape[-1]
+    comps = np.ascontiguousarray(np.moveaxis(values, -1, 0).reshape(m, -1), dtype=float)
+    nmax = max(len(ax) for ax in axes)
+    ax2 = np.zeros((dim, nmax))
+    lens = np.empty(dim, np.int64)
+    uniform = np.zeros(dim, np.bool_)
+    inv_h = np.ones(dim)
+    for a, ax in enumerate(axes):
+        n = len(ax)
+        ax2[a, :n] = ax
+        lens[a] = n
+        if n > 1:
+            h = (ax[-1] - ax[0]) / (n - 1)
+            if float(np.abs(ax[1:] - ax[:-1] - h).max()) <= 1e-12 * abs(h):
+                uniform[a] = True
+                inv_h[a] = 1.0 / h
+    strides = np.cumprod([1] + [len(ax) for ax in axes[:0:-1]])[::-1].astype(np.int64)
+    return comps, ax2, lens, uniform, inv_h, strides
+
+
+def _multilinear_kernel(comps, ax, lens, uniform, inv_h, strides, pts, out):  # type: ignore[no-untyped-def]  # pragma: no cover
+    q, dim = pts.shape
+    m = comps.shape[0]
+    f = np.empty(dim)
+    for i in range(q):
+        base = 0
+        for a in range(dim):
+            n = lens[a]
+            if n == 1:
+                continue
+            p = pts[i, a]
+            if uniform[a]:
+                g = (p - ax[a, 0]) * inv_h[a]
+                g = min(max(g, 0.0), float(n - 2))
+                i0 = int(g)
+            else:
+                i0 = np.searchsorted(ax[a, :n], p, side="right") - 1
+                i0 = min(max(i0, 0), n - 2)
+            fa = (p - ax[a, i0]) / (ax[a, i0 + 1] - ax[a, i0])
+            f[a] = min(max(fa, 0.0), 1.0)
+            base += i0 * strides[a]
+        for c in range(m):
+            out[i, c] = 0.0
+        for corner in range(2**dim):
+            w = 1.0
+            first = True
+            off = 0
+            skip = False
+            for a in range(dim):
+                hi = (corner >> a) & 1
+                if lens[a] == 1:
+                    if hi:
+                        skip = True
+                    continue
+                wa = f[a] if hi else 1.0 - f[a]
+                if first:
+                    w = wa
+                    first = False
+                else:
+                    w = w * wa
+                off += hi * strides[a]
+            if skip:
+                continue
+            for c in range(m):
+                out[i, c] += w * comps[c, base + off]
+
+
+if HAVE_NUMBA:
+    _multilinear_kernel = jit(_multilinear_kernel)
