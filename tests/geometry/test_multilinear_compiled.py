@@ -23,9 +23,12 @@ def test_compiled_multilinear_equals_numpy(dim: int, uniform: bool, monkeypatch)
     points = rng.uniform(-2.0, 4.0, (200, dim))
     points[:5] = np.array([ax[min(2, len(ax) - 1)] for ax in axes])  # on nodes
     compiled = grid.multilinear(values, axes, points)
+    # the same axes with other values (the axes' arrays are prepared once)
+    other = grid.multilinear(values[..., ::-1], axes, points)
     monkeypatch.setattr(grid, "HAVE_NUMBA", False)
     reference = grid.multilinear(values, axes, points)
     np.testing.assert_array_equal(compiled, reference)
+    np.testing.assert_array_equal(other, grid.multilinear(values[..., ::-1], axes, points))
     # a point on a node gets that node's value
     idx = tuple(min(2, len(ax) - 1) for ax in axes)
     np.testing.assert_array_equal(compiled[0], values[idx])

@@ -344,32 +344,32 @@ def _multilinear_compiled(
     values: np.ndarray, axes: Sequence[np.ndarray], points: np.ndarray
 ) -> FloatArray:
     """:func:`multilinear` in one compiled pass, equal to the NumPy code to the bit (the same
-    operations in the same order per point). The lattice's arrays are prepared once per
-    (values, axes) objects: a wind field is interpolated at every step."""
-    key = (id(values), *(id(ax) for ax in axes))
+    operations in the same order per point). The axes' arrays are prepared once per axes
+    objects (a wind field is interpolated at every step on the same axes)."""
+    key = tuple(id(ax) for ax in axes)
     hit = _PREPARED.get(key)
-    if hit is not None and hit[0] is values and all(a is b for a, b in zip(hit[1], axes)):
-        prepared = hit[2]
+    if hit is not None and all(a is b for a, b in zip(hit[0], axes, strict=True)):
+        prepared = hit[1]
     else:
-        prepared = _prepare(values, axes)
-        if len(_PREPARED) >= 8:
+        prepared = _prepare(axes)
+        if len(_PREPARED) >= 16:
             _PREPARED.clear()
-        _PREPARED[key] = (values, tuple(axes), prepared)
+        _PREPARED[key] = (tuple(axes), prepared)
+    m = values.shape[-1]
+    flat = np.ascontiguousarray(values, dtype=float).reshape(-1, m)
     pts = np.ascontiguousarray(points, dtype=float)
-    out = np.empty((len(pts), values.shape[-1]))
-    _multilinear_kernel(*prepared, pts, out)
+    out = np.empty((len(pts), m))
+    _multilinear_kernel(flat, *prepared, pts, out)
     return out
 
 
-_PREPARED: dict[tuple[int, ...], tuple[np.ndarray, tuple[np.ndarray, ...], tuple]] = {}
+_PREPARED: dict[tuple[int, ...], tuple[tuple[np.ndarray, ...], tuple]] = {}
 
 
-def _prepare(values: np.ndarray, axes: Sequence[np.ndarray]) -> tuple:
-    """The kernel's lattice arrays: components, padded axes, lengths, uniform flags, inverse
-    steps and strides."""
+def _prepare(axes: Sequence[np.ndarray]) -> tuple:
+    """The kernel's lattice arrays: padded axes, lengths, uniform flags, inverse steps and
+    strides (as :func:`multilinear` computes them)."""
     dim = len(axes)
-    m = values.shape[-1]
-    comps = np.ascontiguousarray(np.moveaxis(values, -1, 0).reshape(m, -1), dtype=float)
     nmax = max(len(ax) for ax in axes)
     ax2 = np.zeros((dim, nmax))
     lens = np.empty(dim, np.int64)
@@ -385,12 +385,12 @@ def _prepare(values: np.ndarray, axes: Sequence[np.ndarray]) -> tuple:
                 uniform[a] = True
                 inv_h[a] = 1.0 / h
     strides = np.cumprod([1] + [len(ax) for ax in axes[:0:-1]])[::-1].astype(np.int64)
-    return comps, ax2, lens, uniform, inv_h, strides
+    return ax2, lens, uniform, inv_h, strides
 
 
-def _multilinear_kernel(comps, ax, lens, uniform, inv_h, strides, pts, out):  # type: ignore[no-untyped-def]  # pragma: no cover
+def _multilinear_kernel(vals, ax, lens, uniform, inv_h, strides, pts, out):  # type: ignore[no-untyped-def]  # pragma: no cover
     q, dim = pts.shape
-    m = comps.shape[0]
+    m = vals.shape[1]
     f = np.empty(dim)
     for i in range(q):
         base = 0
@@ -432,7 +432,7 @@ def _multilinear_kernel(comps, ax, lens, uniform, inv_h, strides, pts, out):  # 
             if skip:
                 continue
             for c in range(m):
-                out[i, c] += w * comps[c, base + off]
+                out[i, c] += w * vals[base + off, c]
 
 
 if HAVE_NUMBA:

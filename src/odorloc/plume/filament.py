@@ -456,9 +456,10 @@ class FilamentPlume(PlumeModel):
         start = np.concatenate([self.positions, np.repeat(self._src, counts, axis=0)])
         span = np.concatenate([np.full(n_old, dt), age])
         new = self._move(start, span, rng)
-        blocked = self._blocked(start, new)
-        if blocked.any():
-            new[blocked] = start[blocked]
+        if arena.occ is not None:
+            blocked = self._blocked(start, new)
+            if blocked.any():
+                new[blocked] = start[blocked]
         keep = arena.contains(new)
         sigma2 = np.concatenate([self.sigma2, np.full(total, p.sigma0**2)]) + p.gamma * span
         amount = np.concatenate([self.amount, np.full(total, p.amount)])
