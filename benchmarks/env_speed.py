@@ -150,7 +150,7 @@ def gym_vector_rate(kind: str, b: int, steps: int, seed: int) -> float:
 
 def batched(rounds: int, quick: bool) -> dict[str, float]:
     """Agent-steps per second of every case, best of ``rounds`` alternating rounds."""
-    work = 20_000 if quick else 400_000  # agent-steps per timed run of the batched env
+    work = 5_000 if quick else 400_000  # agent-steps per timed run of the batched env
     cases: list[tuple[str, int, int]] = [
         ("batched", b, max(5, min(2000, work // b))) for b in BATCHES
     ]

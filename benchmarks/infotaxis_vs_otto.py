@@ -467,8 +467,8 @@ def main(argv: list[str] | None = None) -> None:
     if not ran:
         note = ", ".join(f"{OTTO_DECISION_MS[SETTINGS[n][0]]:.2f} ms (N = {n})" for n in STATISTICS)
         print(
-            f"OTTO not run. For information only, not a measurement here: the note's OTTO "
-            f"decision times, {note}, were taken on another machine under another load"
+            f"for information only, not a measurement here: the note's OTTO decision times, "
+            f"{note}, were taken on another machine under another load (OTTO not run)"
         )
     print("(timings on a shared 2-core machine; ratios measured side by side hold better)")
     r19 = ratios.get(19, math.nan)
