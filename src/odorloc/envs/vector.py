@@ -12,7 +12,8 @@ sub-environment ``i``; when a sub-environment's episode ends it starts the next 
 used, ``i + B``, ``i + 2 B``, ... in order of the sub-environments that ended (so sub-environment
 ``i``'s first episode is exactly episode ``i`` of ``odorloc batch -s SCENARIO --seed R`` and of
 ``SearchEnv`` reset with ``options={"episode": i}``). Each episode draws from the generators the
-engine gives it (:func:`~odorloc.core.seeds.episode_generators`): the first hit and the source
+engine gives it (:func:`~odorloc.core.seeds.world_generators`, those of
+:func:`~odorloc.core.seeds.episode_generators`): the first hit and the source
 from the world stream as the plume does, each hit count from the sensor stream as NumPy's
 Poisson sampler does (the multiplication method below a mean of 10 hits, which every hit of the
 lattice problem lies under: larger means are refused), the stream read in blocks of uniform
@@ -46,7 +47,7 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 
 from odorloc.core.errors import ConfigError
 from odorloc.core.jit import jit
-from odorloc.core.seeds import check_seed, episode_generators, episode_seeds
+from odorloc.core.seeds import check_seed, episode_seeds, world_generators
 from odorloc.envs.core import RewardParams, load_scenario, validated
 from odorloc.models.lattice import (
     IsotropicHitModel,
@@ -419,8 +420,8 @@ class LatticeVectorEnv(VectorEnv):
     def _start(self, i: int, episode: int) -> None:
         pr = self.problem
         assert self.root is not None
-        ws, ag_seed = episode_seeds(self.root, self.world_key, episode)
-        rng_world, rng_sense, _ = episode_generators(ws, ag_seed)
+        ws, _ = episode_seeds(self.root, self.world_key, episode)
+        rng_world, rng_sense = world_generators(ws)
         h0 = int(pr.cdf_h0.searchsorted(rng_world.random(), side="right"))
         cdf = pr.cdf_b0[h0]
         start = self._starts[h0]

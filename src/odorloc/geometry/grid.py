@@ -14,7 +14,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -358,6 +358,8 @@ def _multilinear_compiled(
     m = values.shape[-1]
     flat = np.ascontiguousarray(values, dtype=float).reshape(-1, m)
     pts = np.ascontiguousarray(points, dtype=float)
+    if not pts.flags.writeable:
+        pts = pts.copy()  # one compiled variant for the points (they are few)
     out = np.empty((len(pts), m))
     _multilinear_kernel(flat, *prepared, pts, out)
     return out
@@ -435,5 +437,15 @@ def _multilinear_kernel(vals, ax, lens, uniform, inv_h, strides, pts, out):  # t
                 out[i, c] += w * vals[base + off, c]
 
 
+def _warm_multilinear(kernel: Any) -> None:
+    """One call with the argument types :func:`_multilinear_compiled` uses (the values
+    writable or read-only, as a wind field may be)."""
+    prepared = _prepare([np.array([0.0, 1.0]), np.array([0.0, 1.0])])
+    vals = np.zeros((4, 1))
+    kernel(vals, *prepared, np.zeros((1, 2)), np.zeros((1, 1)))
+    vals.setflags(write=False)
+    kernel(vals, *prepared, np.zeros((1, 2)), np.zeros((1, 1)))
+
+
 if HAVE_NUMBA:
-    _multilinear_kernel = jit(_multilinear_kernel)
+    _multilinear_kernel = jit(_multilinear_kernel, warmup=_warm_multilinear)

@@ -292,12 +292,32 @@ def _advance_kernel(
     return pos, s2, am
 
 
+def _warm_advance(kernel: Any) -> None:
+    """One call with the argument types :meth:`FilamentPlume._advance` uses."""
+    one = np.zeros((1, 2))
+    kernel(
+        one,
+        one,
+        one,
+        np.ones(1),
+        np.zeros(0),
+        np.zeros(0),
+        0.01,
+        1.0,
+        0.01,
+        0.1,
+        np.zeros(2),
+        np.ones(2),
+        10,
+    )
+
+
 if HAVE_NUMBA:
     # module-level kernels (the helper first: the kernel resolves it as a global when it
     # compiles), so the cache hits in every later process (see odorloc.core.jit)
     _range = jit(_range)
     _cell_kernel = jit(_cell_kernel, warmup=_warm_cells)
-    _advance_kernel = jit(_advance_kernel)
+    _advance_kernel = jit(_advance_kernel, warmup=_warm_advance)
 
 
 def _numba_kernel():
@@ -514,7 +534,7 @@ class FilamentPlume(PlumeModel):
             z = rng.standard_normal(start.shape) if noisy else np.zeros((0, self.dim))
             self.positions, self.sigma2, self.amount = _advance_kernel(
                 start,
-                u,
+                np.array(u, float, order="C"),
                 z,
                 span,
                 self.sigma2,
@@ -523,8 +543,8 @@ class FilamentPlume(PlumeModel):
                 p.amount,
                 p.gamma,
                 p.noise_std if noisy else 0.0,
-                arena.lo,
-                arena.hi,
+                np.array(arena.lo, float),
+                np.array(arena.hi, float),
                 p.max_filaments,
             )
             return
