@@ -8,12 +8,21 @@ one of (b) (alternating which goes first), so that load on a shared machine hits
 medians over rounds. In the team case the environment's agents also broadcast their readings
 (the radio and its accounting are part of what it costs). The overhead is ``(b - a) / a``.
 
-The last line is ``RESULT env_overhead=<x> env_steps_per_s=<y> env_overhead_farrell=<z>
-pz_overhead=<w> pz_bare_ms=<v>`` (the first two of ``indoor-ventilated``, the Gymnasium headline;
-the PettingZoo overhead and bare step time of the three-UAV ``muc-osl-3d``). Without the ``rl``
-extra it stops with a one-line message.
+Batched environments: agent-steps per second of :class:`~odorloc.envs.vector.LatticeVectorEnv`
+on ``lattice-isotropic-2d`` at B = 1, 64, 1 024 and 4 096 sub-environments, beside Gymnasium's
+``SyncVectorEnv`` (B = 64) and ``AsyncVectorEnv`` (B = 2, one process per sub-environment) of
+the single environment ``SearchEnv`` with discrete lattice moves, uniform random moves, in
+alternating rounds (best of each).
 
-    .venv/bin/python benchmarks/env_speed.py [--rounds 5]
+The last line is ``RESULT env_overhead=<x> env_steps_per_s=<y> env_overhead_farrell=<z>
+pz_overhead=<w> pz_bare_ms=<v> lattice_steps_per_s_1=... lattice_steps_per_s_64=...
+lattice_steps_per_s_1024=... lattice_steps_per_s_4096=... sync_steps_per_s=...
+async_steps_per_s=... batched_vs_sync=<batched at 4096 / sync>`` (the first two of
+``indoor-ventilated``, the Gymnasium headline; the PettingZoo overhead and bare step time of the
+three-UAV ``muc-osl-3d``). ``--no-adapters`` / ``--no-batched`` leave one part out. Without the
+``rl`` extra it stops with a one-line message.
+
+    .venv/bin/python benchmarks/env_speed.py [--rounds 5] [--quick]
 """
 
 from __future__ import annotations
@@ -89,9 +98,99 @@ def lockstep(name: str, acts: np.ndarray, root: int, n: int) -> tuple[float, flo
     return tb, te, steps
 
 
+# ---------------------------------------------------------------------- batched lattice env
+BATCHES = (1, 64, 1024, 4096)
+LATTICE = "lattice-isotropic-2d"
+SYNC_B = 64  # Gymnasium's SyncVectorEnv of single environments
+ASYNC_B = 2  # AsyncVectorEnv: one process per sub-environment, as many as the machine has cores
+
+
+def _single(scenario: str) -> Any:
+    from odorloc.envs.gym_env import SearchEnv
+
+    return SearchEnv(scenario, action={"kind": "discrete", "declare": "none"})
+
+
+def batched_rate(b: int, steps: int, seed: int) -> float:
+    """Agent-steps per second of :class:`~odorloc.envs.vector.LatticeVectorEnv` with ``b``
+    sub-environments (uniform random moves; reset and one warm-up step untimed)."""
+    from odorloc.envs.vector import LatticeVectorEnv
+
+    env = LatticeVectorEnv(LATTICE, num_envs=b)
+    env.reset(seed=seed)
+    acts = np.random.default_rng(seed).integers(0, 4, size=(steps + 1, b))
+    env.step(acts[0])
+    t0 = time.perf_counter()
+    for a in acts[1:]:
+        env.step(a)
+    return b * steps / (time.perf_counter() - t0)
+
+
+def gym_vector_rate(kind: str, b: int, steps: int, seed: int) -> float:
+    """Agent-steps per second of Gymnasium's ``SyncVectorEnv`` / ``AsyncVectorEnv`` of ``b``
+    single environments (``SearchEnv``, discrete lattice moves) on the same scenario."""
+    import gymnasium as gym
+
+    from odorloc.scenarios import get_scenario
+
+    sc = get_scenario(LATTICE)
+    fns = [lambda: _single(sc) for _ in range(b)]
+    env = gym.vector.SyncVectorEnv(fns) if kind == "sync" else gym.vector.AsyncVectorEnv(fns)
+    try:
+        env.reset(seed=seed)
+        acts = np.random.default_rng(seed).integers(0, 4, size=(steps + 1, b))
+        env.step(acts[0])
+        t0 = time.perf_counter()
+        for a in acts[1:]:
+            env.step(a)
+        return b * steps / (time.perf_counter() - t0)
+    finally:
+        env.close()
+
+
+def batched(rounds: int, quick: bool) -> dict[str, float]:
+    """Agent-steps per second of every case, best of ``rounds`` alternating rounds."""
+    work = 5_000 if quick else 400_000  # agent-steps per timed run of the batched env
+    cases: list[tuple[str, int, int]] = [
+        ("batched", b, max(5, min(2000, work // b))) for b in BATCHES
+    ]
+    cases.append(("sync", SYNC_B, 3 if quick else 30))
+    cases.append(("async", ASYNC_B, 20 if quick else 300))
+    best: dict[tuple[str, int], float] = {}
+    for r in range(rounds):
+        for kind, b, steps in cases:
+            rate = (
+                batched_rate(b, steps, r)
+                if kind == "batched"
+                else gym_vector_rate(kind, b, steps, r)
+            )
+            best[(kind, b)] = max(best.get((kind, b), 0.0), rate)
+    print(f"\nAgent-steps per second on {LATTICE} (uniform random moves; best of {rounds} rounds)")
+    print(f"{'environment':<34} {'B':>6} {'agent-steps/s':>14}")
+    names = {
+        "batched": "LatticeVectorEnv (odorloc)",
+        "sync": "SyncVectorEnv of SearchEnv",
+        "async": "AsyncVectorEnv of SearchEnv",
+    }
+    for (kind, b), rate in best.items():
+        print(f"{names[kind]:<34} {b:>6} {rate:>14,.0f}")
+    out = {f"lattice_steps_per_s_{b}": best[("batched", b)] for b in BATCHES}
+    out["sync_steps_per_s"] = best[("sync", SYNC_B)]
+    out["async_steps_per_s"] = best[("async", ASYNC_B)]
+    out["batched_vs_sync"] = out[f"lattice_steps_per_s_{BATCHES[-1]}"] / out["sync_steps_per_s"]
+    print(
+        f"(the synchronous vector runs B = {SYNC_B}, the asynchronous one B = {ASYNC_B}: one "
+        "process per sub-environment; their throughput per agent does not grow with B)"
+    )
+    return out
+
+
 def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--rounds", type=int, default=5)
+    ap.add_argument("--quick", action="store_true", help="fewer steps in the batched cases")
+    ap.add_argument("--no-adapters", action="store_true", help="only the batched cases")
+    ap.add_argument("--no-batched", action="store_true", help="only the adapter overheads")
     args = ap.parse_args(argv)
     try:
         import gymnasium  # noqa: F401
@@ -107,12 +206,27 @@ def main(argv: list[str] | None = None) -> None:
     print(
         f"machine: {platform.machine()}, {os.cpu_count()} cores, python {platform.python_version()}"
     )
+    keys: list[str] = []
+    if not args.no_adapters:
+        keys.append(adapters(args.rounds))
+    if not args.no_batched:
+        vec = batched(max(1, min(args.rounds, 3)), args.quick)
+        keys.append(
+            " ".join(
+                f"{k}={v:.2f}" if k == "batched_vs_sync" else f"{k}={v:.0f}" for k, v in vec.items()
+            )
+        )
+    print("RESULT " + " ".join(keys))
+
+
+def adapters(rounds: int) -> str:
+    """The adapters' overhead over the bare step (module docstring); the RESULT keys."""
     cases = [
         ("indoor-ventilated", 2, 1),  # the headline: filament plume, one robot
         ("two-sources-farrell", 2, 1),
         ("muc-osl-3d", 3, 3),  # PettingZoo, three UAVs exchanging messages
     ]
-    print(f"{STEPS} control steps per run, {args.rounds} rounds, medians")
+    print(f"{STEPS} control steps per run, {rounds} rounds, medians")
     print(
         f"{'scenario':<22} {'adapter':<12} {'bare ms/step':>13} {'env ms/step':>12} {'overhead':>9}"
     )
@@ -120,7 +234,7 @@ def main(argv: list[str] | None = None) -> None:
     for name, dim, n in cases:
         acts = actions(STEPS, dim, 1)
         b_times, e_times = [], []
-        for r in range(args.rounds + 1):
+        for r in range(rounds + 1):
             tb, te, steps = lockstep(name, acts, r, n)
             if r > 0:  # the first round warms caches
                 b_times.append(tb / steps)
@@ -132,8 +246,8 @@ def main(argv: list[str] | None = None) -> None:
         results[name] = (ov, b, e)
     print("(timings on a shared machine; the ratio is what to compare)")
     head, farrell, team = (results[name] for name, _, _ in cases)
-    print(
-        f"RESULT env_overhead={head[0]:.3f} env_steps_per_s={1.0 / head[2]:.0f} "
+    return (
+        f"env_overhead={head[0]:.3f} env_steps_per_s={1.0 / head[2]:.0f} "
         f"env_overhead_farrell={farrell[0]:.3f} pz_overhead={team[0]:.3f} "
         f"pz_bare_ms={1e3 * team[1]:.3f}"
     )

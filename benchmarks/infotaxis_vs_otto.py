@@ -10,21 +10,33 @@ the standard deviation, median / p90 / p99 and P(not found) are printed beside O
 standard errors. Infotaxis runs OTTO's episode counts; the other policies ``--other-episodes``
 each (OTTO's count when smaller).
 
-Part 2 (decisions): OTTO (a copy of github.com/C0PEP0D/otto that is never part of odorloc, in
-its own virtual environment: ``--otto-python`` and ``--otto-src``, or the environment variables
-``OTTO_PYTHON`` and ``OTTO_SRC``) plays infotaxis episodes of both settings and records every
-belief it decides on, its choice and the time of its decision; our planner then decides on the
-same beliefs. Both sides are timed in alternating rounds (``--rounds``) so that they share the
-machine's load; the speed-up is the ratio of the medians, each side's best over the same rounds.
-Without OTTO, or if OTTO fails in any round, there is no speed-up (``nan``): our time is printed
-with the note's OTTO time beside it for information only (another machine, another load).
+Part 2 (decisions and whole steps): OTTO (a copy of github.com/C0PEP0D/otto that is never part
+of odorloc, in its own virtual environment: ``--otto-python`` and ``--otto-src``, or the
+environment variables ``OTTO_PYTHON`` and ``OTTO_SRC``; run with ``python -OO``) plays infotaxis
+episodes of three settings, N = 19 (lambda/dx = 1, R dt = 1), 37 (2, 2) and 53 (3, 3), and
+records every state: belief, agent, source, its choice and the hit its environment drew. Each
+round then times, from every state, OTTO's decision (``choose_action``) and its environment step
+(``env.step``: move, hit drawn, Bayes update), our engine's planner (``LatticePlanner.plan``) on
+the same belief, and our compiled whole step (:func:`odorloc.planning.lattice_step.search_step`:
+decision, move, hit drawn, Bayes update and entropy; its update fed OTTO's recorded hit). Both
+sides alternate rounds (``--rounds``) so that they share the machine's load; a speed-up is the
+ratio of the medians, each side's best over the same rounds. Without OTTO, or if OTTO fails in
+any round, there is no speed-up (``nan``): our times are printed alone, on states of our own
+compiled episodes.
 
 The last line is machine-readable::
 
-    RESULT steps_ratio_19=<ours/otto> steps_ratio_37=<ours/otto> decision_speedup_37=<otto/ours>
-           decision_speedup_19=<otto/ours> decision_source=<otto|partial|none>
-           identical_19=<same>/<beliefs> identical_37=<same>/<beliefs>
+    RESULT steps_ratio_19=<ours/otto> steps_ratio_37=<ours/otto>
+           step_speedup_37=<otto step/our step> step_speedup_53=<...>
+           step_vs_otto_decision_37=<otto decision/our step> step_vs_otto_decision_53=<...>
+           decision_speedup_37=<otto/ours> decision_speedup_19=<...> decision_speedup_53=<...>
+           decision_source=<otto|partial|none> identical_19=<same>/<states> identical_37=...
+           identical_53=... step_identical_37=... step_identical_53=...
 
+``identical_*``: our planner's choices equal to OTTO's; ``step_identical_*``: the compiled
+step's. OTTO's own step draws its hit through ``scipy.stats`` (a frozen distribution per hit
+class), whose cost depends on the SciPy version; ``step_vs_otto_decision_*`` (our whole step
+against OTTO's decision alone) is the bound that does not depend on it.
 ``decision_source``: ``otto`` when OTTO ran side by side in every round; ``partial`` when it
 failed after some rounds (speed-ups ``nan``; ``identical_*`` from the last round both sides
 ran); ``none`` when it did not run (speed-ups ``nan``, ``identical_*=n/a``).
@@ -46,7 +58,8 @@ from pathlib import Path
 
 import numpy as np
 
-SETTINGS = {19: ("2d-l1-i1", 1.0, 1.0), 37: ("2d-l2-i2", 2.0, 2.0)}
+SETTINGS = {19: ("2d-l1-i1", 1.0, 1.0), 37: ("2d-l2-i2", 2.0, 2.0), 53: ("2d-l3-i3", 3.0, 3.0)}
+STATISTICS = (19, 37)  # the settings with OTTO's published statistics
 POLICIES = {  # our searcher -> OTTO's policy index (HeuristicPolicy)
     "infotaxis": 0,
     "space-aware-infotaxis": 1,
@@ -57,14 +70,20 @@ POLICIES = {  # our searcher -> OTTO's policy index (HeuristicPolicy)
 
 # ---------------------------------------------------------------------- OTTO side
 def otto_worker(src: str, out: str, states: int, seed: int) -> None:
-    """Runs in OTTO's environment: one timed round of its infotaxis decisions on the beliefs
-    of ``out`` (recorded from its own episodes at the first call)."""
+    """Runs in OTTO's environment: one timed round of its infotaxis steps on the states of
+    ``out`` (recorded from its own episodes at the first call).
+
+    A state is OTTO's belief, agent and source before a step, its choice and the hit its
+    environment then drew (``-1``: the source was found). A timed step restores the state, then
+    times ``choose_action`` (the decision) and ``env.step`` (move, hit drawn by OTTO, Bayes
+    update) apart.
+    """
     sys.path.insert(0, src)
     from otto.classes.heuristicpolicy import HeuristicPolicy
     from otto.classes.sourcetracking import SourceTracking
 
     # OTTO draws from fresh unseeded RandomState objects: its episodes are not reproducible,
-    # which is why the beliefs are recorded once and reused by every round and by our planner.
+    # which is why the states are recorded once and reused by every round and by our side.
     del seed
     result: dict[str, dict] = {}
     for n, (_, length, intensity) in SETTINGS.items():
@@ -74,26 +93,37 @@ def otto_worker(src: str, out: str, states: int, seed: int) -> None:
         pol = HeuristicPolicy(env, 0)
         path = Path(out) / f"otto_{n}.npz"
         if not path.exists():
-            beliefs, agents = [], []
-            while len(beliefs) < states:
-                beliefs.append(env.p_source.copy())
-                agents.append(list(env.agent))
-                _, _, done = env.step(pol.choose_action())
+            rec: dict[str, list] = {k: [] for k in ("beliefs", "agents", "sources", "choices")}
+            hits = []
+            while len(hits) < states:
+                rec["beliefs"].append(env.p_source.copy())
+                rec["agents"].append(list(env.agent))
+                rec["sources"].append(list(env.source))
+                c = int(pol.choose_action())
+                rec["choices"].append(c)
+                h, _, done = env.step(c)
+                hits.append(-1 if done else int(h))
                 if done or env.agent_stuck:
                     env.restart()
-            np.savez_compressed(path, beliefs=np.array(beliefs), agents=np.array(agents))
+            arrays = {k: np.array(v) for k, v in rec.items()}
+            np.savez_compressed(path, hits=np.array(hits), **arrays)
         with np.load(path) as z:
-            beliefs, agents = z["beliefs"], z["agents"]
-        times, choices = [], []
-        for b, a in zip(beliefs, agents, strict=True):
+            beliefs, agents, sources = z["beliefs"], z["agents"], z["sources"]
+        t_dec, t_env, choices = [], [], []
+        for b, a, so in zip(beliefs, agents, sources, strict=True):
             env.p_source = b.copy()
             env.agent = [int(v) for v in a]
+            env.source = [int(v) for v in so]
             env.entropy = env._entropy(env.p_source)
             t0 = time.perf_counter()
             c = pol.choose_action()
-            times.append(time.perf_counter() - t0)
+            t1 = time.perf_counter()
+            env.step(c)
+            t2 = time.perf_counter()
+            t_dec.append(t1 - t0)
+            t_env.append(t2 - t1)
             choices.append(int(c))
-        result[str(n)] = {"times": times, "choices": choices, "states": str(path)}
+        result[str(n)] = {"times": t_dec, "env": t_env, "choices": choices, "states": str(path)}
     (Path(out) / "otto.json").write_text(json.dumps(result))
 
 
@@ -101,6 +131,9 @@ def run_otto(python: str, src: str, work: Path, states: int, seed: int) -> dict 
     """One round of OTTO in its own process (``None`` if it cannot run)."""
     cmd = [
         python,
+        # without docstrings: recent SciPy builds a distribution's docstrings each time OTTO
+        # freezes one for a hit probability, which would dominate OTTO's step
+        "-OO",
         str(Path(__file__).resolve()),
         "--otto-worker",
         "--otto-src",
@@ -157,29 +190,86 @@ def our_decisions(beliefs: np.ndarray, agents: np.ndarray, n: int) -> tuple[list
     return choices, times
 
 
-def our_states(n: int, count: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
-    """Beliefs of our own infotaxis episodes (when OTTO is not available)."""
-    from odorloc.core.seeds import episode_seeds
-    from odorloc.engine.episode import Episode
-    from odorloc.scenarios import get_scenario
+def _kernels(n: int):  # type: ignore[no-untyped-def]
+    from odorloc.models.lattice import IsotropicHitModel, IsotropicHitParams, tabulate
+    from odorloc.planning.lattice_step import LatticeKernels
 
-    name = "lattice-isotropic-2d" if n == 19 else "lattice-isotropic-2d-l2"
-    sc = get_scenario(name)
-    beliefs, agents = [], []
-    ep = 0
-    while len(beliefs) < count:
-        e = Episode(sc, record=False)
-        obs = e.reset(*episode_seeds(seed, name, ep))
-        s = e.built.searcher
-        s.reset(e.context, e.agent_rng)
-        while not e.done and len(beliefs) < count:
-            act = s.act(obs, e.agent_rng)
-            b = s.belief()
-            beliefs.append(b.prob.copy())
-            agents.append(b.grid.index(obs[0].position)[0])
-            obs = e.step(act, s).observations
-        ep += 1
-    return np.array(beliefs), np.array(agents)
+    _, length, intensity = SETTINGS[n]
+    model = IsotropicHitModel(IsotropicHitParams(length=length, intensity=intensity))
+    return LatticeKernels(tabulate(model, 1.0, (n - 1, n - 1)).prob, "infotaxis"), model
+
+
+def our_steps(
+    beliefs: np.ndarray,
+    agents: np.ndarray,
+    sources: np.ndarray,
+    hits: np.ndarray,
+    n: int,
+    seed: int,
+) -> tuple[list[int], list[float]]:
+    """Our whole compiled step (decision, move, hit drawn, Bayes update, entropy) from each
+    state, the update fed the recorded hit; returns the choices and the step times."""
+    from odorloc.planning.lattice_step import log_belief, search_step
+
+    k, _ = _kernels(n)
+    rng = np.random.default_rng(seed)
+    sc = np.empty(4)
+    prepared = []
+    for b, a, so in zip(beliefs, agents, sources, strict=True):
+        bk = k.as_kernel(np.array(b, float))
+        logb, ent = log_belief(k, bk)
+        prepared.append((bk, logb, ent, k.agent3(a).copy(), k.agent3(so)))
+    # the first call loads the compiled kernels: a process's one-off cost, not a step's
+    bk, logb, ent, ag, so = prepared[0]
+    search_step(k, bk.copy(), logb.copy(), ent, ag.copy(), so, 0.5, scores=sc)
+    choices, times = [], []
+    for (bk, logb, ent, ag, so), h in zip(prepared, hits, strict=True):
+        t0 = time.perf_counter()
+        u = rng.random()
+        a, _, _ = search_step(k, bk, logb, ent, ag, so, u, int(h), sc)
+        times.append(time.perf_counter() - t0)
+        choices.append(a)
+    return choices, times
+
+
+def our_states(n: int, count: int, seed: int) -> tuple[np.ndarray, ...]:
+    """States of our own compiled infotaxis episodes (when OTTO is not available): beliefs,
+    agents, sources and hits as :func:`otto_worker` records them."""
+    from odorloc.models.lattice import (
+        initial_belief,
+        initial_hit_probabilities,
+        isotropic_mean_hits,
+    )
+    from odorloc.models.poisson import censored_poisson
+    from odorloc.planning.lattice_step import log_belief, search_step
+
+    k, _ = _kernels(n)
+    _, length, intensity = SETTINGS[n]
+    z = k.n_classes
+    rng = np.random.default_rng(seed)
+    grid = np.stack(np.meshgrid(np.arange(n), np.arange(n), indexing="ij"), -1)
+    dist = np.linalg.norm(grid - n // 2, axis=-1).reshape(-1)
+    like = censored_poisson(isotropic_mean_hits(dist, length, intensity, 1.0, 2), z)
+    p_h0 = initial_hit_probabilities(length, intensity, 1.0, 2, z)
+    out: dict[str, list] = {k_: [] for k_ in ("beliefs", "agents", "sources", "hits")}
+    while len(out["hits"]) < count:
+        h0 = int(rng.choice(z, p=p_h0))
+        b0 = initial_belief(like[:, h0].reshape(n, n), (n // 2, n // 2))
+        src = np.array(np.unravel_index(rng.choice(b0.size, p=b0.reshape(-1)), b0.shape))
+        b = k.as_kernel(b0)
+        logb, ent = log_belief(k, b)
+        ag = k.agent3(np.array([n // 2, n // 2])).copy()
+        for _ in range(300):
+            if len(out["hits"]) >= count:
+                break
+            out["beliefs"].append(b.reshape(n, n).copy())
+            out["agents"].append(ag[1:].copy())
+            out["sources"].append(src.copy())
+            _, h, ent = search_step(k, b, logb, ent, ag, k.agent3(src), rng.random())
+            out["hits"].append(h)
+            if h < 0:
+                break
+    return tuple(np.array(out[k_]) for k_ in ("beliefs", "agents", "sources", "hits"))
 
 
 # ---------------------------------------------------------------------- statistics
@@ -189,7 +279,8 @@ def run_statistics(out: Path, workers: int, other: int, scale: float, seed: int)
     from odorloc.papers.infotaxis.reference import SETTINGS as REF
 
     rows = {}
-    for n, (key, length, intensity) in SETTINGS.items():
+    for n in STATISTICS:
+        key, length, intensity = SETTINGS[n]
         scenario = REF[key]["scenario"]
         model = {"type": "lattice-isotropic", "length": length, "intensity": intensity}
         for pol in POLICIES:
@@ -261,7 +352,8 @@ def print_statistics(rows: dict) -> None:
 
 # ---------------------------------------------------------------------- main
 def main(argv: list[str] | None = None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    # (OTTO runs this file with -OO, which drops docstrings)
+    ap = argparse.ArgumentParser(description=(__doc__ or "").split("\n")[0])
     ap.add_argument("--out", type=Path, default=Path("out/otto-bench"))
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--other-episodes", type=int, default=2000)
@@ -287,18 +379,17 @@ def main(argv: list[str] | None = None) -> None:
     if not args.no_statistics:
         rows = run_statistics(args.out, args.workers, args.other_episodes, scale, args.seed)
         print_statistics(rows)
-        for n in SETTINGS:
+        for n in STATISTICS:
             ratios[n] = rows[(n, "infotaxis")]["mean"] / OTTO[(SETTINGS[n][0], "infotaxis")]["mean"]
 
-    print("\nTime per infotaxis decision (median over the beliefs of a round; best round)")
-    print(
-        f"{'N':>3} {'OTTO ms':>9} {'ours ms':>9} {'speed-up':>9} {'identical':>12} {'source':>24}"
-    )
     use_otto = bool(args.otto_python and args.otto_src)
-    rounds: dict[int, dict[str, list]] = {n: {"otto": [], "ours": [], "same": []} for n in SETTINGS}
+    sides = ("otto", "otto_env", "ours", "ours_step")
+    rounds: dict[int, dict[str, list]] = {
+        n: {k: [] for k in (*sides, "same", "same_step")} for n in SETTINGS
+    }
     otto_rounds, otto_failed = 0, False
     with tempfile.TemporaryDirectory(dir=args.out) as tmp:
-        data: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+        data: dict[int, tuple[np.ndarray, ...]] = {}
         if not use_otto:
             data = {n: our_states(n, states, args.seed) for n in SETTINGS}
         for _ in range(args.rounds):
@@ -310,53 +401,88 @@ def main(argv: list[str] | None = None) -> None:
                     otto_failed = True
                     if otto_rounds:
                         # later rounds of ours alone would set our best against OTTO's over
-                        # fewer rounds, and on other beliefs
+                        # fewer rounds, and on other states
                         break
                     use_otto = False
                     data = {n: our_states(n, states, args.seed) for n in SETTINGS}
                 else:
                     otto_rounds += 1
             for n in SETTINGS:
+                r = rounds[n]
                 if otto is not None:
-                    with np.load(otto[str(n)]["states"]) as z:
-                        data[n] = (z["beliefs"], z["agents"])
-                    rounds[n]["otto"].append(float(np.median(otto[str(n)]["times"])))
-                choices, t = our_decisions(*data[n], n)
-                rounds[n]["ours"].append(float(np.median(t)))
+                    o = otto[str(n)]
+                    with np.load(o["states"]) as z:
+                        data[n] = (z["beliefs"], z["agents"], z["sources"], z["hits"])
+                    r["otto"].append(float(np.median(o["times"])))
+                    whole = np.add(o["times"], o["env"])
+                    r["otto_env"].append(float(np.median(whole)))
+                beliefs, agents, sources, hits = data[n]
+                choices, t = our_decisions(beliefs, agents, n)
+                r["ours"].append(float(np.median(t)))
+                step_choices, ts = our_steps(beliefs, agents, sources, hits, n, args.seed)
+                r["ours_step"].append(float(np.median(ts)))
                 if otto is not None:
-                    same = int(np.sum(np.array(choices) == np.array(otto[str(n)]["choices"])))
-                    rounds[n]["same"].append((same, len(choices)))
+                    ref = np.array(otto[str(n)]["choices"])
+                    r["same"].append((int(np.sum(np.array(choices) == ref)), len(ref)))
+                    r["same_step"].append((int(np.sum(np.array(step_choices) == ref)), len(ref)))
     ran = otto_rounds > 0
     source = "none" if not ran else "partial" if otto_failed else "otto"
-    speedup, identical = {}, {}
+    speedup, step_speedup, identical, step_identical = {}, {}, {}, {}
+    step_vs_dec: dict[int, float] = {}
+    best: dict[int, dict[str, float]] = {}
     for n in SETTINGS:
-        # every round either has both sides on OTTO's beliefs or ours alone on our own
-        ours = min(rounds[n]["ours"]) * 1e3
+        # every round either has both sides on OTTO's states or ours alone on our own
+        r = rounds[n]
+        best[n] = {k: (min(r[k]) * 1e3 if r[k] else math.nan) for k in sides}
         if ran:
-            o = min(rounds[n]["otto"]) * 1e3
-            same, total = rounds[n]["same"][-1]
-            identical[n] = f"{same}/{total}"
-            label = "OTTO run side by side" if source == "otto" else "OTTO failed in a round"
+            identical[n] = "{}/{}".format(*r["same"][-1])
+            step_identical[n] = "{}/{}".format(*r["same_step"][-1])
         else:
-            o = math.nan
-            identical[n] = "n/a"
-            label = "OTTO not run"
-        speedup[n] = o / ours if source == "otto" else math.nan
-        ident = identical[n] if ran else "not checked"
-        print(f"{n:>3} {o:>9.3f} {ours:>9.3f} {speedup[n]:>9.1f} {ident:>12} {label:>24}")
-    if not ran:
-        note = ", ".join(f"{OTTO_DECISION_MS[SETTINGS[n][0]]:.2f} ms (N = {n})" for n in SETTINGS)
+            identical[n] = step_identical[n] = "n/a"
+        ok = source == "otto"
+        speedup[n] = best[n]["otto"] / best[n]["ours"] if ok else math.nan
+        step_speedup[n] = best[n]["otto_env"] / best[n]["ours_step"] if ok else math.nan
+        # a bound that does not depend on OTTO's hit draw (SciPy-version dependent): our whole
+        # step against OTTO's decision alone
+        step_vs_dec[n] = best[n]["otto"] / best[n]["ours_step"] if ok else math.nan
+
+    print("\nTime per infotaxis decision and per whole step (median over the states of a round;")
+    print("best round). Decision: our engine's planner (LatticePlanner.plan). Whole step: OTTO's")
+    print("choose_action + env.step against our compiled step (decision, move, hit, update).")
+    print(
+        f"{'N':>3} {'OTTO dec':>9} {'ours dec':>9} {'x':>6} {'same':>9}  "
+        f"{'OTTO step':>10} {'ours step':>10} {'x':>6} {'same':>9}"
+    )
+    for n in SETTINGS:
+        bn = best[n]
         print(
-            f"for information only, not a measurement here: the note's OTTO times, {note}, "
-            "were taken on another machine under another load"
+            f"{n:>3} {bn['otto']:>9.3f} {bn['ours']:>9.3f} {speedup[n]:>6.1f} {identical[n]:>9}  "
+            f"{bn['otto_env']:>10.3f} {bn['ours_step']:>10.3f} {step_speedup[n]:>6.1f} "
+            f"{step_identical[n]:>9}"
+        )
+    print("(milliseconds; 'same': our choice equals OTTO's on its states; the step's update is")
+    print(" fed OTTO's recorded hit, so every state starts from OTTO's own belief. OTTO's step")
+    print(" draws its hit through scipy.stats, whose cost depends on the SciPy version: the")
+    print(" RESULT's step_vs_otto_decision_* sets our whole step against OTTO's decision alone)")
+    if not ran:
+        note = ", ".join(f"{OTTO_DECISION_MS[SETTINGS[n][0]]:.2f} ms (N = {n})" for n in STATISTICS)
+        print(
+            f"for information only, not a measurement here: the note's OTTO decision times, "
+            f"{note}, were taken on another machine under another load (OTTO not run)"
         )
     print("(timings on a shared 2-core machine; ratios measured side by side hold better)")
     r19 = ratios.get(19, math.nan)
     r37 = ratios.get(37, math.nan)
     print(
         f"RESULT steps_ratio_19={r19:.4f} steps_ratio_37={r37:.4f} "
+        f"step_speedup_37={step_speedup[37]:.2f} step_speedup_53={step_speedup[53]:.2f} "
+        f"step_vs_otto_decision_37={step_vs_dec[37]:.2f} "
+        f"step_vs_otto_decision_53={step_vs_dec[53]:.2f} "
         f"decision_speedup_37={speedup[37]:.2f} decision_speedup_19={speedup[19]:.2f} "
-        f"decision_source={source} identical_19={identical[19]} identical_37={identical[37]}"
+        f"decision_speedup_53={speedup[53]:.2f} decision_source={source} "
+        f"identical_19={identical[19]} identical_37={identical[37]} "
+        f"identical_53={identical[53]} step_identical_37={step_identical[37]} "
+        f"step_identical_53={step_identical[53]}"
     )
 
 

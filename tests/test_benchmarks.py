@@ -213,6 +213,7 @@ def test_env_speed_result_carries_every_case(
     # bare, environment seconds and steps: 10 % over the bare step alone, 80 % for the team
     fake = {"indoor-ventilated": 1.1, "two-sources-farrell": 1.2, "muc-osl-3d": 1.8}
     monkeypatch.setattr(es, "lockstep", lambda name, acts, r, n: (1.0, fake[name], 100))
+    monkeypatch.setattr(es, "batched", lambda rounds, quick: {"batched_vs_sync": 2.0})
     es.main(["--rounds", "1"])
     result = capsys.readouterr().out.strip().splitlines()[-1]
     keys = dict(kv.split("=") for kv in result.split()[1:])
@@ -220,6 +221,24 @@ def test_env_speed_result_carries_every_case(
     assert keys["env_overhead_farrell"] == "0.200"
     assert keys["pz_overhead"] == "0.800"
     assert keys["pz_bare_ms"] == "10.000"
+    assert keys["batched_vs_sync"] == "2.00"
+
+
+def test_env_speed_batched_reports_every_batch_size(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    es = load("env_speed")
+    # the batched env for real on small batches; the single-env vectors faked (slow to build)
+    monkeypatch.setattr(es, "BATCHES", (1, 8))
+    monkeypatch.setattr(es, "gym_vector_rate", lambda kind, b, steps, seed: 100.0)
+    es.main(["--rounds", "1", "--quick", "--no-adapters"])
+    result = capsys.readouterr().out.strip().splitlines()[-1]
+    keys = dict(kv.split("=") for kv in result.split()[1:])
+    assert float(keys["lattice_steps_per_s_8"]) > 0
+    assert keys["sync_steps_per_s"] == "100"
+    assert float(keys["batched_vs_sync"]) == pytest.approx(
+        float(keys["lattice_steps_per_s_8"]) / 100, rel=1e-2
+    )
 
 
 def test_replay_memory_without_rosbags_skips_the_bag(
@@ -398,6 +417,8 @@ def test_infotaxis_vs_otto_has_no_speedup_when_otto_did_not_run(
     # the note's OTTO times come from another machine: printed for information, no ratio
     assert math.isnan(float(keys["decision_speedup_19"]))
     assert math.isnan(float(keys["decision_speedup_37"]))
+    assert math.isnan(float(keys["step_speedup_53"]))
+    assert keys["step_identical_53"] == "n/a"
     assert any(line.startswith("for information only") for line in out)
 
 
@@ -413,10 +434,11 @@ def test_infotaxis_vs_otto_has_no_speedup_when_otto_fails_in_a_later_round(
             return None
         result = {}
         for n in ivo.SETTINGS:
-            beliefs, agents = ivo.our_states(n, states, seed)
+            beliefs, agents, sources, hits = ivo.our_states(n, states, seed)
             path = work / f"otto_{n}.npz"
-            np.savez_compressed(path, beliefs=beliefs, agents=agents)
-            result[str(n)] = {"times": [1.0] * states, "choices": [0] * states, "states": path}
+            np.savez_compressed(path, beliefs=beliefs, agents=agents, sources=sources, hits=hits)
+            ones = [1.0] * states
+            result[str(n)] = {"times": ones, "env": ones, "choices": [0] * states, "states": path}
         return result
 
     monkeypatch.setattr(ivo, "run_otto", flaky_otto)
@@ -431,8 +453,9 @@ def test_infotaxis_vs_otto_has_no_speedup_when_otto_fails_in_a_later_round(
     assert math.isnan(float(keys["decision_speedup_19"]))
     assert math.isnan(float(keys["decision_speedup_37"]))
     assert keys["identical_19"].endswith("/2")
-    # ours stopped with OTTO: one round on each side, both settings
-    assert len(calls) == 2 and len(ours_calls) == 2
+    assert math.isnan(float(keys["step_speedup_37"]))
+    # ours stopped with OTTO: one round on each side, every setting
+    assert len(calls) == 2 and len(ours_calls) == len(ivo.SETTINGS)
 
 
 # ---------------------------------------------------------------------- pf_speed
@@ -555,3 +578,23 @@ def test_gas_map_speed_quick_run_checks_both_references(
     for key in ("kernel_dmv_s", "kernel_dmv_loop_s", "gmrf_solve_s", "gmrf_loop_s"):
         assert math.isfinite(float(fields[key])) and float(fields[key]) > 0
     assert set(fields) >= {"kernel_dmv_ratio", "gmrf_ratio", "targets_met", "gmrf_variance_s"}
+
+
+# ---------------------------------------------------------------------- infotaxis_vs_otto
+def test_otto_benchmark_compiled_steps_replay_recorded_states() -> None:
+    """Without OTTO: states of our own compiled episodes, replayed by the timed compiled step,
+    give back the recorded choices' moves (the hits fed, the decisions taken afresh)."""
+    ov = load("infotaxis_vs_otto")
+    beliefs, agents, sources, hits = ov.our_states(19, 30, seed=5)
+    assert beliefs.shape == (30, 19, 19) and agents.shape == sources.shape == (30, 2)
+    np.testing.assert_allclose(beliefs.reshape(30, -1).sum(axis=1), 1.0, rtol=1e-12)
+    choices, times = ov.our_steps(beliefs, agents, sources, hits, 19, seed=5)
+    assert len(choices) == len(times) == 30
+    # the move each recorded state was followed by: the next agent cell of the same episode
+    for i in range(29):
+        if hits[i] >= 0:
+            step = agents[i + 1] - agents[i]
+            a = choices[i]
+            expected = np.zeros(2, int)
+            expected[a // 2] = 1 if a % 2 else -1
+            np.testing.assert_array_equal(step, expected)

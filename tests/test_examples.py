@@ -61,3 +61,10 @@ def test_train_policy_example_trains_and_evaluates(tmp_path: Path) -> None:
     assert (tmp_path / "tp" / "linear.npz").is_file()
     for name in ("linear-policy", "infotaxis", "zigzag"):
         assert name in out
+
+
+def test_train_lattice_batched_example_trains_and_says_how_long(tmp_path: Path) -> None:
+    out = _run(str(EXAMPLES / "train_lattice_batched.py"), "--quick", cwd=tmp_path)
+    assert "trained in" in out and "agent-steps" in out
+    for name in ("trained", "random", "greedy"):
+        assert name in out

@@ -93,7 +93,7 @@ def _reference_dmv(grid, pos, r, sigma, cutoff, scale=1.0, phi=None):
 @pytest.mark.parametrize("backend", ["numpy", "numba"])
 def test_kernel_dmv_maps_follow_the_equations_cell_by_cell(backend):
     if backend == "numba":
-        pytest.importorskip("numba", reason="the fast extra compiles the kernel sums")
+        pytest.importorskip("numba", reason="numba compiles the kernel sums")
     rng = np.random.default_rng(4)
     grid = CellGrid((0.0, 0.0), 0.25, (16, 12))
     pos = rng.uniform((-0.5, -0.5), (4.5, 3.5), (150, 2))  # some outside the grid
@@ -106,7 +106,7 @@ def test_kernel_dmv_maps_follow_the_equations_cell_by_cell(backend):
 
 
 def test_compiled_kernel_sums_equal_numpy_to_the_bit():
-    pytest.importorskip("numba", reason="the fast extra compiles the kernel sums")
+    pytest.importorskip("numba", reason="numba compiles the kernel sums")
     rng = np.random.default_rng(8)
     for grid in (CellGrid((0.0, 0.0), 0.1, (60, 40)), CellGrid((0.0, 0.0, 0.0), 0.2, (15, 10, 6))):
         pos = rng.uniform(-0.3, 3.3, (2500, grid.dim))

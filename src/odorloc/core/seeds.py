@@ -17,7 +17,7 @@ import numpy as np
 
 from odorloc.core.errors import ConfigError
 
-__all__ = ["MAX_SEED", "check_seed", "episode_generators", "episode_seeds"]
+__all__ = ["MAX_SEED", "check_seed", "episode_generators", "episode_seeds", "world_generators"]
 
 MAX_SEED = 2**63
 """Seeds are integers in ``[0, MAX_SEED)``."""
@@ -75,10 +75,13 @@ def episode_generators(
     The world and sensor streams both derive from ``world_seed`` (so a recorded flow and its
     sensor noise are fixed by the world seed alone); the searcher's from ``agent_seed``.
     """
-    w_ss, s_ss = np.random.SeedSequence(int(world_seed)).spawn(2)
+    world, sensors = world_generators(world_seed)
     a_ss = np.random.SeedSequence(int(agent_seed))
-    return (
-        np.random.Generator(np.random.PCG64(w_ss)),
-        np.random.Generator(np.random.PCG64(s_ss)),
-        np.random.Generator(np.random.PCG64(a_ss)),
-    )
+    return world, sensors, np.random.Generator(np.random.PCG64(a_ss))
+
+
+def world_generators(world_seed: int) -> tuple[np.random.Generator, np.random.Generator]:
+    """The ``(world, sensors)`` generators of :func:`episode_generators` alone (for a caller
+    that starts many episodes and drives no searcher)."""
+    w_ss, s_ss = np.random.SeedSequence(int(world_seed)).spawn(2)
+    return np.random.Generator(np.random.PCG64(w_ss)), np.random.Generator(np.random.PCG64(s_ss))

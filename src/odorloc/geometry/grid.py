@@ -14,12 +14,13 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from odorloc.core.errors import ConfigError
+from odorloc.core.jit import HAVE_NUMBA, jit
 
 __all__ = ["MAX_GRID_CELLS", "CellGrid", "check_cell_count", "multilinear"]
 
@@ -285,6 +286,8 @@ def multilinear(values: np.ndarray, axes: Sequence[np.ndarray], points: np.ndarr
     dim = len(axes)
     q = len(points)
     m = values.shape[-1]
+    if HAVE_NUMBA and q >= _COMPILED_FROM and any(len(ax) > 1 for ax in axes):
+        return _multilinear_compiled(values, axes, points)
     # One contiguous 1D array per component: 1D gathers are far cheaper than row gathers.
     comps = [np.ascontiguousarray(values[..., c]).ravel() for c in range(m)]
     strides = np.cumprod([1] + [len(ax) for ax in axes[:0:-1]])[::-1]
@@ -331,3 +334,118 @@ def multilinear(values: np.ndarray, axes: Sequence[np.ndarray], points: np.ndarr
             vals = comps[c][idx]
             out[:, c] += vals if w is None else w * vals
     return out
+
+
+#: Points from which :func:`multilinear` runs compiled (below, NumPy's call overhead is small).
+_COMPILED_FROM = 16
+
+
+def _multilinear_compiled(
+    values: np.ndarray, axes: Sequence[np.ndarray], points: np.ndarray
+) -> FloatArray:
+    """:func:`multilinear` in one compiled pass, equal to the NumPy code to the bit (the same
+    operations in the same order per point). The axes' arrays are prepared once per axes
+    objects (a wind field is interpolated at every step on the same axes)."""
+    key = tuple(id(ax) for ax in axes)
+    hit = _PREPARED.get(key)
+    if hit is not None and all(a is b for a, b in zip(hit[0], axes, strict=True)):
+        prepared = hit[1]
+    else:
+        prepared = _prepare(axes)
+        if len(_PREPARED) >= 16:
+            _PREPARED.clear()
+        _PREPARED[key] = (tuple(axes), prepared)
+    m = values.shape[-1]
+    flat = np.ascontiguousarray(values, dtype=float).reshape(-1, m)
+    pts = np.ascontiguousarray(points, dtype=float)
+    if not pts.flags.writeable:
+        pts = pts.copy()  # one compiled variant for the points (they are few)
+    out = np.empty((len(pts), m))
+    _multilinear_kernel(flat, *prepared, pts, out)
+    return out
+
+
+_PREPARED: dict[tuple[int, ...], tuple[tuple[np.ndarray, ...], tuple]] = {}
+
+
+def _prepare(axes: Sequence[np.ndarray]) -> tuple:
+    """The kernel's lattice arrays: padded axes, lengths, uniform flags, inverse steps and
+    strides (as :func:`multilinear` computes them)."""
+    dim = len(axes)
+    nmax = max(len(ax) for ax in axes)
+    ax2 = np.zeros((dim, nmax))
+    lens = np.empty(dim, np.int64)
+    uniform = np.zeros(dim, np.bool_)
+    inv_h = np.ones(dim)
+    for a, ax in enumerate(axes):
+        n = len(ax)
+        ax2[a, :n] = ax
+        lens[a] = n
+        if n > 1:
+            h = (ax[-1] - ax[0]) / (n - 1)
+            if float(np.abs(ax[1:] - ax[:-1] - h).max()) <= 1e-12 * abs(h):
+                uniform[a] = True
+                inv_h[a] = 1.0 / h
+    strides = np.cumprod([1] + [len(ax) for ax in axes[:0:-1]])[::-1].astype(np.int64)
+    return ax2, lens, uniform, inv_h, strides
+
+
+def _multilinear_kernel(vals, ax, lens, uniform, inv_h, strides, pts, out):  # type: ignore[no-untyped-def]  # pragma: no cover
+    q, dim = pts.shape
+    m = vals.shape[1]
+    f = np.empty(dim)
+    for i in range(q):
+        base = 0
+        for a in range(dim):
+            n = lens[a]
+            if n == 1:
+                continue
+            p = pts[i, a]
+            if uniform[a]:
+                g = (p - ax[a, 0]) * inv_h[a]
+                g = min(max(g, 0.0), float(n - 2))
+                i0 = int(g)
+            else:
+                i0 = np.searchsorted(ax[a, :n], p, side="right") - 1
+                i0 = min(max(i0, 0), n - 2)
+            fa = (p - ax[a, i0]) / (ax[a, i0 + 1] - ax[a, i0])
+            f[a] = min(max(fa, 0.0), 1.0)
+            base += i0 * strides[a]
+        for c in range(m):
+            out[i, c] = 0.0
+        for corner in range(2**dim):
+            w = 1.0
+            first = True
+            off = 0
+            skip = False
+            for a in range(dim):
+                hi = (corner >> a) & 1
+                if lens[a] == 1:
+                    if hi:
+                        skip = True
+                    continue
+                wa = f[a] if hi else 1.0 - f[a]
+                if first:
+                    w = wa
+                    first = False
+                else:
+                    w = w * wa
+                off += hi * strides[a]
+            if skip:
+                continue
+            for c in range(m):
+                out[i, c] += w * vals[base + off, c]
+
+
+def _warm_multilinear(kernel: Any) -> None:
+    """One call with the argument types :func:`_multilinear_compiled` uses (the values
+    writable or read-only, as a wind field may be)."""
+    prepared = _prepare([np.array([0.0, 1.0]), np.array([0.0, 1.0])])
+    vals = np.zeros((4, 1))
+    kernel(vals, *prepared, np.zeros((1, 2)), np.zeros((1, 1)))
+    vals.setflags(write=False)
+    kernel(vals, *prepared, np.zeros((1, 2)), np.zeros((1, 1)))
+
+
+if HAVE_NUMBA:
+    _multilinear_kernel = jit(_multilinear_kernel, warmup=_warm_multilinear)

@@ -10,6 +10,7 @@ State is kept as structure-of-arrays (centres ``(F, d)``, squared widths ``(F,)`
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from typing import Any, Literal
 
@@ -247,11 +248,76 @@ def _warm_cells(kernel: Any) -> None:
     )
 
 
+def _advance_kernel(
+    start, u, z, span, old_s2, old_amount, s0sq, amount0, gamma, noise, lo, hi, max_f
+):  # type: ignore[no-untyped-def]  # pragma: no cover
+    """A filament step after its draws, as :meth:`FilamentPlume._advance` computes it in NumPy:
+    centres ``start + span u (+ noise sqrt(span) z)``, the ones outside the arena dropped, then
+    the oldest beyond ``max_f``; widths ``sigma^2 + gamma span``. Returns the new centres,
+    squared widths and amounts."""
+    f, d = start.shape
+    n_old = old_s2.shape[0]
+    new = np.empty((f, d))
+    keep = np.empty(f, np.bool_)
+    kept = 0
+    for i in range(f):
+        inside = True
+        for a in range(d):
+            x = start[i, a] + span[i] * u[i, a]
+            if noise > 0.0:
+                x = x + (noise * math.sqrt(span[i])) * z[i, a]
+            new[i, a] = x
+            if not (x >= lo[a] and x <= hi[a]):
+                inside = False
+        keep[i] = inside
+        if inside:
+            kept += 1
+    skip = kept - max_f if kept > max_f else 0
+    m = kept - skip
+    pos = np.empty((m, d))
+    s2 = np.empty(m)
+    am = np.empty(m)
+    j = 0
+    for i in range(f):
+        if not keep[i]:
+            continue
+        if skip > 0:
+            skip -= 1
+            continue
+        for a in range(d):
+            pos[j, a] = new[i, a]
+        s2[j] = (old_s2[i] if i < n_old else s0sq) + gamma * span[i]
+        am[j] = old_amount[i] if i < n_old else amount0
+        j += 1
+    return pos, s2, am
+
+
+def _warm_advance(kernel: Any) -> None:
+    """One call with the argument types :meth:`FilamentPlume._advance` uses."""
+    one = np.zeros((1, 2))
+    kernel(
+        one,
+        one,
+        one,
+        np.ones(1),
+        np.zeros(0),
+        np.zeros(0),
+        0.01,
+        1.0,
+        0.01,
+        0.1,
+        np.zeros(2),
+        np.ones(2),
+        10,
+    )
+
+
 if HAVE_NUMBA:
     # module-level kernels (the helper first: the kernel resolves it as a global when it
     # compiles), so the cache hits in every later process (see odorloc.core.jit)
     _range = jit(_range)
     _cell_kernel = jit(_cell_kernel, warmup=_warm_cells)
+    _advance_kernel = jit(_advance_kernel, warmup=_warm_advance)
 
 
 def _numba_kernel():
@@ -407,13 +473,19 @@ class FilamentPlume(PlumeModel):
             blocked |= inside & arena.occ[tuple(idx.T)]
         return blocked
 
+    def _advection(self, pos: np.ndarray, dtc: np.ndarray) -> np.ndarray:
+        """The wind that carries each centre over its ``dtc`` ``(F, 1)``: at the centre (Euler)
+        or at the Euler step's midpoint."""
+        u = self.wind.velocity(pos)
+        if self.params.integrator == "midpoint":
+            u = self.wind.velocity(pos + 0.5 * dtc * u)
+        return u
+
     def _move(self, pos: np.ndarray, dt: np.ndarray, rng: np.random.Generator) -> np.ndarray:
         """New centres after advection + relative dispersion over per-filament ``dt`` ``(F,)``."""
         p = self.params
         dtc = np.asarray(dt, float)[:, None]
-        u = self.wind.velocity(pos)
-        if p.integrator == "midpoint":
-            u = self.wind.velocity(pos + 0.5 * dtc * u)
+        u = self._advection(pos, dtc)
         new = pos + dtc * u
         if p.noise_std > 0:
             new += (p.noise_std * np.sqrt(dtc)) * rng.standard_normal(pos.shape)
@@ -455,10 +527,32 @@ class FilamentPlume(PlumeModel):
         age = rng.uniform(0.0, dt, total)
         start = np.concatenate([self.positions, np.repeat(self._src, counts, axis=0)])
         span = np.concatenate([np.full(n_old, dt), age])
+        if HAVE_NUMBA and arena.occ is None:
+            # the same draws and the same arithmetic in one compiled pass (equal to the bit)
+            u = self._advection(start, span[:, None])
+            noisy = p.noise_std > 0
+            z = rng.standard_normal(start.shape) if noisy else np.zeros((0, self.dim))
+            self.positions, self.sigma2, self.amount = _advance_kernel(
+                start,
+                np.array(u, float, order="C"),
+                z,
+                span,
+                self.sigma2,
+                self.amount,
+                p.sigma0**2,
+                p.amount,
+                p.gamma,
+                p.noise_std if noisy else 0.0,
+                np.array(arena.lo, float),
+                np.array(arena.hi, float),
+                p.max_filaments,
+            )
+            return
         new = self._move(start, span, rng)
-        blocked = self._blocked(start, new)
-        if blocked.any():
-            new[blocked] = start[blocked]
+        if arena.occ is not None:
+            blocked = self._blocked(start, new)
+            if blocked.any():
+                new[blocked] = start[blocked]
         keep = arena.contains(new)
         sigma2 = np.concatenate([self.sigma2, np.full(total, p.sigma0**2)]) + p.gamma * span
         amount = np.concatenate([self.amount, np.full(total, p.amount)])

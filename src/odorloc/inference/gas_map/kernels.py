@@ -13,8 +13,9 @@ residuals ``V`` (eq. 6).
 - :func:`isotropic_sums`: ``Sigma = sigma^2 I`` (Kernel DM+V, TD Kernel DM+V). The Gaussian
   factorises over the axes, so only ``d`` short rows of exponentials are evaluated per reading;
   the accumulation over the reading's window of cells is a loop by nature and is compiled with
-  numba. The NumPy pass (:func:`isotropic_sums` with ``backend="numpy"``) is the reference: both take the same NumPy exponentials and add the
-  same products in the same order, so they agree to the bit.
+  numba. The NumPy pass (:func:`isotropic_sums` with ``backend="numpy"``) is the reference:
+  both take the same NumPy exponentials and add the same products in the same order, so they
+  agree to the bit.
 - :func:`anisotropic_sums`: one covariance per reading (the wind-stretched kernel of Kernel
   DM+V/W), in NumPy.
 

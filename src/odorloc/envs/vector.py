@@ -1,0 +1,550 @@
+"""Batched environments: ``B`` episodes of the lattice problem stepped at once as arrays.
+
+:class:`LatticeVectorEnv` is a :class:`gymnasium.vector.VectorEnv` for the single-agent
+lattice scenarios of OTTO's problem (``lattice-isotropic-*``, 2-D or 3-D: a
+``lattice-isotropic`` plume with ``start: initial-hit``, a ``lattice`` platform, an
+``encounter`` hit counter). One :meth:`~LatticeVectorEnv.step` moves every agent, draws every
+hit and updates every belief in compiled loops (:mod:`odorloc.planning.lattice_step`), with no
+Python object per episode.
+
+Episodes are those of the engine. ``reset(seed=R)`` starts episode ``i`` of root ``R`` in
+sub-environment ``i``; when a sub-environment's episode ends it starts the next episode not yet
+used, ``i + B``, ``i + 2 B``, ... in order of the sub-environments that ended (so sub-environment
+``i``'s first episode is exactly episode ``i`` of ``odorloc batch -s SCENARIO --seed R`` and of
+``SearchEnv`` reset with ``options={"episode": i}``). Each episode draws from the generators the
+engine gives it (:func:`~odorloc.core.seeds.world_generators`, those of
+:func:`~odorloc.core.seeds.episode_generators`): the first hit and the source
+from the world stream as the plume does, each hit count from the sensor stream as NumPy's
+Poisson sampler does (the multiplication method below a mean of 10 hits, which every hit of the
+lattice problem lies under: larger means are refused), the stream read in blocks of uniform
+numbers in the same order.
+
+Actions: ``Discrete(2 d)`` per sub-environment, the lattice moves ``-x, +x, -y, +y[, -z, +z]``
+(a move off the grid leaves the agent where it is). Rewards, termination and truncation are
+those of ``SearchEnv`` with ``action={"kind": "discrete", "declare": "none"}``: ``reward.step``
+per step, ``reward.reach`` on stepping onto the source (``terminated``); ``truncated`` at the
+task's stuck rule or at the time limit (the step after the last allowed move, which does not
+move). Auto-reset: ``SAME_STEP`` (the observation returned for an ended episode is the first of
+the next; the last one is in ``info["final_obs"]``, with ``info["_final_obs"]`` marking which).
+
+Observation (``float32``, :attr:`LatticeVectorEnv.feature_names`): the agent's cell scaled to
+``[0, 1]`` per axis, the last hit class one-hot (``Z`` classes), the belief's entropy over its
+largest value ``log2(n cells)``, the belief in the ``2 d`` neighbouring cells (0 off the grid),
+and the belief's mean offset from the agent per axis over the grid size. ``belief`` (a property)
+holds every sub-environment's full belief.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any, ClassVar
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+from gymnasium.vector import AutoresetMode, VectorEnv
+
+from odorloc.core.errors import ConfigError
+from odorloc.core.jit import jit
+from odorloc.core.seeds import check_seed, episode_seeds, world_generators
+from odorloc.envs.core import RewardParams, load_scenario, validated
+from odorloc.models.lattice import (
+    IsotropicHitModel,
+    IsotropicHitParams,
+    auto_n_hits,
+    initial_belief,
+    initial_hit_probabilities,
+    isotropic_mean_hits,
+    tabulate,
+)
+from odorloc.models.poisson import censored_poisson
+from odorloc.models.vergassola import vergassola_rate
+from odorloc.planning.lattice_step import LatticeKernels, log_belief
+from odorloc.planning.lattice_step import _observe as _observe_kernel
+from odorloc.scenarios import Scenario
+
+__all__ = ["LatticeVectorEnv"]
+
+_BLOCK = 256  # uniform numbers read from a sensor stream at a time
+_MARGIN = 96  # refill below this many unread numbers (a draw below 10 hits needs far fewer)
+
+
+# ---------------------------------------------------------------------- compiled batch step
+def _poisson_mult(u: np.ndarray, pos: int, enlam: float) -> tuple[int, int]:
+    """NumPy's Poisson draw by multiplication (mean below 10) from uniforms ``u[pos:]``;
+    returns the count and the new read position (``-1`` if the block ran out)."""
+    x = 0
+    prod = 1.0
+    while True:
+        if pos >= u.shape[0]:
+            return 0, -1
+        prod *= u[pos]
+        pos += 1
+        if prod > enlam:
+            x += 1
+        else:
+            return x, pos
+
+
+def _batch_step(
+    actions: np.ndarray,
+    ag: np.ndarray,
+    src: np.ndarray,
+    prev: np.ndarray,
+    back: np.ndarray,
+    steps: np.ndarray,
+    b: np.ndarray,
+    logb: np.ndarray,
+    ent: np.ndarray,
+    mom: np.ndarray,
+    last: np.ndarray,
+    u: np.ndarray,
+    upos: np.ndarray,
+    enlam: np.ndarray,
+    prob: np.ndarray,
+    ch: np.ndarray,
+    half: np.ndarray,
+    dim: int,
+    z: int,
+    n_steps: int,
+    stuck: int,
+    status: np.ndarray,
+) -> None:
+    """One step of every sub-environment (module docstring). ``status``: 0 running,
+    1 reached, 2 time limit, 3 stuck, -1 out of uniform numbers (an error)."""
+    nb = actions.shape[0]
+    shape = b.shape[1:]
+    for i in range(nb):
+        if steps[i] >= n_steps:
+            status[i] = 2
+            continue
+        a = actions[i]
+        axis = a // 2 + (3 - dim)
+        old0 = ag[i, 0]
+        old1 = ag[i, 1]
+        old2 = ag[i, 2]
+        v = ag[i, axis] + (1 if a % 2 == 1 else -1)
+        if 0 <= v < shape[axis]:
+            ag[i, axis] = v
+        steps[i] += 1
+        # the hit count is drawn at every step, on the source cell too (as the engine does)
+        r0 = src[i, 0] - ag[i, 0] + half[0]
+        r1 = src[i, 1] - ag[i, 1] + half[1]
+        r2 = src[i, 2] - ag[i, 2] + half[2]
+        el = enlam[r0, r1, r2]
+        count = 0
+        if el < 1.0:
+            count, p = _poisson_mult(u[i], upos[i], el)
+            if p < 0:
+                status[i] = -1
+                continue
+            upos[i] = p
+        h = count if count < z - 1 else z - 1
+        last[i] = h
+        reached = ag[i, 0] == src[i, 0] and ag[i, 1] == src[i, 1] and ag[i, 2] == src[i, 2]
+        # the stuck counter: back to the cell of two steps ago
+        if steps[i] >= 2:
+            if ag[i, 0] == prev[i, 0] and ag[i, 1] == prev[i, 1] and ag[i, 2] == prev[i, 2]:
+                back[i] += 1
+            else:
+                back[i] = 0
+        prev[i, 0] = old0
+        prev[i, 1] = old1
+        prev[i, 2] = old2
+        if reached:
+            status[i] = 1
+            continue
+        ent[i] = _observe_kernel(b[i], logb[i], ag[i], prob, ch, half, h, mom[i])
+        if stuck >= 0 and back[i] > stuck and steps[i] < n_steps:
+            status[i] = 3
+        else:
+            status[i] = 0
+
+
+def _features(
+    ag: np.ndarray,
+    b: np.ndarray,
+    ent: np.ndarray,
+    mom: np.ndarray,
+    last: np.ndarray,
+    dim: int,
+    z: int,
+    ent_max: float,
+    rows: np.ndarray,
+    out: np.ndarray,
+) -> None:
+    """The observation rows ``rows`` (module docstring) into ``out`` ``(B, F)`` float32."""
+    shape = b.shape[1:]
+    lead = 3 - dim
+    for i in rows:
+        k = 0
+        for a in range(dim):
+            n = shape[lead + a]
+            out[i, k] = ag[i, lead + a] / max(n - 1, 1)
+            k += 1
+        for h in range(z):
+            out[i, k] = 1.0 if last[i] == h else 0.0
+            k += 1
+        out[i, k] = ent[i] / ent_max
+        k += 1
+        for a in range(2 * dim):
+            axis = lead + a // 2
+            c0 = ag[i, 0]
+            c1 = ag[i, 1]
+            c2 = ag[i, 2]
+            step = 1 if a % 2 == 1 else -1
+            if axis == 0:
+                c0 += step
+            elif axis == 1:
+                c1 += step
+            else:
+                c2 += step
+            inside = 0 <= c0 < shape[0] and 0 <= c1 < shape[1] and 0 <= c2 < shape[2]
+            out[i, k] = b[i, c0, c1, c2] if inside else 0.0
+            k += 1
+        for a in range(dim):
+            out[i, k] = (mom[i, lead + a] - ag[i, lead + a]) / shape[lead + a]
+            k += 1
+
+
+_poisson_mult = jit(_poisson_mult)
+_batch_step = jit(_batch_step)
+_features = jit(_features)
+
+
+# ---------------------------------------------------------------------- the environment
+def _cdf(p: np.ndarray) -> np.ndarray:
+    """The cumulative sum ``numpy.random.Generator.choice`` searches for ``p``."""
+    cdf = np.asarray(p, float).cumsum()
+    cdf /= cdf[-1]
+    return cdf
+
+
+class _Problem:
+    """What a lattice scenario fixes for every episode (checked once, from its built parts)."""
+
+    def __init__(self, sc: Scenario) -> None:
+        from odorloc.engine.episode import Episode, control_substeps
+        from odorloc.plume.lattice import LatticeIsotropicPlume
+        from odorloc.sensors.encounter import EncounterSensor
+
+        ep = Episode(sc, record=False)
+        built = ep.built
+        plume = built.world.plume
+        if not isinstance(plume, LatticeIsotropicPlume) or plume.params.start != "initial-hit":
+            raise ConfigError(
+                "world.plume",
+                "the batched lattice env needs a lattice-isotropic plume with start: initial-hit",
+            )
+        if sc.platform.type != "lattice":
+            raise ConfigError("platform.type", "the batched lattice env needs a lattice platform")
+        if len(built.platforms) != 1:
+            raise ConfigError("agents", "the batched lattice env has one agent per episode")
+        sensor = built.gas_sensors[0]
+        if not isinstance(sensor, EncounterSensor):
+            raise ConfigError("sensors.gas", "the batched lattice env needs an encounter counter")
+        if sc.world.source_draw is not None:
+            raise ConfigError("world.source_draw", "the lattice plume draws the source itself")
+        arena = plume.arena
+        if arena.occ is not None:
+            raise ConfigError("world.arena", "the batched lattice env needs an open arena")
+        grid = arena.grid
+        shape = tuple(int(v) for v in grid.shape)
+        dim = len(shape)
+        cell = float(plume.cell)
+        self.dim, self.cell, self.shape = dim, cell, shape
+        self.length = float(plume.params.length)
+        rate = float(plume.sources[0].rate_at(0.0))
+        self.intensity = rate * float(plume.params.exposure)
+        nh = plume.params.n_hits
+        z = nh if nh is not None else auto_n_hits(self.length, self.intensity, cell, dim)
+        self.z = int(z)
+        self.start = tuple(int(v) for v in grid.index(plume.origin)[0])
+        agent = tuple(int(v) for v in grid.index(np.asarray(sc.agents.starts[0], float))[0])
+        if agent != self.start:
+            raise ConfigError("agents.starts", "the agent must start in the plume's origin cell")
+        self.dt = float(control_substeps(sc)[0])
+        self.n_steps = int(ep.n_steps)
+        stuck = sc.task.stuck_limit
+        self.stuck = -1 if stuck is None else int(stuck)
+        # the first-hit law and the start beliefs, as the plume computes them
+        self.p_h0 = initial_hit_probabilities(self.length, self.intensity, cell, dim, self.z)
+        centres = grid.flat_centers()
+        d = np.linalg.norm(centres - plume.origin, axis=1)
+        mu0 = isotropic_mean_hits(d, self.length, self.intensity, cell, dim)
+        like = censored_poisson(mu0, self.z)
+        # Generator.choice(p=...) draws one uniform number and searches the normalised
+        # cumulative sum: the same search on the same sums draws the same index
+        self.cdf_h0 = _cdf(self.p_h0)
+        self.b0: list[np.ndarray | None] = []
+        for h in range(self.z):
+            if self.p_h0[h] > 0:
+                b0 = initial_belief(like[:, h].reshape(shape), self.start)
+                self.b0.append(b0.reshape(-1))
+            else:
+                self.b0.append(None)
+        self.cdf_b0 = [None if b is None else _cdf(b) for b in self.b0]
+        # the searcher's belief update: the problem's own model, tabulated over the offsets
+        model = IsotropicHitModel(IsotropicHitParams(length=self.length, intensity=self.intensity))
+        table = tabulate(model, cell, tuple(n - 1 for n in shape))
+        if table.n_classes != self.z:
+            raise ConfigError("world.plume.n_hits", f"must be the model's {table.n_classes}")
+        self.kernels = LatticeKernels(table.prob)
+        # exp(-mean hits) per source-minus-agent offset: the plume's encounter rate at the
+        # offset, times the sensor's gain and the control period, as the sensor computes it
+        offs = [np.arange(-(n - 1), n) * cell for n in shape]
+        pts = np.stack(np.meshgrid(*offs, indexing="ij"), -1).reshape(-1, dim)
+        r = vergassola_rate(
+            -pts,
+            np.zeros((1, dim)),
+            np.array([rate]),
+            V=0.0,
+            D=1.0,
+            tau=self.length**2,
+            a=0.5 * cell,
+        )[:, 0]
+        mu = sensor.params.gain * r * self.dt
+        if np.any(mu[np.isfinite(mu)] >= 10.0):
+            raise ConfigError("world.sources[0].rate", "mean hits of 10 or more per step")
+        with np.errstate(over="ignore"):
+            el = np.exp(-mu).reshape(tuple(2 * n - 1 for n in shape))
+        self.enlam = np.ascontiguousarray(el if dim == 3 else el[None])
+
+
+class LatticeVectorEnv(VectorEnv):
+    """``num_envs`` episodes of a lattice scenario stepped as arrays (module docstring).
+
+    Parameters
+    ----------
+    scenario : str, path or Scenario
+        A single-agent lattice scenario (default ``lattice-isotropic-2d``).
+    num_envs : int
+        ``B``, at least 1.
+    reward : dict, optional
+        :class:`~odorloc.envs.core.RewardParams` (``step`` and ``reach`` apply).
+    world_key : str, optional
+        World key of the seed derivation (default: the scenario's name as given).
+    """
+
+    metadata: ClassVar[dict[str, Any]] = {"autoreset_mode": AutoresetMode.SAME_STEP}
+
+    def __init__(
+        self,
+        scenario: str | Path | Scenario = "lattice-isotropic-2d",
+        num_envs: int = 64,
+        reward: dict[str, Any] | None = None,
+        world_key: str | None = None,
+    ) -> None:
+        if isinstance(num_envs, bool) or not isinstance(num_envs, int) or num_envs < 1:
+            raise ConfigError("num_envs", f"must be an integer >= 1, got {num_envs!r}")
+        sc, key = load_scenario(scenario)
+        self.scenario = sc
+        self.world_key = world_key or key
+        self.reward_params = validated(RewardParams, reward, "reward")
+        pr = _Problem(sc)
+        self.problem = pr
+        k = pr.kernels
+        self.num_envs = num_envs
+        d, z = pr.dim, pr.z
+        self.feature_names = (
+            [f"cell_{a}" for a in "xyz"[:d]]
+            + [f"hit_{h}" for h in range(z)]
+            + ["entropy"]
+            + [f"belief_{s}{a}" for a in "xyz"[:d] for s in "-+"]
+            + [f"mean_offset_{a}" for a in "xyz"[:d]]
+        )
+        f = len(self.feature_names)
+        lo = np.full(f, -1.0, np.float32)
+        lo[: d + z + 1 + 2 * d] = 0.0
+        self.single_observation_space = spaces.Box(lo, np.ones(f, np.float32), (f,), np.float32)
+        self.single_action_space = spaces.Discrete(2 * d)
+        self.observation_space = gym.vector.utils.batch_space(
+            self.single_observation_space, num_envs
+        )
+        self.action_space = gym.vector.utils.batch_space(self.single_action_space, num_envs)
+        nb = num_envs
+        self._b = np.zeros((nb, *k.shape))
+        self._logb = np.zeros((nb, *k.shape))
+        self._ent = np.zeros(nb)
+        self._mom = np.zeros((nb, 3))
+        self._ag = np.zeros((nb, 3), np.int64)
+        self._src = np.zeros((nb, 3), np.int64)
+        self._prev = np.zeros((nb, 3), np.int64)
+        self._back = np.zeros(nb, np.int64)
+        self._steps = np.zeros(nb, np.int64)
+        self._last = np.zeros(nb, np.int64)
+        self._u = np.zeros((nb, _BLOCK))
+        self._upos = np.full(nb, _BLOCK, np.int64)
+        self._status = np.zeros(nb, np.int64)
+        self._episode = np.full(nb, -1, np.int64)
+        self._sense: list[np.random.Generator | None] = [None] * nb
+        self._obs = np.zeros((nb, f), np.float32)
+        self._all = np.arange(nb, dtype=np.int64)
+        self._ent_max = math.log2(math.prod(pr.shape))
+        # the start beliefs of each first hit, kernel-shaped, with their logarithm and entropy
+        self._starts: list[tuple[np.ndarray, np.ndarray, float, np.ndarray] | None] = []
+        for b0 in pr.b0:
+            if b0 is None:
+                self._starts.append(None)
+                continue
+            bk = k.as_kernel(b0.copy())
+            logb, ent = log_belief(k, bk)
+            grids = np.meshgrid(*[np.arange(n) for n in k.shape], indexing="ij")
+            mom = np.array([float((bk * g).sum()) for g in grids])
+            self._starts.append((bk, logb, ent, mom))
+        self.root: int | None = None
+        self._next = 0
+
+    # ------------------------------------------------------------------ episodes
+    @property
+    def belief(self) -> np.ndarray:
+        """Every sub-environment's belief, ``(B, *grid shape)`` (a copy)."""
+        return self._b.reshape(self.num_envs, *self.problem.shape).copy()
+
+    @property
+    def episodes(self) -> np.ndarray:
+        """The episode index each sub-environment is playing, ``(B,)``."""
+        return self._episode.copy()
+
+    @property
+    def positions(self) -> np.ndarray:
+        """Every agent's cell, ``(B, d)`` (grid indices)."""
+        return self._ag[:, 3 - self.problem.dim :].copy()
+
+    @property
+    def sources(self) -> np.ndarray:
+        """Every source's cell, ``(B, d)`` (grid indices)."""
+        return self._src[:, 3 - self.problem.dim :].copy()
+
+    def _start(self, i: int, episode: int) -> None:
+        pr = self.problem
+        assert self.root is not None
+        ws, _ = episode_seeds(self.root, self.world_key, episode)
+        rng_world, rng_sense = world_generators(ws)
+        h0 = int(pr.cdf_h0.searchsorted(rng_world.random(), side="right"))
+        cdf = pr.cdf_b0[h0]
+        start = self._starts[h0]
+        assert cdf is not None and start is not None
+        cell = int(cdf.searchsorted(rng_world.random(), side="right"))
+        src = np.unravel_index(cell, pr.shape)
+        lead = 3 - pr.dim
+        self._src[i] = 0
+        self._src[i, lead:] = src
+        self._ag[i] = 0
+        self._ag[i, lead:] = pr.start
+        self._prev[i] = self._ag[i]
+        self._back[i] = 0
+        self._steps[i] = 0
+        self._last[i] = h0
+        self._b[i] = start[0]
+        self._logb[i] = start[1]
+        self._ent[i] = start[2]
+        self._mom[i] = start[3]
+        self._u[i] = rng_sense.random(_BLOCK)
+        self._upos[i] = 0
+        self._sense[i] = rng_sense
+        self._episode[i] = episode
+
+    def _refill(self) -> None:
+        low = np.flatnonzero(self._upos > _BLOCK - _MARGIN)
+        for i in low:
+            p = int(self._upos[i])
+            rng = self._sense[i]
+            assert rng is not None
+            self._u[i, : _BLOCK - p] = self._u[i, p:]
+            self._u[i, _BLOCK - p :] = rng.random(p)
+            self._upos[i] = 0
+
+    def _observe(self, rows: np.ndarray | None = None) -> np.ndarray:
+        pr = self.problem
+        r = self._all if rows is None else rows
+        _features(
+            self._ag,
+            self._b,
+            self._ent,
+            self._mom,
+            self._last,
+            pr.dim,
+            pr.z,
+            self._ent_max,
+            r,
+            self._obs,
+        )
+        return self._obs.copy()
+
+    def reset(
+        self, *, seed: int | list[int] | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[np.ndarray, dict[str, Any]]:
+        """Start episodes ``0 .. B-1`` of root ``seed`` (of a new root drawn from the
+        environment's own generator when no seed was ever given)."""
+        if isinstance(seed, list):
+            raise ConfigError("seed", "one root seed for every sub-environment, not a list")
+        super().reset(seed=seed)
+        if seed is not None:
+            self.root = check_seed(int(seed), "seed")
+        elif self.root is None:
+            self.root = int(self.np_random.integers(0, 2**63 - 1, dtype=np.int64))
+        for i in range(self.num_envs):
+            self._start(i, i)
+        self._next = self.num_envs
+        return self._observe(), {"episode": self._episode.copy()}
+
+    def step(
+        self, actions: Any
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+        """Step every sub-environment; ended episodes restart at once (``SAME_STEP``)."""
+        if self.root is None:
+            raise RuntimeError("call reset() before step()")
+        act = np.asarray(actions)
+        if act.shape != (self.num_envs,) or not np.issubdtype(act.dtype, np.integer):
+            raise ValueError(f"actions must be {self.num_envs} integers, got {act!r}")
+        if act.min() < 0 or act.max() >= 2 * self.problem.dim:
+            raise ValueError(f"actions must lie in [0, {2 * self.problem.dim})")
+        pr, k = self.problem, self.problem.kernels
+        self._refill()
+        _batch_step(
+            act.astype(np.int64),
+            self._ag,
+            self._src,
+            self._prev,
+            self._back,
+            self._steps,
+            self._b,
+            self._logb,
+            self._ent,
+            self._mom,
+            self._last,
+            self._u,
+            self._upos,
+            pr.enlam,
+            k.prob,
+            k.channels,
+            k.half,
+            pr.dim,
+            pr.z,
+            pr.n_steps,
+            pr.stuck,
+            self._status,
+        )
+        st = self._status
+        if np.any(st < 0):
+            raise RuntimeError("a hit count read past its block of uniform numbers")
+        rp = self.reward_params
+        reward = np.where(st == 1, rp.step + rp.reach, rp.step)
+        terminated = st == 1
+        truncated = (st == 2) | (st == 3)
+        obs = self._observe()
+        info: dict[str, Any] = {}
+        done = np.flatnonzero(terminated | truncated)
+        if done.size:
+            final = np.zeros_like(obs)
+            final[done] = obs[done]
+            info["final_obs"] = final
+            info["_final_obs"] = terminated | truncated
+            info["final_episode"] = self._episode.copy()
+            for i in done:
+                self._start(int(i), self._next)
+                self._next += 1
+            obs = self._observe(done.astype(np.int64))
+        return obs, reward.astype(np.float64), terminated, truncated, info
