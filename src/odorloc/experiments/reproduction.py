@@ -45,6 +45,7 @@ __all__ = [
     "Reproduction",
     "ReproductionParams",
     "Table",
+    "check_time_limit",
     "console_table",
     "discover",
     "fmt",
@@ -122,6 +123,20 @@ class Figure:
     name: str
     caption: str
     draw: Callable[[Path], Any]
+
+
+def check_time_limit(value: object, field: str = "time_limit") -> float | None:
+    """A reproduction's shorter episode limit: ``None`` or a finite number of seconds > 0, as a
+    float. Anything else (a bool, a string, NaN, inf, zero or less) is refused with a
+    :class:`~odorloc.core.errors.ConfigError` naming ``field``: a bool is an int to Python, and
+    ``True`` would silently run 1 s episodes."""
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise ConfigError(field, f"must be a finite number of seconds > 0, got {value!r}")
+    if not (math.isfinite(value) and value > 0):
+        raise ConfigError(field, f"must be a finite number of seconds > 0, got {value!r}")
+    return float(value)
 
 
 def fmt(x: Any, digits: int = 1) -> str:

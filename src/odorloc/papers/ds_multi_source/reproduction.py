@@ -23,7 +23,14 @@ import numpy as np
 import pandas as pd
 
 from odorloc.core.registry import register
-from odorloc.experiments.reproduction import Figure, Reproduction, ReproductionParams, Table, fmt
+from odorloc.experiments.reproduction import (
+    Figure,
+    Reproduction,
+    ReproductionParams,
+    Table,
+    check_time_limit,
+    fmt,
+)
 from odorloc.experiments.stats import mean_sd
 from odorloc.inference.evidence.mapper import RULES as MAP_RULES
 from odorloc.inference.evidence.mapper import DSMapParams
@@ -211,7 +218,7 @@ class DSReproduction(Reproduction):
         max_speed: float | None = None,
     ) -> None:
         super().__init__(params)
-        self.time_limit = time_limit
+        self.time_limit = check_time_limit(time_limit)
         self.max_speed = max_speed
 
     def sweep(self, episodes: int, seed: int) -> dict[str, Any]:

@@ -32,12 +32,8 @@ FILAMENT_SUCCESS_8MIN = 0.90
 FILAMENT_AT = 480.0
 FILAMENT_SUCCESS_8MIN_MANY_UAVS = 0.80
 
+_NOTE = "our copy starts at its abstract (no title page: authors, venue, year, DOI unknown)"
 CITATION = Citation(
-    authors="",
-    title="MUC-OSL: multi-UAV collaboration based odor source localization",
-    note=(
-        "our copy of the paper starts at its abstract: its title page, hence the authors, "
-        "venue, year and DOI, is missing; the title here is the method's own name"
-    ),
+    "", "MUC-OSL: multi-UAV collaboration based odor source localization", note=_NOTE
 )
 """The paper reproduced."""

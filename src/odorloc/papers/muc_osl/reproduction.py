@@ -7,9 +7,9 @@ the rate world (``muc-osl-3d``, Figs. 4-7) and at Fig. 9's settings in the filam
 MUC-OSL without eq. 16 at the default point of both. Stores ``rate``, ``rate-particles``,
 ``filament``, ``filament-particles`` (``--only rate``: the first two). The search time is
 ``reach_fly_hover_turn_time`` (the first UAV within 2 m; failures at the limit), the energy
-``team_movement_energy``. Besides the outputs of a
-:class:`~odorloc.experiments.point_reports.PointsReproduction`: Tables 2 and 3, the filament
-world at 8 minutes, the statements judged (:mod:`.claims`), Fig. 3 and the mechanism of eq. 16.
+``team_movement_energy``. Besides a :class:`~odorloc.experiments.point_reports.PointsReproduction`'s
+outputs: Tables 2 and 3, the filament world at 8 minutes, the statements judged
+(:mod:`.claims`), Fig. 3 and the mechanism of eq. 16.
 """
 
 from __future__ import annotations
@@ -27,36 +27,20 @@ from odorloc.experiments.claims import Claim, Points
 from odorloc.experiments.reproduction import Figure, ReproductionParams, Table
 from odorloc.experiments.store import agent_values
 from odorloc.experiments.variants import restrict
+from odorloc.papers.muc_osl import reference as ref
+from odorloc.papers.muc_osl import sweeps as S
 from odorloc.papers.muc_osl.claims import LABELS, evaluate_claims
-from odorloc.papers.muc_osl.reference import (
-    CITATION,
-    FILAMENT_AT,
-    LARGEST_AREA_SUCCESS,
-    TABLE2,
-    TABLE3,
-)
-from odorloc.papers.muc_osl.sweeps import (
-    DEFAULT,
-    NO_ENV_PU,
-    NO_ENV_PU_PARAMS,
-    ROWS,
-    SWEEPS,
-    Setting,
-    cell_of,
-    fig9_settings,
-    sweep_files,
-)
 from odorloc.scenarios import get_scenario
 
 __all__ = ["COLUMNS", "MucOslReproduction", "uav_rows"]
 
 SCENARIO, FILAMENT, FILAMENT_EPISODES = "muc-osl-3d", "muc-osl-filament-3d", 5
-ALL = (*ROWS, NO_ENV_PU)
+ALL = (*S.ROWS, S.NO_ENV_PU)
 #: Episodes per variant of the mechanism figure.
 MECHANISM_EPISODES = 12
 COLORS = {"muc-osl": "tab:red", "col-inf": "tab:blue", "col-pf": "tab:green"}
 COLORS |= {"adap-pp": "tab:orange", "muc-osl-printed": "tab:pink"}
-COLORS |= {"col-pf-printed": "tab:olive", NO_ENV_PU: "tab:purple"}
+COLORS |= {"col-pf-printed": "tab:olive", S.NO_ENV_PU: "tab:purple"}
 #: The measures of a cell (:class:`~odorloc.experiments.claims.Cells`): the row columns.
 COLUMNS = {"time": "reach_fly_hover_turn_time", "energy": "team_movement_energy"}
 COLUMNS |= {"hover": "team_hover_time", "turn": "team_turn_time"}
@@ -105,15 +89,15 @@ class MucOslReproduction(R.PointsReproduction):
 
     name = "muc-osl"
     paper = "muc-osl-multi-uav.txt"
-    citations = (CITATION,)
+    citations = (ref.CITATION,)
     summary = "MUC-OSL, its baselines and PUGL as printed: four sweeps, two worlds"
     default_episodes = 8
     paper_episodes = 200
     paper_episodes_note = "of the rate world: add --only rate, or the filament world runs 200 too"
     report_paired = False
     cell_summary = False
-    methods, extra_methods, names, colors = ROWS, (NO_ENV_PU,), LABELS, COLORS
-    columns, statements, default_point, categorical = COLUMNS, STATEMENTS, DEFAULT, ("area",)
+    methods, extra_methods, names, colors = S.ROWS, (S.NO_ENV_PU,), LABELS, COLORS
+    columns, statements, default_point, categorical = COLUMNS, STATEMENTS, S.DEFAULT, ("area",)
     figure_files = FIGURES
 
     def __init__(
@@ -127,9 +111,9 @@ class MucOslReproduction(R.PointsReproduction):
         super().__init__(params)
         self.fig3, self.time_limit = fig3, time_limit
         self.limit = float(time_limit or get_scenario(SCENARIO).limits.time)
-        self.at = min(FILAMENT_AT, self.limit)
-        self.rate_sweeps = restrict(SWEEPS, values)
-        self.filament_sweeps = restrict(fig9_settings(), values, strict=False) if filament else []
+        self.at = min(ref.FILAMENT_AT, self.limit)
+        self.rate_sweeps = restrict(S.SWEEPS, values)
+        self.filament_sweeps = restrict(S.fig9_settings(), values, strict=False) if filament else []
         self.note = (
             "SR: success rate % [95 % Wilson]; MST: mean search time s [95 % bootstrap], "
             f"failures at {self.limit:g} s;\nsearch time: reach_fly_hover_turn_time (fly + hover "
@@ -152,8 +136,8 @@ class MucOslReproduction(R.PointsReproduction):
 
     def sweep_files(self, world: R.World, episodes: int, seed: int) -> dict[str, dict[str, Any]]:
         common = {} if self.time_limit is None else {"limits.time": float(self.time_limit)}
-        ablation = [{"name": "muc-osl", "label": NO_ENV_PU, "params": NO_ENV_PU_PARAMS}]
-        return sweep_files(
+        ablation = [{"name": "muc-osl", "label": S.NO_ENV_PU, "params": S.NO_ENV_PU_PARAMS}]
+        return S.sweep_files(
             world.scenario,
             world.sweeps,
             episodes,
@@ -165,7 +149,7 @@ class MucOslReproduction(R.PointsReproduction):
         )
 
     def cell_of(self, world: R.World, point: Any, method: str) -> tuple[str, str]:
-        return cell_of(world.scenario, point, method)
+        return S.cell_of(world.scenario, point, method)
 
     def rows(self, df: Any) -> Any:
         return uav_rows(df, self.limit)
@@ -177,8 +161,8 @@ class MucOslReproduction(R.PointsReproduction):
             return {}
         at = s.setting((100.0, 200.0, 50.0))
         return {
-            "/".join(cell_of(SCENARIO, at, a)): {"success_rate": v, "source": "Sect. VI.2.1"}
-            for a, v in LARGEST_AREA_SUCCESS.items()
+            "/".join(S.cell_of(SCENARIO, at, a)): {"success_rate": v, "source": "Sect. VI.2.1"}
+            for a, v in ref.LARGEST_AREA_SUCCESS.items()
         }
 
     def claims(self, points: Mapping[str, Points], seed: int) -> list[Claim]:
@@ -199,8 +183,8 @@ class MucOslReproduction(R.PointsReproduction):
                     f"Filament world (Fig. 9): success % by {self.at / 60:g} min / overall",
                     points["filament"],
                     settings,
-                    Setting.where,
-                    ROWS,
+                    S.Setting.where,
+                    S.ROWS,
                     LABELS,
                     self.at,
                     "paper (MUC-OSL): about 90 % at 8 min in 100x60x30 m; above 80 % with more "
@@ -225,8 +209,8 @@ class MucOslReproduction(R.PointsReproduction):
         res = {"nums/msg": ("nums", 1, 0), "kB/ep": ("bytes", 1e-3, 1)}
         res |= {"k nums/iter": ("per_iter", 1e-3, 1), "E_T mJ": ("energy_comm", 1e3, 2)}
         res |= {"E_C J": ("energy_compute", 1, 1)}
-        table2 = {a: "/".join(f"{v:.0f}" for v in r.values()) for a, r in TABLE2.items()}
-        table3 = {a: r["numbers"] for a, r in TABLE3.items()}
+        table2 = {a: "/".join(f"{v:.0f}" for v in r.values()) for a, r in ref.TABLE2.items()}
+        table3 = {a: r["numbers"] for a, r in ref.TABLE3.items()}
         what = (
             f"Table 2, {world} world: team movement per episode (paper: h/t/d/E)",
             f"Table 3, {world} world: communication and computation (paper: numbers)",
@@ -283,7 +267,7 @@ def _mechanism(seed: int, path: Path, episodes: int, time_limit: float | None = 
     variants = {
         "as printed": ({"type": "muc-osl-printed"}, "muc-osl-printed"),
         "reversible": ({"type": "muc-osl"}, "muc-osl"),
-        "without eq. 16": ({"type": "muc-osl", **NO_ENV_PU_PARAMS}, NO_ENV_PU),
+        "without eq. 16": ({"type": "muc-osl", **S.NO_ENV_PU_PARAMS}, S.NO_ENV_PU),
     }
     traces = {
         label: diagnostic_traces(

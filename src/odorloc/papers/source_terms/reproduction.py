@@ -36,7 +36,14 @@ from typing import Any
 import numpy as np
 
 from odorloc.core.registry import register
-from odorloc.experiments.reproduction import Figure, Reproduction, ReproductionParams, Table, fmt
+from odorloc.experiments.reproduction import (
+    Figure,
+    Reproduction,
+    ReproductionParams,
+    Table,
+    check_time_limit,
+    fmt,
+)
 
 __all__ = ["MULTI_STE", "SourceTermsReproduction", "score_posterior", "ste_group"]
 
@@ -462,7 +469,7 @@ class SourceTermsReproduction(Reproduction):
 
     def __init__(self, params: ReproductionParams | None = None, time_limit: float | None = None):
         super().__init__(params)
-        self.time_limit = time_limit
+        self.time_limit = check_time_limit(time_limit)
         self._out: Path | None = None
         self._cache: tuple[Any, Any] | None = None
 

@@ -60,4 +60,3 @@ CITATION = Citation(
     year=2014,
     doi="10.11591/telkomnika.v12i7.5199",
 )
-"""The paper reproduced."""

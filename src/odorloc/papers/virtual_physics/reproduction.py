@@ -21,9 +21,15 @@ from typing import Any
 
 import numpy as np
 
-from odorloc.core.errors import ConfigError
 from odorloc.core.registry import register
-from odorloc.experiments.reproduction import Figure, Reproduction, ReproductionParams, Table, fmt
+from odorloc.experiments.reproduction import (
+    Figure,
+    Reproduction,
+    ReproductionParams,
+    Table,
+    check_time_limit,
+    fmt,
+)
 from odorloc.papers.virtual_physics import reference as ref
 from odorloc.papers.virtual_physics.figures import select
 
@@ -210,27 +216,10 @@ class VirtualPhysicsReproduction(Reproduction):
     def __init__(
         self, params: ReproductionParams | None = None, time_limit: float | None = None
     ) -> None:
-        """
-        Parameters
-        ----------
-        params : ReproductionParams, optional
-        time_limit : float, optional, seconds
-            A shorter episode limit (tests, a first look); default the scenario's
-            ``limits.time`` (1200 s). Anything but a finite number > 0 (a bool, a string, NaN,
-            inf, zero or less) is refused with a :class:`~odorloc.core.errors.ConfigError`.
-        """
-        if time_limit is not None:
-            # a bool is an int to Python: True would silently run 1 s episodes
-            ok = isinstance(time_limit, int | float | np.number) and not isinstance(
-                time_limit, bool
-            )
-            if not (ok and math.isfinite(float(time_limit)) and float(time_limit) > 0):
-                raise ConfigError(
-                    "time_limit", f"must be a finite number of seconds > 0, got {time_limit!r}"
-                )
-            time_limit = float(time_limit)
+        """``time_limit`` (s): a shorter episode limit for tests or a first look (default the
+        scenario's ``limits.time``, 1200 s); refused unless a finite number > 0."""
         super().__init__(params)
-        self.time_limit = time_limit
+        self.time_limit = check_time_limit(time_limit)
         self._analysis: dict[str, Any] = {}
 
     def _spec(self, n: int, seed: int, starts: tuple[str, ...], labels: tuple[str, ...]) -> Any:
