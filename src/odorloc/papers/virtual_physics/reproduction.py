@@ -121,7 +121,7 @@ def _ci(g: Any, stat: tuple[str, ...], seed: int) -> str:
     return "-" if not math.isfinite(v) else f"{fmt(v, 0)} [{fmt(lo, 0)}, {fmt(hi, 0)}]"
 
 
-def _ok(g: Any) -> Any:
+def _ok(g: Any) -> Any:  # the successful episodes
     return g[g["success"].fillna(False).astype(bool)]
 
 
@@ -134,9 +134,8 @@ def _mean_of(g: Any, cols: tuple[str, ...]) -> float:
     return float(np.nanmean(a)) if np.isfinite(a).any() else math.nan
 
 
-def _time(g: Any) -> str:
-    t = _ok(g)["search_time"].to_numpy(float)
-    return fmt(t.mean(), 0) if t.size else "-"
+def _time(g: Any) -> str:  # pandas' mean of no rows is NaN, shown "-"
+    return fmt(_ok(g)["search_time"].astype(float).mean(), 0)
 
 
 NOTES = {
@@ -287,14 +286,15 @@ class VirtualPhysicsReproduction(Reproduction):
         for label in RULES:
             for f in FREQUENCIES:
                 g = select(res, label, f)
-                bound = ref.CHEMOTAXIS_TIME.get(f) if label == "chemotaxis" else None
+                fast = f"<{ref.FAST_RULES_BOUND:.0f}"
+                paper_s = fmt(ref.CHEMOTAXIS_TIME.get(f), 0) if label == "chemotaxis" else fast
                 dwell, rev = (_mean_of(g, (f"{k}_A", f"{k}_B")) for k in ("dwell", "reversal"))
                 rules.append([label, str(f), str(len(g)), _ci(g, ("rate", "success"), seed)])
                 rules[-1] += [
                     ref.paper_success(label),
                     _ci(g, ("mean", "search_time", "success"), seed),
                 ]
-                rules[-1] += [fmt(bound, 0) if bound else f"<{ref.FAST_RULES_BOUND:.0f}"]
+                rules[-1] += [paper_s]
                 rules[-1] += [_frac(g, "reached_both"), fmt(100 * dwell, 0)]
                 approach.append([label, str(f), fmt(100 * dwell, 0), fmt(100 * rev, 0)])
         for s in STARTS:
