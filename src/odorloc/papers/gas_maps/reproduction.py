@@ -37,9 +37,61 @@ from typing import Any, ClassVar
 import numpy as np
 
 from odorloc.core.registry import register
-from odorloc.experiments.reproduction import Figure, Reproduction, ReproductionParams, Table
+from odorloc.experiments.reproduction import (
+    Citation,
+    Figure,
+    Reproduction,
+    ReproductionParams,
+    Table,
+)
 
-__all__ = ["METHODS", "PATHS", "WORLDS", "GasMapsReproduction", "gas_group", "map_episode"]
+__all__ = [
+    "CITATIONS",
+    "METHODS",
+    "PATHS",
+    "WORLDS",
+    "GasMapsReproduction",
+    "gas_group",
+    "map_episode",
+]
+
+CITATIONS = (
+    Citation(
+        authors="Lilienthal, A. J.; Reggente, M.; Trincavelli, M.; Blanco, J. L.; Gonzalez, J.",
+        title=(
+            "A statistical approach to gas distribution modelling with mobile robots - the "
+            "Kernel DM+V algorithm"
+        ),
+        venue="IEEE/RSJ International Conference on Intelligent Robots and Systems (IROS), 570-576",
+        year=2009,
+        doi="10.1109/IROS.2009.5354304",
+    ),
+    Citation(
+        authors="Reggente, M.; Lilienthal, A. J.",
+        title=(
+            "Using local wind information for gas distribution mapping in outdoor environments "
+            "with a mobile robot"
+        ),
+        venue="IEEE Sensors 2009, 1715-1720",
+        year=2009,
+        doi="10.1109/ICSENS.2009.5398498",
+    ),
+    Citation(
+        authors="Asadi, S.; Fan, H.; Hernandez Bennetts, V.; Lilienthal, A. J.",
+        title="Time-dependent gas distribution modelling",
+        venue="Robotics and Autonomous Systems 96, 157-170",
+        year=2017,
+        doi="10.1016/j.robot.2017.05.012",
+    ),
+    Citation(
+        authors="Monroy, J. G.; Blanco, J.-L.; Gonzalez-Jimenez, J.",
+        title="Time-variant gas distribution mapping with obstacle information",
+        venue="Autonomous Robots 40(1), 1-16",
+        year=2016,
+        doi="10.1007/s10514-015-9437-0",
+    ),
+)
+"""The papers of the four maps: Kernel DM+V, Kernel DM+V/W, TD Kernel DM+V and the GMRF map."""
 
 #: world label -> scenario, time limit (s), map cell (m), truth frame period (s), path settings
 WORLDS: dict[str, dict[str, Any]] = {
@@ -215,6 +267,7 @@ class GasMapsReproduction(Reproduction):
 
     name = "gas-maps"
     paper = "Lilienthal 2009, Reggente 2009, Asadi 2017, Monroy 2016"
+    citations = CITATIONS
     summary = "gas maps (Kernel DM+V, DM+V/W, TD, GMRF) x 3 paths x 2 worlds vs the truth"
     default_episodes = 20
     paper_episodes = 30
