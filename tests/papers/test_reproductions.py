@@ -92,6 +92,35 @@ def test_console_tables_fit_100_columns(tmp_path) -> None:
             assert "…" not in c.export_text(), (name, tab.name, lines)
 
 
+@pytest.mark.parametrize("name", NAMES)
+def test_default_sweeps_pass_the_sweep_check(name) -> None:
+    """The full default run loads: every cell of every sweep passes the checks a sweep runs
+    before its first episode (e.g. a scenario that ends on a declaration refuses a searcher
+    that never declares)."""
+    from odorloc.experiments.sweep import SweepSpec, iter_cells
+    from odorloc.experiments.sweep_check import check_sweep
+
+    for key, raw in rp.get(name).sweeps(None, 1).items():
+        spec = SweepSpec.model_validate(raw)
+        assert check_sweep(spec, iter_cells(spec)) >= 1, key
+
+
+def test_gas_map_mission_ends_at_the_first_declaration() -> None:
+    from types import SimpleNamespace
+
+    from odorloc.papers.gas_maps.reproduction import mission_end
+
+    events = [
+        {"t": 3.0, "kind": "first_detection"},
+        {"t": 41.5, "kind": "declaration"},
+        {"t": 42.0, "kind": "declaration"},
+        {"t": 300.0, "kind": "end"},
+    ]
+    assert mission_end(SimpleNamespace(meta={"events": events})) == 41.5
+    assert mission_end(SimpleNamespace(meta={"events": events[:1] + events[-1:]})) is None
+    assert mission_end(SimpleNamespace(meta={})) is None
+
+
 #: Shorter episodes (s) for the reproductions whose single episode per cell would take minutes
 #: (144 virtual-physics cells of 20 simulated minutes; every MUC-OSL sweep point in two worlds;
 #: D-S mapping flights of up to 5 000 s; 36 single-agent episodes of 10-20 minutes): the path

@@ -571,6 +571,12 @@ class GaussianSourceTermParams(GaussianParams):
         Floor height (3-D reflection).
     release : float
         Rate of plain position hypotheses (not source terms).
+    bin_width : float, optional
+        Width of a reading's outcome class for planning (reading units); default
+        ``noise_std``.
+    max_classes : int
+        Most outcome classes of a reading for planning (below the threshold, bins, an open
+        last bin).
     """
 
     reading: Literal["censored", "gaussian", "detection"] = "censored"
@@ -727,6 +733,8 @@ class VergassolaSourceTermParams(Params):
         Wind speed (m/s; when not estimated), diffusivity (m^2/s, times the dispersion factor
         when estimated), particle lifetime (s).
     sensor_radius : float, metres
+        Sensor radius ``a``: sets the encounter rate and floors the distance to a source (in
+        2-D it must stay below the correlation length ``lambda``).
     background : float, 1/s
         Encounters per second without a source (when not estimated).
     release : float

@@ -70,6 +70,8 @@ class SourceTermPlannerParams(Params):
     n_plan : int
         Particles the scores are computed over (thinned from the posterior).
     ties : {"first", "random"}
+        Among moves of equal score, take the first in candidate order or one drawn uniformly
+        from the episode's generator.
     """
 
     directions: int = Field(8, ge=3, le=64)

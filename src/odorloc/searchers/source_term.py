@@ -53,6 +53,8 @@ class SourceTermSearchParams(Params):
     planner : dict
         ``{type: ste-infotaxis | ste-entrotaxis | ste-lawnmower, ...}``.
     declare : {"credible-region", "converged", "never"}
+        Declaration rule: the credible region within ``declare_radius``, the estimator's
+        convergence test, or none (the scenario ends the episode).
     declare_radius : float, metres
         The credible region must lie within this distance of the posterior mean.
     min_readings : int

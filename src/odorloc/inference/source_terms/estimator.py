@@ -80,6 +80,7 @@ class SourceTermParams(Params):
     Attributes
     ----------
     n_particles : int
+        Particles ``N`` of the posterior over source terms (fixed for the episode).
     region : ((x0, y0[, z0]), (x1, y1[, z1])), optional
         Box of the position prior (default: the task's search region, else the arena; a
         2-component box in 3-D keeps the arena's height).

@@ -4,9 +4,11 @@ Per world (``indoor-ventilated``: the ventilated room, 300 s; ``two-sources-farr
 sources in a meandering flow, 900 s) each episode's flow is recorded once and replayed to three
 exploration paths: the lawn-mower (``rectangular-wave``, lanes 0.5 m / 2 m apart, as many rounds
 as the time allows), a correlated ``random-walk`` and the D-S route (``ds-mapping``, which may end
-the mission early by its own stop rule). Every path's readings (one per 0.5 s) are mapped by each
+the mission early by its own stop rule). The scenarios end at their time limit (``task.end:
+limits``: the two other paths never declare); a path's mission ends at its first declaration, so
+its readings and its truth stop there. Every path's readings (one per 0.5 s) are mapped by each
 member of the ``gas_map`` family on the cells of the recorded plume frames (0.1 m indoors, 0.5 m
-in the Farrell world) and scored against the plume's concentration averaged over the episode
+in the Farrell world) and scored against the plume's concentration averaged over the mission
 (frames every 1 s / 2 s):
 
 * the readings are split into 10 s stretches of the path; every fifth stretch is held out for the
@@ -37,9 +39,62 @@ from typing import Any, ClassVar
 import numpy as np
 
 from odorloc.core.registry import register
-from odorloc.experiments.reproduction import Figure, Reproduction, ReproductionParams, Table
+from odorloc.experiments.reproduction import (
+    Citation,
+    Figure,
+    Reproduction,
+    ReproductionParams,
+    Table,
+)
 
-__all__ = ["METHODS", "PATHS", "WORLDS", "GasMapsReproduction", "gas_group", "map_episode"]
+__all__ = [
+    "CITATIONS",
+    "METHODS",
+    "PATHS",
+    "WORLDS",
+    "GasMapsReproduction",
+    "gas_group",
+    "map_episode",
+    "mission_end",
+]
+
+CITATIONS = (
+    Citation(
+        authors="Lilienthal, A. J.; Reggente, M.; Trincavelli, M.; Blanco, J. L.; Gonzalez, J.",
+        title=(
+            "A statistical approach to gas distribution modelling with mobile robots - the "
+            "Kernel DM+V algorithm"
+        ),
+        venue="IEEE/RSJ International Conference on Intelligent Robots and Systems (IROS), 570-576",
+        year=2009,
+        doi="10.1109/IROS.2009.5354304",
+    ),
+    Citation(
+        authors="Reggente, M.; Lilienthal, A. J.",
+        title=(
+            "Using local wind information for gas distribution mapping in outdoor environments "
+            "with a mobile robot"
+        ),
+        venue="IEEE Sensors 2009, 1715-1720",
+        year=2009,
+        doi="10.1109/ICSENS.2009.5398498",
+    ),
+    Citation(
+        authors="Asadi, S.; Fan, H.; Hernandez Bennetts, V.; Lilienthal, A. J.",
+        title="Time-dependent gas distribution modelling",
+        venue="Robotics and Autonomous Systems 96, 157-170",
+        year=2017,
+        doi="10.1016/j.robot.2017.05.012",
+    ),
+    Citation(
+        authors="Monroy, J. G.; Blanco, J.-L.; Gonzalez-Jimenez, J.",
+        title="Time-variant gas distribution mapping with obstacle information",
+        venue="Autonomous Robots 40(1), 1-16",
+        year=2016,
+        doi="10.1007/s10514-015-9437-0",
+    ),
+)
+"""The papers of the four maps: Kernel DM+V, Kernel DM+V/W, TD Kernel DM+V and the GMRF map."""
 
 #: world label -> scenario, time limit (s), map cell (m), truth frame period (s), path settings
 WORLDS: dict[str, dict[str, Any]] = {
@@ -112,14 +167,25 @@ def _prepare(sc: Any, task: Any) -> Any:
     return sc.model_copy(update={"recording": rc})
 
 
+def mission_end(rec: Any) -> float | None:
+    """Time of the recording's first declaration, s (``None``: it never declared)."""
+    ends = [float(e["t"]) for e in rec.meta.get("events", []) if e.get("kind") == "declaration"]
+    return min(ends) if ends else None
+
+
 def map_episode(
-    rec: Any, sc: Any, cell: float, chosen: dict[str, dict[str, float]] | None = None
+    rec: Any,
+    sc: Any,
+    cell: float,
+    chosen: dict[str, dict[str, float]] | None = None,
 ) -> dict[str, Any]:
     """Every map of one recorded episode: the truth, the held-out readings and per map label
     its built map, chosen parameters and scores (``chosen``: the parameters per map label, no
-    cross-validation)."""
+    cross-validation). The mission ends at the path's first declaration (the D-S route's stop
+    rule): readings and plume frames after it are left out."""
     from odorloc.experiments.gas_maps import (
         arena_of,
+        frame_grid,
         readings_from_recording,
         score_map,
         time_averaged_truth,
@@ -130,6 +196,12 @@ def map_episode(
     grid, truth = time_averaged_truth(rec)
     arena = arena_of(rec)
     readings = readings_from_recording(rec)
+    until = mission_end(rec)
+    if until is not None:
+        readings = readings.subset(readings.t <= until)
+        frames = np.asarray(rec.plume_t, float) <= until
+        if frames.any():
+            grid, truth = frame_grid(rec), np.asarray(rec.plume_frames, float)[frames].mean(0)
     fold = time_blocks(readings, HOLD_BLOCK, HOLD_EVERY)
     train, held = readings.subset(fold != 0), readings.subset(fold == 0)
     region = sc.task.region
@@ -215,6 +287,7 @@ class GasMapsReproduction(Reproduction):
 
     name = "gas-maps"
     paper = "Lilienthal 2009, Reggente 2009, Asadi 2017, Monroy 2016"
+    citations = CITATIONS
     summary = "gas maps (Kernel DM+V, DM+V/W, TD, GMRF) x 3 paths x 2 worlds vs the truth"
     default_episodes = 20
     paper_episodes = 30
@@ -242,7 +315,12 @@ class GasMapsReproduction(Reproduction):
                 "replay": True,
                 "keep_episodes": [0],
                 "scenarios": [
-                    {"name": w["scenario"], "label": world, "params": {"limits.time": limit}}
+                    {
+                        "name": w["scenario"],
+                        "label": world,
+                        # the maps are compared, not declarations: every path runs to the limit
+                        "params": {"limits.time": limit, "task.end": "limits"},
+                    }
                 ],
                 "searchers": [
                     {"name": name, "label": label, "params": dict(params)}

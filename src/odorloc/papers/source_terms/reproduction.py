@@ -37,6 +37,7 @@ import numpy as np
 
 from odorloc.core.registry import register
 from odorloc.experiments.reproduction import (
+    Citation,
     Figure,
     Reproduction,
     ReproductionParams,
@@ -45,7 +46,38 @@ from odorloc.experiments.reproduction import (
     fmt,
 )
 
-__all__ = ["MULTI_STE", "SourceTermsReproduction", "score_posterior", "ste_group"]
+__all__ = ["CITATIONS", "MULTI_STE", "SourceTermsReproduction", "score_posterior", "ste_group"]
+
+CITATIONS = (
+    Citation(
+        authors="Park, M.; Ladosz, P.; Oh, H.",
+        title=(
+            "Source Term Estimation Using Deep Reinforcement Learning With Gaussian Mixture "
+            "Model Feature Extraction for Mobile Sensors"
+        ),
+        venue="IEEE Robotics and Automation Letters",
+        year=2022,
+        note="volume, pages and DOI not checked against the publisher",
+    ),
+    Citation(
+        authors="Hutchinson, M.; Oh, H.; Chen, W.-H.",
+        title=(
+            "Entrotaxis as a strategy for autonomous search and source reconstruction in "
+            "turbulent conditions"
+        ),
+        venue="Information Fusion 42, 179-189",
+        year=2018,
+        doi="10.1016/j.inffus.2017.10.009",
+    ),
+    Citation(
+        authors="Staples, M.; Hugenholtz, C.; Serrano-Ramirez, A.; Barchyn, T. E.; Gao, M.",
+        title="A Comparison of Multiple Odor Source Localization Algorithms",
+        venue="Sensors 23(10), 4799",
+        year=2023,
+        doi="10.3390/s23104799",
+    ),
+)
+"""The benchmark setting of ``ste-gaussian``, entrotaxis, and the multi-source comparison."""
 
 SEARCH_SCENARIOS = ("ste-gaussian", "ste-vergassola-3d")
 MULTI_SCENARIOS = ("two-sources-farrell", "ste-three-sources-farrell")
@@ -456,6 +488,7 @@ class SourceTermsReproduction(Reproduction):
 
     name = "source-terms"
     paper = "Park & Oh RA-L 2022; Hutchinson et al. 2018; Sensors 2023 23(10) 4799"
+    citations = CITATIONS
     summary = "source-term searches, 95 % coverage, several sources beside the D-S map"
     default_episodes = 6
     paper_episodes = 200
