@@ -155,6 +155,15 @@ def test_every_reproduction_completes_with_one_episode(name, tmp_path, monkeypat
         monkeypatch.setattr(muc, "MECHANISM_EPISODES", 2)
         animate = functools.partial(team3d.animate_team_3d, max_frames=4)
         monkeypatch.setattr(team3d, "animate_team_3d", animate)
+    if name == "virtual-physics":
+        # its episode animation in 4 frames (not 120): drawn the same way (tests/viz/)
+        import functools
+
+        import odorloc.papers.virtual_physics.figures as vf
+
+        monkeypatch.setattr(
+            vf, "animate_groups", functools.partial(vf.animate_groups, max_frames=4)
+        )
     r = rp.get(name)
     if name in QUICK:
         r = _quick(r, QUICK[name])
