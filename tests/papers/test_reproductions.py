@@ -41,6 +41,10 @@ def test_reproduction_survives_degenerate_results(name, kind, tmp_path, monkeypa
 
         monkeypatch.setattr(muc, "_fig3", lambda seed, path, time_limit=None: _blank(path))
         monkeypatch.setattr(muc, "_mechanism", lambda seed, path, n, time_limit=None: _blank(path))
+    if hasattr(r, "map_seconds"):
+        # the flux maps and the plume check read no stored row (their numbers:
+        # tests/papers/virtual_physics/); a short map still draws every table and figure
+        r.map_seconds = MAP_SECONDS
     out = r.run(tmp_path, episodes=1, workers=1, seed=3, progress=False)
     assert out.failed_figures == [], out.failed_figures
     assert out.report is not None and out.report.is_file()
@@ -137,13 +141,20 @@ QUICK = {
 }
 
 
+#: Simulated seconds (s) of the flux maps of the reproductions that draw them, in these tests.
+MAP_SECONDS = 2.0
+
+
 def _quick(r, seconds: float):
     """``r`` with every episode cut at ``seconds``: through its own ``time_limit`` where it has
     one, else as an override of every scenario of its sweeps."""
     import inspect
 
     if "time_limit" in inspect.signature(type(r)).parameters:
-        return type(r)(time_limit=seconds)
+        quick = type(r)(time_limit=seconds)
+        if hasattr(quick, "map_seconds"):
+            quick.map_seconds = MAP_SECONDS
+        return quick
     sweeps = r.sweeps
 
     def short(episodes, seed):
@@ -159,9 +170,29 @@ def _quick(r, seconds: float):
 
 @pytest.mark.slow
 @pytest.mark.parametrize("name", NAMES)
-def test_every_reproduction_completes_with_one_episode(name, tmp_path) -> None:
+def test_every_reproduction_completes_with_one_episode(name, tmp_path, monkeypatch) -> None:
     """``odorloc reproduce NAME --episodes 1 --seed 1``: every figure, every table and a report
     that embeds the figures and the tables' titles."""
+    if name == "muc-osl":
+        # its mechanism figure from 2 episodes per variant (not 12) and Fig. 3's animation in
+        # 4 frames (not 80): drawn the same way, at a fraction of the cost
+        import functools
+
+        import odorloc.papers.muc_osl.reproduction as muc
+        import odorloc.viz.team3d as team3d
+
+        monkeypatch.setattr(muc, "MECHANISM_EPISODES", 2)
+        animate = functools.partial(team3d.animate_team_3d, max_frames=4)
+        monkeypatch.setattr(team3d, "animate_team_3d", animate)
+    if name == "virtual-physics":
+        # its episode animation in 4 frames (not 120): drawn the same way (tests/viz/)
+        import functools
+
+        import odorloc.papers.virtual_physics.figures as vf
+
+        monkeypatch.setattr(
+            vf, "animate_groups", functools.partial(vf.animate_groups, max_frames=4)
+        )
     r = rp.get(name)
     if name in QUICK:
         r = _quick(r, QUICK[name])

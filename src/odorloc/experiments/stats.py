@@ -455,6 +455,22 @@ def _paired(
     common = ga.index.intersection(gb.index).sort_values()
     a = ga.loc[common, metric].astype(float).to_numpy()
     b = gb.loc[common, metric].astype(float).to_numpy()
+    return _paired_values(a, b, cell_a, cell_b, metric, test, level, seed, n_boot)
+
+
+def _paired_values(
+    a: np.ndarray,
+    b: np.ndarray,
+    cell_a: str,
+    cell_b: str,
+    metric: str,
+    test: Literal["wilcoxon", "t"],
+    level: float,
+    seed: int,
+    n_boot: int,
+) -> dict[str, Any]:
+    """:func:`_paired` of the two cells' values of ``metric`` on their common episodes, in
+    episode order (``(n,)`` each)."""
     keep = ~(np.isnan(a) | np.isnan(b))
     a, b = a[keep], b[keep]
     d = a - b
@@ -505,16 +521,28 @@ def compare_searchers(
     rows = []
     order = "cell_index" if "cell_index" in df.columns else "cell_id"
     cells = df.sort_values(order).drop_duplicates("cell_id")[["cell_id", "world_key"]]
-    # each cell's episodes split off once (not once per pair and metric)
+    # each cell's episodes split off once (not once per pair and metric), as arrays in
+    # episode order: the pairs then meet by array lookups, not by pandas indexing
     frames = {cid: _ok(g).set_index("episode") for cid, g in df.groupby("cell_id", sort=False)}
+    values = {
+        cid: (f.index.to_numpy(), {m: f[m].astype(float).to_numpy() for m in metrics})
+        for cid, f in frames.items()
+        if f.index.is_unique
+    }
+
+    def pair(x: str, y: str, m: str) -> dict[str, Any]:
+        if x not in values or y not in values:  # an episode stored twice: pandas pairs them
+            return _paired(frames[x], frames[y], x, y, m, test, level, seed, 2000)
+        (ea, va), (eb, vb) = values[x], values[y]
+        _, ia, ib = np.intersect1d(ea, eb, assume_unique=True, return_indices=True)
+        return _paired_values(va[m][ia], vb[m][ib], x, y, m, test, level, seed, 2000)
+
     for wk, g in cells.groupby("world_key", sort=False):
         ids = list(g["cell_id"])
         for i in range(len(ids)):
             for j in range(i + 1, len(ids)):
                 for m in metrics:
-                    r = _paired(
-                        frames[ids[i]], frames[ids[j]], ids[i], ids[j], m, test, level, seed, 2000
-                    )
+                    r = pair(ids[i], ids[j], m)
                     r["world_key"] = wk
                     rows.append(r)
     return pd.DataFrame(rows)

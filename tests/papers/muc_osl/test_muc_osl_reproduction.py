@@ -27,6 +27,20 @@ def _small() -> MucOslReproduction:
     return MucOslReproduction(time_limit=20.0, values=VALUES)
 
 
+@pytest.fixture
+def few_frames(monkeypatch) -> None:
+    """The mechanism figure from 2 episodes per variant and Fig. 3's animation in 4 frames:
+    drawn as in a full run (the figures themselves: tests/viz/), at a fraction of the cost."""
+    import functools
+
+    import odorloc.papers.muc_osl.reproduction as muc
+    import odorloc.viz.team3d as team3d
+
+    monkeypatch.setattr(muc, "MECHANISM_EPISODES", 2)
+    animate = functools.partial(team3d.animate_team_3d, max_frames=4)
+    monkeypatch.setattr(team3d, "animate_team_3d", animate)
+
+
 def _rows(df: pd.DataFrame) -> pd.DataFrame:
     keep = df.drop(columns=[c for c in TIMING if c in df.columns])
     return keep.sort_values(["sweep", "cell_id", "episode"]).reset_index(drop=True)
@@ -47,7 +61,7 @@ def test_sweeps_of_the_reproduction() -> None:
     assert MucOslReproduction().sweeps(200, 1)["filament-particles"]["episodes"] == 200
 
 
-def test_small_run_stores_resumes_and_runs_only_some_sweeps(tmp_path) -> None:
+def test_small_run_stores_resumes_and_runs_only_some_sweeps(tmp_path, few_frames) -> None:
     rep = _small()
     first = rep.run(tmp_path, episodes=1, workers=1, progress=False)
     df = first.results
@@ -90,7 +104,7 @@ def test_small_run_stores_resumes_and_runs_only_some_sweeps(tmp_path) -> None:
         rep.run(tmp_path, episodes=1, workers=1, progress=False, only=["gaden"])
 
 
-def test_dask_cluster_gives_the_local_pools_rows(tmp_path) -> None:
+def test_dask_cluster_gives_the_local_pools_rows(tmp_path, few_frames) -> None:
     """Both worlds (the filament one replays its flows) on a LocalCluster of 2 workers."""
     pytest.importorskip("distributed")
     import logging
