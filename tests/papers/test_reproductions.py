@@ -141,17 +141,36 @@ QUICK = {
 }
 
 
+#: Sweep points kept in these tests where a reproduction takes them (``values``): two per MUC-OSL
+#: sweep (lines and slopes still have two points) instead of all 29, in both worlds.
+QUICK_VALUES = {
+    "muc-osl": {
+        "area": [(60.0, 60.0, 30.0), (100.0, 60.0, 30.0)],
+        "uavs": [1, 3],
+        "radius": [0.0, 10.0],
+        "particles": [20, 100],
+    }
+}
+
+
 #: Simulated seconds (s) of the flux maps of the reproductions that draw them, in these tests.
 MAP_SECONDS = 2.0
 
 
 def _quick(r, seconds: float):
     """``r`` with every episode cut at ``seconds``: through its own ``time_limit`` where it has
-    one, else as an override of every scenario of its sweeps."""
+    one, else as an override of every scenario of its sweeps; its sweeps cut to
+    :data:`QUICK_VALUES` where it takes ``values``."""
     import inspect
 
-    if "time_limit" in inspect.signature(type(r)).parameters:
-        quick = type(r)(time_limit=seconds)
+    params = inspect.signature(type(r)).parameters
+    if "time_limit" in params:
+        extra = (
+            {"values": QUICK_VALUES[r.name]}
+            if "values" in params and r.name in QUICK_VALUES
+            else {}
+        )
+        quick = type(r)(time_limit=seconds, **extra)
         if hasattr(quick, "map_seconds"):
             quick.map_seconds = MAP_SECONDS
         return quick
