@@ -24,6 +24,7 @@ reproduction are imported.
 from __future__ import annotations
 
 import math
+import numbers
 import shutil
 import time
 import traceback
@@ -132,7 +133,8 @@ def check_time_limit(value: object, field: str = "time_limit") -> float | None:
     ``True`` would silently run 1 s episodes."""
     if value is None:
         return None
-    if isinstance(value, bool) or not isinstance(value, int | float):
+    # NumPy's scalars are numbers.Real too; a bool (Python's or NumPy's) is not a duration
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
         raise ConfigError(field, f"must be a finite number of seconds > 0, got {value!r}")
     if not (math.isfinite(value) and value > 0):
         raise ConfigError(field, f"must be a finite number of seconds > 0, got {value!r}")
