@@ -410,7 +410,9 @@ def run(
     rec.meta.update(searcher=sc.searcher.type, seed=sc.seed, episode=episode)
     title = stored.cell_id if stored is not None else f"{sc.name} — {sc.searcher.type}"
     seed_text = "" if stored is not None else f"seed {sc.seed}, "
-    table = Table(title=escape(f"{title} — {seed_text}episode {episode}"))
+    # the title on a line of its own: a table's title wraps to the table's narrow width
+    console.print(escape(f"{title} — {seed_text}episode {episode}"), style="bold")
+    table = Table()
     table.add_column("metric")
     table.add_column("value", justify="right")
     if stored is not None:
