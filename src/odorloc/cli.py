@@ -726,6 +726,13 @@ def reproduce(
             "by commas); the others' stored rows are still shown."
         ),
     ] = None,
+    points: Annotated[
+        str,
+        typer.Option(
+            help="all, or default: every method at the default point of each world only (a "
+            "reproduction over points; e.g. with --episodes 200)."
+        ),
+    ] = "all",
     list_: Annotated[
         bool,
         typer.Option(
@@ -796,6 +803,7 @@ def reproduce(
             scheduler=scheduler,
             only=parts,
             progress=progress,
+            points=points,
         )
     except ConfigError as exc:
         # the stores and the cluster are the command's --out and --scheduler
@@ -806,7 +814,7 @@ def reproduce(
                     "use another store path", "use another --out folder or the seed it holds"
                 ),
             )
-        elif exc.field in ("scheduler", "out"):
+        elif exc.field in ("scheduler", "out", "points"):
             exc = ConfigError(f"--{exc.field}", exc.problem)
         _fail(str(exc))
         return

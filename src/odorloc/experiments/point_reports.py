@@ -18,12 +18,13 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, ClassVar
 
 import numpy as np
 
+from odorloc.core.errors import ConfigError
 from odorloc.experiments.claims import (
     POINT_COLUMNS,
     Cells,
@@ -303,6 +304,15 @@ class PointsReproduction(Reproduction):
     limit: float = 1200.0
     at: float = 1200.0
     note: str = ""
+    has_points = True
+    #: Run only the default point of each world (:meth:`select_points`).
+    default_only: bool = False
+
+    def select_points(self, points: str) -> None:
+        super().select_points(points)
+        if points == "default" and self.default_point is None:
+            raise ConfigError("points", f"{self.name} names no default point")
+        self.default_only = points == "default"
 
     def worlds(self) -> list[World]:
         """The worlds, in running order."""
@@ -341,7 +351,20 @@ class PointsReproduction(Reproduction):
         return out
 
     def _worlds(self) -> list[World]:
-        return [w for w in self.worlds() if w.sweeps]
+        worlds = [w for w in self.worlds() if w.sweeps]
+        if not self.default_only:
+            return worlds
+        # every sweep cut to its value at the default point (a sweep without it is left out)
+        out = []
+        for w in worlds:
+            cut = []
+            for s in w.sweeps:
+                at = tuple(v for v in s.values if s.setting(v) == self.default_point)
+                if at:
+                    cut.append(replace(s, values=at))
+            if cut:
+                out.append(replace(w, sweeps=cut))
+        return out
 
     def points(self, df: Any) -> dict[str, Points]:
         """The points of every world with sweeps."""

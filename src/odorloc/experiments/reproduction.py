@@ -220,6 +220,22 @@ class Reproduction:
         reproduction; a reproduction of several sweeps overrides :meth:`sweeps` instead."""
         raise TypeError(f"{type(self).__name__} runs several sweeps: call sweeps()")
 
+    #: Whether the reproduction sweeps points around a default one (``points="default"``).
+    has_points: ClassVar[bool] = False
+
+    def select_points(self, points: str) -> None:
+        """Keep ``"all"`` points (the only choice here) or only the ``"default"`` one.
+
+        Raises
+        ------
+        ConfigError
+            Naming ``points`` for another value, or ``"default"`` where there are no points.
+        """
+        if points not in ("all", "default"):
+            raise ConfigError("points", f"must be 'all' or 'default', got {points!r}")
+        if points == "default" and not self.has_points:
+            raise ConfigError("points", f"{self.name} sweeps no points around a default one")
+
     def sweeps(self, episodes: int | None, seed: int) -> dict[str, dict[str, Any]]:
         """The reproduction's sweeps by name, in running order; each is stored in
         ``<name>.sqlite``.
@@ -289,6 +305,7 @@ class Reproduction:
         backend: str = "local",
         scheduler: str | None = None,
         only: Sequence[str] | None = None,
+        points: str = "all",
     ) -> Outcome:
         """Run (or resume) the reproduction and write tables, figures and the report to ``out``.
 
@@ -307,6 +324,10 @@ class Reproduction:
         only : sequence of str, optional
             Run only these sweeps (a name selects the sweep of that name and those named
             ``<name>-...``); the others contribute the rows already in their stores.
+        points : {"all", "default"}
+            ``"default"``: run every method at the default point of each world only (a
+            reproduction over points, :attr:`has_points`), e.g. to give that one point the
+            paper's episode count.
         """
         import pandas as pd
         from rich.console import Console
@@ -317,6 +338,7 @@ class Reproduction:
 
         if episodes is not None and int(episodes) < 1:
             raise ConfigError("episodes", f"must be >= 1, got {episodes}")
+        self.select_points(points)
         specs = {name: load_sweep(spec) for name, spec in self.sweeps(episodes, seed).items()}
         chosen = select_sweeps(list(specs), only)
         out = Path(out)

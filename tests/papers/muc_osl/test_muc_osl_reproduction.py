@@ -61,6 +61,29 @@ def test_sweeps_of_the_reproduction() -> None:
     assert MucOslReproduction().sweeps(200, 1)["filament-particles"]["episodes"] == 200
 
 
+def test_the_default_point_alone_runs_every_method_there_and_nothing_else() -> None:
+    rep = MucOslReproduction()
+    rep.select_points("default")
+    full, cut = MucOslReproduction().sweeps(None, 2024), rep.sweeps(200, 2024)
+    assert list(cut) == list(SWEEPS)
+    for name in ("rate", "filament"):
+        # one world (the default one) with every method of the full sweep
+        assert len(cut[name]["scenarios"]) == 1 and cut[name]["episodes"] == 200
+        assert cut[name]["scenarios"][0] in full[name]["scenarios"]
+        assert not cut[name]["scenarios"][0]["params"]  # the scenario as it is
+        assert cut[name]["searchers"] == full[name]["searchers"]
+    # no other particle count; the ablation stays
+    labels = [s["label"] for s in cut["rate-particles"]["searchers"]]
+    assert labels == ["muc-osl-no-env-pu"]
+
+
+@pytest.mark.parametrize("points", ["some", ""])
+def test_points_other_than_all_or_default_are_refused(tmp_path, points) -> None:
+    with pytest.raises(ConfigError, match=r"^points: must be 'all' or 'default'"):
+        _small().run(tmp_path / "out", episodes=1, workers=1, progress=False, points=points)
+    assert not (tmp_path / "out").exists()
+
+
 def test_small_run_stores_resumes_and_runs_only_some_sweeps(tmp_path, few_frames) -> None:
     rep = _small()
     first = rep.run(tmp_path, episodes=1, workers=1, progress=False)
@@ -149,6 +172,16 @@ def test_cli_names_an_unknown_sweep(tmp_path) -> None:
     )  # fmt: skip
     assert r.returncode == 2 and r.stderr.strip() == "error: --only: names no sweep"
     assert not (tmp_path / "x").exists()
+    # --points default needs a reproduction over points
+    r = subprocess.run(
+        [sys.executable, "-m", "odorloc.cli", "reproduce", "single-agent", "--points", "default",
+         "--out", str(tmp_path / "y")],
+        capture_output=True, text=True, timeout=120,
+    )  # fmt: skip
+    assert r.returncode == 2 and not (tmp_path / "y").exists()
+    assert r.stderr.strip() == (
+        "error: --points: single-agent sweeps no points around a default one"
+    )
 
 
 def test_least_favourable_comparison_is_the_largest_shortfall() -> None:
