@@ -17,6 +17,7 @@ Given the points of a world (:class:`~odorloc.experiments.claims.Points`), the p
 from __future__ import annotations
 
 import math
+import textwrap
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -390,9 +391,12 @@ class PointsReproduction(Reproduction):
                 self.statements,
                 w.console,
             )
-            out, long = out + t, long + rows
+            # with the default point alone, its table says all the sweep tables would
+            out, long = (out if self.default_only else out + t), long + rows
             if self.default_point is not None:
-                out.append(self._default_table(points[w.name], w.name, seed))
+                table = self._default_table(points[w.name], w.name, seed)
+                if table.rows:  # a world whose episodes are not (yet) run
+                    out.append(table)
         out += self.extra_tables(df, points, seed)
         return [*out, *claims_tables(self.claims(points, seed)), points_table(long, self.at)]
 
@@ -418,19 +422,24 @@ class PointsReproduction(Reproduction):
             return []
         points, worlds = self.points(df), self._worlds()
         first = points[worlds[0].name]
-        figs = sweep_figures(
-            first,
-            worlds[0].sweeps,
-            self.methods,
-            self.names,
-            self.colors,
-            seed,
-            worlds[0].name,
-            self.figure_files,
-            self.limit,
-            self.categorical,
+        # one point per sweep draws no curve: the comparison figure shows it
+        figs = (
+            []
+            if self.default_only
+            else sweep_figures(
+                first,
+                worlds[0].sweeps,
+                self.methods,
+                self.names,
+                self.colors,
+                seed,
+                worlds[0].name,
+                self.figure_files,
+                self.limit,
+                self.categorical,
+            )
         )
-        for w in worlds[1:]:
+        for w in [] if self.default_only else worlds[1:]:
             panels = [(f"{s.figure}: {s.xlabel}", s.values, s.setting, s.tick) for s in w.sweeps]
             title = f"Success against time, {w.name} world"
 
@@ -447,10 +456,15 @@ class PointsReproduction(Reproduction):
                 )
             )
         if self.default_point is not None:
-            rows = [(f"{w.name} world", points[w.name], self.default_point) for w in worlds]
+            every = (*self.methods, *self.extra_methods)
+            rows = [
+                (f"{w.name} world", points[w.name], self.default_point)
+                for w in worlds
+                if any(len(points[w.name].one(self.default_point, m)) for m in every)
+            ]
             entries = [
-                (m, self.names.get(m, m).replace(" ", "\n", 1), self.colors.get(m, "0.6"))
-                for m in (*self.methods, *self.extra_methods)
+                (m, textwrap.fill(self.names.get(m, m), 10), self.colors.get(m, "0.6"))
+                for m in every
             ]
 
             def compare(p: Path) -> None:
@@ -458,11 +472,12 @@ class PointsReproduction(Reproduction):
                     rows, entries, p, seed, "Default point (95 % intervals)", self.limit
                 )
 
-            figs.append(
-                Figure(
-                    "comparison.png",
-                    "Default point: success rate and mean time of every method",
-                    compare,
+            if rows:
+                figs.append(
+                    Figure(
+                        "comparison.png",
+                        "Default point: success rate and mean time of every method",
+                        compare,
+                    )
                 )
-            )
         return figs + self.extra_figures(df, points, seed)

@@ -225,7 +225,8 @@ def evaluate_claims(
     paper's is ``undecided``, not ``not held``).
     """
     rng = np.random.default_rng([seed, 15])
-    by = {sw.key: sw for sw in rate_sweeps}
+    # a trend needs two values of its sweep (one: the default point alone was run)
+    by = {sw.key: sw for sw in rate_sweeps if len(sw.values) > 1}
     points = list(dict.fromkeys(s for sw in rate_sweeps for s in sw.settings()))
     out: list[Claim] = []
     for method in ("muc-osl", "muc-osl-printed"):
@@ -256,7 +257,8 @@ def evaluate_claims(
     for method in ("muc-osl", "muc-osl-printed", NO_ENV_PU):
         if len(rate.one(DEFAULT, method)):
             out += _energy(rate, method, rng)
-    if filament is not None and filament_sweeps:
+    # a filament world without episodes (``--only rate``) addresses none of its statements
+    if filament is not None and filament_sweeps and len(filament.one(DEFAULT, "muc-osl")):
         out += _filament(filament, rate, filament_sweeps, at, rng)
         if len(filament.one(DEFAULT, NO_ENV_PU)):
             out += _best(filament, "filament", [DEFAULT], NO_ENV_PU, rng)

@@ -26,7 +26,7 @@ from odorloc.experiments import point_reports as R
 from odorloc.experiments.claims import Claim, Points
 from odorloc.experiments.reproduction import Figure, ReproductionParams, Table
 from odorloc.experiments.store import agent_values
-from odorloc.experiments.variants import restrict
+from odorloc.experiments.variants import Sweep, restrict
 from odorloc.papers.muc_osl import reference as ref
 from odorloc.papers.muc_osl import sweeps as S
 from odorloc.papers.muc_osl.claims import LABELS, evaluate_claims
@@ -165,18 +165,22 @@ class MucOslReproduction(R.PointsReproduction):
             for a, v in ref.LARGEST_AREA_SUCCESS.items()
         }
 
+    def _run_sweeps(self, world: str) -> list[Sweep]:
+        """A world's sweeps as run (cut to the default point by ``points="default"``)."""
+        return next((list(w.sweeps) for w in self._worlds() if w.name == world), [])
+
     def claims(self, points: Mapping[str, Points], seed: int) -> list[Claim]:
         if "rate" not in points:
             return []
         fil = points.get("filament")
-        return evaluate_claims(
-            points["rate"], self.rate_sweeps, fil, self.filament_sweeps, self.at, seed
-        )
+        rate_sweeps, filament_sweeps = self._run_sweeps("rate"), self._run_sweeps("filament")
+        return evaluate_claims(points["rate"], rate_sweeps, fil, filament_sweeps, self.at, seed)
 
     def extra_tables(self, df: Any, points: Mapping[str, Points], seed: int) -> list[Table]:
         out = []
-        if "filament" in points:
-            settings = list(dict.fromkeys(s for sw in self.filament_sweeps for s in sw.settings()))
+        if "filament" in points and len(points["filament"].one(S.DEFAULT, "muc-osl")):
+            run = self._run_sweeps("filament")
+            settings = list(dict.fromkeys(s for sw in run for s in sw.settings()))
             out.append(
                 R.success_by_table(
                     "filament_sr8",
