@@ -160,6 +160,23 @@ class MeasurementHistory:
             "exponents": self._exponents[order],
         }
 
+    def held(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Read-only views of the readings held, in storage order (a bounded history's ring is
+        not unrolled): ``counts (K,)``, ``positions (K, d)``, ``dts (K,)``, ``directions (K, d)``
+        (NaN rows: the model's default) and ``exponents (K,)``. For compiled evaluations that
+        take the checked readings as they are stored; valid until the next :meth:`append`."""
+        n = self._n
+        views = (
+            self._counts[:n],
+            self._positions[:n],
+            self._dts[:n],
+            self._directions[:n],
+            self._exponents[:n],
+        )
+        for v in views:
+            v.flags.writeable = False
+        return views
+
     def _order(self) -> np.ndarray:
         n = self._n
         return (np.arange(n) + self._next) % n if n else np.arange(0)

@@ -44,6 +44,7 @@ from odorloc.core.params import NonNegative, Params, Positive
 from odorloc.core.registry import ComponentRef, Ref, register
 from odorloc.core.types import Payload, SearchContext
 from odorloc.inference.belief import ParticleBelief
+from odorloc.inference.particles import colpf_kernels
 from odorloc.inference.particles.adaptive_count import CueDistanceCount, spacing_minimum
 from odorloc.inference.particles.collaborative import (
     MeasurementMessage,
@@ -371,6 +372,25 @@ class ColPFEstimator(TeamEstimator):
         self.support = PriorSupport(ctx.arena, ctx.search_region)
         #: proposals and acceptances of the reversible moves so far, per kind
         self.moves = {"env": [0, 0], "col": [0, 0]}
+        self._compiled = self._compiled_setup(ctx, model)
+
+    def _compiled_setup(self, ctx: SearchContext, model: MeasurementModel) -> tuple | None:
+        """The model's constants and the prior's support box for the compiled path
+        (:mod:`~odorloc.inference.particles.colpf_kernels`), or ``None``: that path needs a
+        3-D model with compiled kernels (``kernel_constants``) and an arena without
+        obstacles (its free space a box)."""
+        get = getattr(model, "kernel_constants", None)
+        consts = get() if callable(get) else None
+        if consts is None or ctx.dim != 3 or ctx.arena.occ is not None:
+            return None
+        lo = np.array(ctx.arena.lo, float)
+        hi = np.array(ctx.arena.hi, float)
+        region = ctx.search_region
+        if region is not None:
+            k = len(region[0])
+            lo[:k] = np.maximum(lo[:k], np.asarray(region[0], float))
+            hi[:k] = np.minimum(hi[:k], np.asarray(region[1], float))
+        return (*consts, lo, hi)
 
     def update(
         self, m: Measurement, inbox: Mapping[int, Payload], rng: np.random.Generator
@@ -400,10 +420,16 @@ class ColPFEstimator(TeamEstimator):
                 for f, b in zip(fits, betas, strict=True)
             ),
         ]
-        ll = _readings_log_likelihood(self.model, readings, pf.positions)
-        pf.update(ll)
-        for reading in readings:
-            self.history.append(*reading)
+        if self._compiled is None:
+            ll = _readings_log_likelihood(self.model, readings, pf.positions)
+            pf.update(ll)
+            for reading in readings:
+                self.history.append(*reading)
+        else:
+            # the history checks each reading as it takes it; the kernel trusts them
+            for reading in readings:
+                self.history.append(*reading)
+            pf.update(self._compiled_log_likelihood(readings, pf.positions))
         evaluated = pf.n * len(readings)
         pf.resample_if_needed(rng, n=self.target_n)
         if p.pugl_move == "reversible":
@@ -489,6 +515,8 @@ class ColPFEstimator(TeamEstimator):
                 )
         if not env and proposal is None:
             return n_s, 0
+        if self._compiled is not None:
+            return n_s, self._compiled_moves(m, sel, env, proposal, rng)
 
         def target(points: np.ndarray) -> np.ndarray:
             return self.history.log_likelihood(self.model, points)
@@ -512,6 +540,101 @@ class ColPFEstimator(TeamEstimator):
         x[sel] = xs
         pf.replace(x, pf.log_weights)
         return n_s, judged
+
+    def _compiled_log_likelihood(self, readings: list[Reading], x: np.ndarray) -> np.ndarray:
+        """:func:`_readings_log_likelihood` in one compiled pass (readings already checked)."""
+        aq, adv, inv_lam, a2, default, _, _ = self._compiled
+        d = x.shape[1]
+        nan = np.full(d, np.nan)
+        return colpf_kernels.readings_log_likelihood(
+            np.ascontiguousarray(x),
+            np.array([r[1] for r in readings], float).reshape(len(readings), d),
+            np.array([nan if r[3] is None else r[3] for r in readings], float),
+            np.array([r[0] for r in readings], float),
+            np.array([r[2] for r in readings], float),
+            np.array([r[4] for r in readings], float),
+            default,
+            aq,
+            adv,
+            inv_lam,
+            a2,
+        )
+
+    def _compiled_moves(
+        self,
+        m: Measurement,
+        sel: np.ndarray,
+        env: bool,
+        proposal: tuple[np.ndarray, np.ndarray] | None,
+        rng: np.random.Generator,
+    ) -> int:
+        """:meth:`_pugl_reversible`'s moves in one compiled pass
+        (:func:`~odorloc.inference.particles.colpf_kernels.reversible_moves`); the random
+        numbers drawn here with the calls, in the order, of
+        :func:`~odorloc.inference.particles.pugl.reversible_env_move` and
+        :func:`~odorloc.inference.particles.pugl.reversible_col_move`. Returns the history
+        evaluations."""
+        p = self.params
+        pf = self.pf
+        aq, adv, inv_lam, a2, default, lo, hi = self._compiled
+        n_s = len(sel)
+        d = pf.positions.shape[1]
+        up = np.zeros(d)
+        env_draws = np.zeros((0, 3))
+        env_on = False
+        if env:
+            self.moves["env"][0] += n_s
+            up[:2] = -np.asarray(m.direction, float)[:2]
+            norm = math.hypot(up[0], up[1])
+            # no horizontal wind: no env-pu proposal (and no draws), as the NumPy move
+            if norm >= 1e-12:
+                up /= norm
+                env_on = True
+                env_draws = rng.random((n_s, 3))
+        centre, chol = np.zeros(d), np.eye(d)
+        normals, uniforms = np.zeros((0, d)), np.zeros(0)
+        if proposal is not None:
+            self.moves["col"][0] += n_s
+            centre = np.asarray(proposal[0], float)
+            try:
+                chol = np.linalg.cholesky(np.asarray(proposal[1], float))
+            except np.linalg.LinAlgError:
+                raise ConfigError(
+                    "cov", "the col-pu proposal needs a positive definite covariance"
+                ) from None
+            normals = rng.standard_normal((n_s, d))
+            uniforms = rng.random(n_s)
+        counts, where, dts, dirs, exps = self.history.held()
+        x = pf.positions.copy()
+        moved, env_acc, col_acc, evaluated = colpf_kernels.reversible_moves(
+            np.ascontiguousarray(x[sel]),
+            where,
+            dirs,
+            counts,
+            dts,
+            exps,
+            default,
+            aq,
+            adv,
+            inv_lam,
+            a2,
+            lo,
+            hi,
+            env_on,
+            up,
+            float(p.env_step),
+            env_draws,
+            proposal is not None,
+            centre,
+            chol,
+            normals,
+            uniforms,
+        )
+        self.moves["env"][1] += int(env_acc)
+        self.moves["col"][1] += int(col_acc)
+        x[sel] = moved
+        pf.replace(x, pf.log_weights)
+        return int(evaluated)
 
     def acceptance(self) -> dict[str, float]:
         """Share of the reversible moves accepted so far, per kind (NaN before any)."""

@@ -1,0 +1,283 @@
+"""Compiled kernels of one Col-PF iteration (multi-UAV paper, Algorithm 1) for the 3-D
+Vergassola model (numba).
+
+A UAV's Col-PF update weighs ``N`` particles by a few readings (eqs. 10-14) and then moves
+``N_s`` of them by Metropolis-Hastings moves judged against the whole measurement history
+(eqs. 15-17, :mod:`~odorloc.inference.particles.pugl`). In NumPy each of those steps is a dozen
+array calls on small arrays, checked one by one; here each is one compiled pass over raw arrays:
+
+- :func:`readings_log_likelihood`: ``sum_k e_k log Poisson(d_k | R(s_k; x_n) dt_k)`` (eqs. 1, 3,
+  11, 13) of readings stored as the history stores them (wind directions not yet made unit, NaN
+  rows for the model's own direction, ``log d!`` taken here);
+- :func:`reversible_moves`: PUGL's two reversible moves of the selected particles, env-pu
+  (eq. 16, upwind or downwind along the wind axis) then col-pu (eq. 17, an independence
+  proposal around ``gbest``), each accepted with the Metropolis-Hastings probability against
+  the history, a proposal outside the prior's support rejected unevaluated.
+
+Random numbers are drawn by the caller from the episode's :class:`numpy.random.Generator`
+with the same calls, in the same order, as the NumPy path draws them, and passed in: the same
+seed gives the same episode on either path (within round-off) and on any number of workers.
+
+The readings are those already checked by
+:class:`~odorloc.inference.particles.history.MeasurementHistory` when they were appended; the
+kernels do not check them again. Both equal their NumPy references (the model's
+:meth:`~odorloc.models.vergassola.VergassolaModel.weighted_log_likelihood` and
+:func:`~odorloc.inference.particles.pugl.reversible_env_move` /
+:func:`~odorloc.inference.particles.pugl.reversible_col_move`) within round-off (1e-9
+relative), not to the bit: the C library's ``exp``, ``log`` and ``lgamma``, sums in reading
+order.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from odorloc.core.jit import jit
+
+__all__ = ["readings_log_likelihood", "reversible_moves", "unit_rows"]
+
+
+@jit
+def unit_rows(raw: np.ndarray, default: np.ndarray) -> np.ndarray:
+    """Unit rows of ``raw`` ``(K, 3)``; an all-NaN row takes ``default`` (a unit vector)."""
+    k, d = raw.shape
+    out = np.empty((k, d))
+    for j in range(k):
+        if math.isnan(raw[j, 0]):
+            for a in range(d):
+                out[j, a] = default[a]
+            continue
+        s = 0.0
+        for a in range(d):
+            s += raw[j, a] * raw[j, a]
+        s = math.sqrt(s)
+        for a in range(d):
+            out[j, a] = raw[j, a] / s
+    return out
+
+
+@jit
+def _point_log_likelihood(
+    px: float,
+    py: float,
+    pz: float,
+    s: np.ndarray,
+    e: np.ndarray,
+    counts: np.ndarray,
+    log_fact: np.ndarray,
+    scale: np.ndarray,
+    exponents: np.ndarray,
+    aq: float,
+    adv: float,
+    inv_lam: float,
+    a2: float,
+) -> float:
+    """The weighted log-likelihood of the readings for one source hypothesis."""
+    acc = 0.0
+    for j in range(s.shape[0]):
+        if exponents[j] == 0.0:
+            continue
+        dx = s[j, 0] - px
+        dy = s[j, 1] - py
+        dz = s[j, 2] - pz
+        r2 = dx * dx + dy * dy + dz * dz
+        along = dx * e[j, 0] + dy * e[j, 1] + dz * e[j, 2]
+        if r2 < a2:
+            r2 = a2
+        r = math.sqrt(r2)
+        expo = along * adv - r * inv_lam
+        mu = scale[j] * aq * math.exp(expo) / r
+        v = -mu - log_fact[j]
+        if counts[j] != 0.0:
+            v += counts[j] * (math.log(scale[j] * aq) + expo - math.log(r))
+        acc += exponents[j] * v
+    return acc
+
+
+@jit
+def _log_factorials(counts: np.ndarray) -> np.ndarray:
+    out = np.empty(counts.shape[0])
+    for j in range(counts.shape[0]):
+        out[j] = math.lgamma(counts[j] + 1.0)
+    return out
+
+
+@jit
+def readings_log_likelihood(
+    x: np.ndarray,
+    s: np.ndarray,
+    directions: np.ndarray,
+    counts: np.ndarray,
+    dts: np.ndarray,
+    exponents: np.ndarray,
+    default: np.ndarray,
+    aq: float,
+    adv: float,
+    inv_lam: float,
+    a2: float,
+) -> np.ndarray:
+    """``sum_k e_k log Poisson(d_k | R(s_k; x_n) dt_k)`` of every hypothesis, ``(N,)``.
+
+    Parameters
+    ----------
+    x : (N, 3) ndarray, metres
+        Source hypotheses.
+    s : (K, 3) ndarray, metres
+        Where each reading was taken.
+    directions : (K, 3) ndarray
+        Wind direction of each reading (made unit here; an all-NaN row: ``default``).
+    counts, dts, exponents : (K,) ndarray
+        Counts, exposures (s) and the exponents ``e_k`` (1 for an own reading, ``beta`` for a
+        neighbour's).
+    default : (3,) ndarray
+        The model's unit wind direction.
+    aq, adv, inv_lam, a2 : float
+        ``a Q``, ``V / (2 D)`` (1/m), ``1 / lambda`` (1/m) and ``a^2`` (m^2) of eq. 1.
+    """
+    e = unit_rows(directions, default)
+    lf = _log_factorials(counts)
+    n = x.shape[0]
+    out = np.empty(n)
+    for i in range(n):
+        out[i] = _point_log_likelihood(
+            x[i, 0], x[i, 1], x[i, 2], s, e, counts, lf, dts, exponents, aq, adv, inv_lam, a2
+        )
+    return out
+
+
+@jit
+def _inside(p: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> bool:
+    # a loop, not all() over a generator: numba compiles no generator expressions
+    for a in range(p.shape[0]):  # noqa: SIM110
+        if not (lo[a] <= p[a] <= hi[a]):
+            return False
+    return True
+
+
+@jit
+def reversible_moves(
+    xs: np.ndarray,
+    s: np.ndarray,
+    directions: np.ndarray,
+    counts: np.ndarray,
+    dts: np.ndarray,
+    exponents: np.ndarray,
+    default: np.ndarray,
+    aq: float,
+    adv: float,
+    inv_lam: float,
+    a2: float,
+    lo: np.ndarray,
+    hi: np.ndarray,
+    env: bool,
+    upwind: np.ndarray,
+    step: float,
+    env_draws: np.ndarray,
+    col: bool,
+    centre: np.ndarray,
+    chol: np.ndarray,
+    normals: np.ndarray,
+    col_uniforms: np.ndarray,
+) -> tuple[np.ndarray, int, int, int]:
+    """PUGL's reversible moves of the selected particles (eqs. 16-17) against the history.
+
+    Parameters
+    ----------
+    xs : (S, 3) ndarray, metres
+        The selected particles (not modified).
+    s, directions, counts, dts, exponents, default, aq, adv, inv_lam, a2
+        The measurement history and the model, as :func:`readings_log_likelihood`.
+    lo, hi : (3,) ndarray, metres
+        The prior's support: a box (its bounds included).
+    env : bool
+        Propose env-pu.
+    upwind : (3,) ndarray
+        Unit horizontal direction against the wind.
+    step : float, metres
+        Largest env-pu step.
+    env_draws : (S, 3) ndarray
+        Uniforms: the step fraction, the side (upwind below 0.5), the acceptance.
+    col : bool
+        Propose col-pu.
+    centre : (3,) ndarray, metres
+        ``gbest``.
+    chol : (3, 3) ndarray
+        Lower Cholesky factor of the proposal's covariance.
+    normals : (S, 3) ndarray
+        Standard normals of the col-pu proposals.
+    col_uniforms : (S,) ndarray
+        Uniforms of the col-pu acceptance.
+
+    Returns
+    -------
+    positions : (S, 3) ndarray, metres
+    env_accepted, col_accepted : int
+    evaluated : int
+        History evaluations (the selected particles' own, then every proposal in the support).
+    """
+    m, d = xs.shape
+    e = unit_rows(directions, default)
+    lf = _log_factorials(counts)
+    out = xs.copy()
+    ll = np.empty(m)
+    for i in range(m):
+        ll[i] = _point_log_likelihood(
+            out[i, 0], out[i, 1], out[i, 2], s, e, counts, lf, dts, exponents, aq, adv, inv_lam, a2
+        )
+    evaluated = m
+    env_acc = 0
+    col_acc = 0
+    prop = np.empty(d)
+    if env:
+        for i in range(m):
+            side = 1.0 if env_draws[i, 1] < 0.5 else -1.0
+            f = side * step * env_draws[i, 0]
+            for a in range(d):
+                prop[a] = out[i, a] + f * upwind[a]
+            if not _inside(prop, lo, hi):
+                continue
+            evaluated += 1
+            new = _point_log_likelihood(
+                prop[0], prop[1], prop[2], s, e, counts, lf, dts, exponents, aq, adv, inv_lam, a2
+            )
+            u = env_draws[i, 2]
+            log_u = math.log(u) if u > 0.0 else -math.inf
+            if log_u < new - ll[i]:
+                for a in range(d):
+                    out[i, a] = prop[a]
+                ll[i] = new
+                env_acc += 1
+    if col:
+        back = np.empty(d)
+        for i in range(m):
+            zz = 0.0
+            for a in range(d):
+                v = centre[a]
+                for b in range(a + 1):
+                    v += chol[a, b] * normals[i, b]
+                prop[a] = v
+                zz += normals[i, a] * normals[i, a]
+            if not _inside(prop, lo, hi):
+                continue
+            # log q(x) - log q(x'): chol^-1 (x - g) by forward substitution
+            bb = 0.0
+            for a in range(d):
+                v = out[i, a] - centre[a]
+                for b in range(a):
+                    v -= chol[a, b] * back[b]
+                back[a] = v / chol[a, a]
+                bb += back[a] * back[a]
+            evaluated += 1
+            new = _point_log_likelihood(
+                prop[0], prop[1], prop[2], s, e, counts, lf, dts, exponents, aq, adv, inv_lam, a2
+            )
+            u = col_uniforms[i]
+            log_u = math.log(u) if u > 0.0 else -math.inf
+            if log_u < new - ll[i] + (-0.5 * bb + 0.5 * zz):
+                for a in range(d):
+                    out[i, a] = prop[a]
+                ll[i] = new
+                col_acc += 1
+    return out, env_acc, col_acc, evaluated
