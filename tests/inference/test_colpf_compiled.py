@@ -17,6 +17,7 @@ from odorloc.core.types import SearchContext
 from odorloc.geometry.arena import Arena
 from odorloc.inference.particles import colpf_kernels
 from odorloc.inference.particles.collaborative import fit_payload
+from odorloc.inference.particles.constraints import ArenaConstraint
 from odorloc.inference.particles.history import MeasurementHistory
 from odorloc.inference.particles.pugl import (
     PriorSupport,
@@ -24,7 +25,9 @@ from odorloc.inference.particles.pugl import (
     reversible_col_move,
     reversible_env_move,
 )
+from odorloc.inference.particles.resampling import SystematicParams, SystematicResampler
 from odorloc.inference.particles.team_estimators import ColPFEstimator, ColPFParams, Measurement
+from odorloc.inference.weights import gaussian_fit, kl_gaussians, normalise_log_weights
 from odorloc.models.vergassola import VergassolaModel, VergassolaModelParams
 
 UPPER = (100.0, 60.0, 30.0)
@@ -169,6 +172,8 @@ def _run_updates(model: VergassolaModel, seed: int, params: ColPFParams) -> list
                 est.target_n,
                 dict(est.moves),
                 est.processed,
+                est.pf.n_resamples,
+                dict(est.betas),
             )
         )
     return out
@@ -189,11 +194,15 @@ def test_a_whole_update_equals_the_numpy_update(cue_first: bool) -> None:
         np.testing.assert_allclose(b[1], a[1], rtol=RTOL, atol=1e-300)
         np.testing.assert_allclose(b[2], a[2], rtol=RTOL, atol=0)
         np.testing.assert_allclose(b[3], a[3], rtol=RTOL, atol=1e-9 * float(np.abs(a[3]).max()))
-        assert a[4:7] == b[4:7]
-        assert a[7] == b[7]
+        assert a[4:9] == b[4:9]
+        assert b[9].keys() == a[9].keys()
+        for sender, beta in a[9].items():
+            assert b[9][sender] == pytest.approx(beta, rel=RTOL)
     # both kinds of move were proposed and judged
     moves = ref[-1][6]
     assert moves["env"][0] > 0 and moves["col"][0] > 0 and moves["col"][1] > 0
+    # the particle count changed (eq. 18) and the set was resampled more than once
+    assert ref[-1][8] > 1 and len({len(r[1]) for r in ref}) > 1
 
 
 def test_the_compiled_update_is_deterministic_per_seed() -> None:
@@ -216,3 +225,51 @@ def test_kernel_constants_only_with_the_compiled_backend() -> None:
     assert inv_lam == pytest.approx(1 / numba_model.length)
     np.testing.assert_array_equal(default, [0.0, -1.0, 0.0])
     assert math.isclose(float(np.linalg.norm(default)), 1.0)
+
+
+def test_kl_kernel_equals_the_numpy_divergences() -> None:
+    """eq. 10's divergence from one fit to several: near-equal, far apart, elongated fits."""
+    rng = np.random.default_rng(4)
+    for _ in range(20):
+        a = rng.normal(0.0, 3.0, (4, 3, 3))
+        covs = np.einsum("hij,hkj->hik", a, a) + 0.1 * np.eye(3)
+        means = rng.normal(0.0, 10.0, (4, 3))
+        ref = kl_gaussians(means[0], covs[0], means[1:], covs[1:])
+        got, ok = colpf_kernels.kl_divergences(means[0], covs[0], means[1:], covs[1:], 1e-9)
+        assert ok
+        np.testing.assert_allclose(got, ref, rtol=RTOL, atol=1e-12)
+    # a covariance that is not positive definite is reported, not used
+    bad = -np.eye(3)[None]
+    assert not colpf_kernels.kl_divergences(means[0], covs[0], means[1:2], bad, 1e-9)[1]
+
+
+@pytest.mark.parametrize("target", [37, 160])
+def test_resampling_kernel_equals_the_low_variance_resampler(target: int) -> None:
+    """Low-variance resampling to a new count, roughened and kept in the arena (walls near)."""
+    rng = np.random.default_rng(6)
+    arena = Arena.box((0.0, 0.0, 0.0), UPPER, 2.0)
+    x = np.clip(SRC + rng.normal(0.0, [30.0, 20.0, 12.0], (120, 3)), 0.0, UPPER)
+    lw = rng.normal(0.0, 2.0, 120)
+    resampler = SystematicResampler(SystematicParams(jitter_std=1.0))
+    ref, _ = resampler.resample(
+        x, lw, np.random.default_rng(2), n=target, constraint=ArenaConstraint(arena)
+    )
+    k_rng = np.random.default_rng(2)
+    u0 = k_rng.random()
+    noise = k_rng.normal(0.0, 1.0, size=(target, 3))
+    w = normalise_log_weights(lw)[1]
+    got = colpf_kernels.resample_systematic(
+        x, w, target, u0, noise, np.array(arena.lo, float), np.array(arena.hi, float)
+    )
+    np.testing.assert_allclose(got, ref, rtol=RTOL, atol=0)
+    assert (got == 0.0).any() or (got == np.array(UPPER)).any()  # some copies clipped
+
+
+def test_fit_kernel_equals_the_numpy_fit() -> None:
+    rng = np.random.default_rng(12)
+    x = rng.normal(20.0, [5.0, 8.0, 2.0], (150, 3))
+    w = normalise_log_weights(rng.normal(0.0, 1.5, 150))[1]
+    mean, cov = gaussian_fit(x, w)
+    got_mean, got_cov = colpf_kernels.weighted_fit(x, w)
+    np.testing.assert_allclose(got_mean, mean, rtol=RTOL, atol=0)
+    np.testing.assert_allclose(got_cov, cov, rtol=RTOL, atol=1e-12)

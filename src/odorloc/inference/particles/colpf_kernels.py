@@ -9,10 +9,19 @@ array calls on small arrays, checked one by one; here each is one compiled pass 
 - :func:`readings_log_likelihood`: ``sum_k e_k log Poisson(d_k | R(s_k; x_n) dt_k)`` (eqs. 1, 3,
   11, 13) of readings stored as the history stores them (wind directions not yet made unit, NaN
   rows for the model's own direction, ``log d!`` taken here);
+- :func:`kl_divergences`: the divergences of eq. 10 between the UAV's fit and its neighbours'
+  (through Cholesky factors);
+- :func:`resample_systematic`: low-variance resampling to the count eq. 18 chose, with the
+  resampler's Gaussian roughening clipped into the arena;
 - :func:`reversible_moves`: PUGL's two reversible moves of the selected particles, env-pu
   (eq. 16, upwind or downwind along the wind axis) then col-pu (eq. 17, an independence
   proposal around ``gbest``), each accepted with the Metropolis-Hastings probability against
-  the history, a proposal outside the prior's support rejected unevaluated.
+  the history, a proposal outside the prior's support rejected unevaluated;
+- :func:`weighted_fit`: the Gaussian fit of eqs. 19-20.
+
+An update is these passes in order (:meth:`~odorloc.inference.particles.team_estimators.
+ColPFEstimator.update` with a model that has compiled kernels), with Python between them only
+to draw the random numbers and to read the messages.
 
 Random numbers are drawn by the caller from the episode's :class:`numpy.random.Generator`
 with the same calls, in the same order, as the NumPy path draws them, and passed in: the same
@@ -20,12 +29,14 @@ seed gives the same episode on either path (within round-off) and on any number 
 
 The readings are those already checked by
 :class:`~odorloc.inference.particles.history.MeasurementHistory` when they were appended; the
-kernels do not check them again. Both equal their NumPy references (the model's
-:meth:`~odorloc.models.vergassola.VergassolaModel.weighted_log_likelihood` and
+kernels do not check them again. Each equals its NumPy reference (the model's
+:meth:`~odorloc.models.vergassola.VergassolaModel.weighted_log_likelihood`,
+:func:`~odorloc.inference.weights.kl_gaussians`, the low-variance resampler,
 :func:`~odorloc.inference.particles.pugl.reversible_env_move` /
-:func:`~odorloc.inference.particles.pugl.reversible_col_move`) within round-off (1e-9
-relative), not to the bit: the C library's ``exp``, ``log`` and ``lgamma``, sums in reading
-order.
+:func:`~odorloc.inference.particles.pugl.reversible_col_move` and
+:func:`~odorloc.inference.weights.gaussian_fit`) within round-off (1e-9 relative), not to the
+bit: the C library's ``exp``, ``log`` and ``lgamma``, sums in reading order, Cholesky factors
+instead of LU.
 """
 
 from __future__ import annotations
@@ -36,7 +47,14 @@ import numpy as np
 
 from odorloc.core.jit import jit
 
-__all__ = ["readings_log_likelihood", "reversible_moves", "unit_rows"]
+__all__ = [
+    "kl_divergences",
+    "readings_log_likelihood",
+    "resample_systematic",
+    "reversible_moves",
+    "unit_rows",
+    "weighted_fit",
+]
 
 
 @jit
@@ -281,3 +299,147 @@ def reversible_moves(
                 ll[i] = new
                 col_acc += 1
     return out, env_acc, col_acc, evaluated
+
+
+@jit
+def _cholesky(a: np.ndarray, out: np.ndarray) -> bool:
+    """Lower Cholesky factor of ``a`` ``(d, d)`` into ``out``; ``False`` if not positive
+    definite."""
+    d = a.shape[0]
+    for i in range(d):
+        for j in range(i + 1):
+            s = a[i, j]
+            for k in range(j):
+                s -= out[i, k] * out[j, k]
+            if i == j:
+                if not s > 0.0:
+                    return False
+                out[i, i] = math.sqrt(s)
+            else:
+                out[i, j] = s / out[j, j]
+        for j in range(i + 1, d):
+            out[i, j] = 0.0
+    return True
+
+
+@jit
+def _forward(chol: np.ndarray, b: np.ndarray, out: np.ndarray) -> None:
+    """``chol^-1 b`` of a vector ``b`` into ``out`` (forward substitution)."""
+    d = chol.shape[0]
+    for a in range(d):
+        v = b[a]
+        for c in range(a):
+            v -= chol[a, c] * out[c]
+        out[a] = v / chol[a, a]
+
+
+@jit
+def kl_divergences(
+    mean0: np.ndarray, cov0: np.ndarray, means1: np.ndarray, covs1: np.ndarray, jitter: float
+) -> tuple[np.ndarray, bool]:
+    """``KL(N0 || N1_h)`` to each of ``H`` Gaussians, nats (eq. 10's divergence), and whether
+    every covariance (``jitter`` m^2 added to its diagonal) was positive definite.
+
+    ``0.5 [tr(S1^-1 S0) + dm^T S1^-1 dm - d + ln det S1 - ln det S0]`` through Cholesky
+    factors; equal to :func:`~odorloc.inference.weights.kl_gaussians` within round-off.
+    """
+    d = mean0.shape[0]
+    h = means1.shape[0]
+    out = np.zeros(h)
+    s0 = cov0.copy()
+    for a in range(d):
+        s0[a, a] += jitter
+    l0 = np.empty((d, d))
+    if not _cholesky(s0, l0):
+        return out, False
+    logdet0 = 0.0
+    for a in range(d):
+        logdet0 += 2.0 * math.log(l0[a, a])
+    s1 = np.empty((d, d))
+    l1 = np.empty((d, d))
+    col = np.empty(d)
+    sol = np.empty(d)
+    for j in range(h):
+        for a in range(d):
+            for b in range(d):
+                s1[a, b] = covs1[j, a, b]
+            s1[a, a] += jitter
+        if not _cholesky(s1, l1):
+            return out, False
+        logdet1 = 0.0
+        for a in range(d):
+            logdet1 += 2.0 * math.log(l1[a, a])
+        # tr(S1^-1 S0) = ||L1^-1 L0||_F^2
+        tr = 0.0
+        for b in range(d):
+            for a in range(d):
+                col[a] = l0[a, b]
+            _forward(l1, col, sol)
+            for a in range(d):
+                tr += sol[a] * sol[a]
+        for a in range(d):
+            col[a] = means1[j, a] - mean0[a]
+        _forward(l1, col, sol)
+        quad = 0.0
+        for a in range(d):
+            quad += sol[a] * sol[a]
+        out[j] = 0.5 * (tr + quad - d + logdet1 - logdet0)
+    return out, True
+
+
+@jit
+def resample_systematic(
+    x: np.ndarray,
+    w: np.ndarray,
+    m: int,
+    u0: float,
+    noise: np.ndarray,
+    lo: np.ndarray,
+    hi: np.ndarray,
+) -> np.ndarray:
+    """Low-variance (systematic) resampling to ``m`` particles with Gaussian roughening, as
+    :class:`~odorloc.inference.particles.resampling.SystematicResampler` with the arena's
+    box constraint does it: pointers ``(u0 + k) / m`` into the cumulative weights (its last
+    entry taken as 1), each copy moved by its row of ``noise`` (``(m, d)`` metres; an empty
+    array: exact copies) and clipped into ``[lo, hi]``."""
+    n, d = x.shape
+    cdf = np.empty(n)
+    acc = 0.0
+    for i in range(n):
+        acc += w[i]
+        cdf[i] = acc
+    cdf[n - 1] = 1.0
+    out = np.empty((m, d))
+    rough = noise.shape[0] > 0
+    i = 0
+    for k in range(m):
+        ptr = (u0 + k) / m
+        # the first index whose cumulative weight exceeds the pointer (numpy.searchsorted,
+        # side "right"); the pointers increase, so the search continues where it stopped
+        while i < n - 1 and not cdf[i] > ptr:
+            i += 1
+        for a in range(d):
+            v = x[i, a]
+            if rough:
+                v += noise[k, a]
+                v = min(max(v, lo[a]), hi[a])
+            out[k, a] = v
+    return out
+
+
+@jit
+def weighted_fit(x: np.ndarray, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Mean ``(d,)`` and covariance ``(d, d)`` of weighted particles (eqs. 19-20; weights
+    summing to one), as :func:`~odorloc.inference.weights.gaussian_fit`."""
+    n, d = x.shape
+    mean = np.zeros(d)
+    for j in range(n):
+        for a in range(d):
+            mean[a] += w[j] * x[j, a]
+    cov = np.zeros((d, d))
+    for j in range(n):
+        for a in range(d):
+            da = w[j] * (x[j, a] - mean[a])
+            for b in range(d):
+                cov[a, b] += da * (x[j, b] - mean[b])
+    return mean, cov

@@ -23,6 +23,7 @@ doubling its arrays.
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -101,14 +102,17 @@ class MeasurementHistory:
         exponent : float
             The power its likelihood entered the weights with (``>= 0``).
         """
+        # checked number by number: a filter appends a few readings per iteration, and array
+        # reductions on 3-vectors cost more than the arithmetic
         pos = np.asarray(position, float).reshape(-1)
-        if pos.shape != (self.dim,) or not np.all(np.isfinite(pos)):
+        if pos.shape != (self.dim,) or not all(map(math.isfinite, pos.tolist())):
             raise ConfigError("position", f"needs a finite {self.dim}-vector, got {pos}")
-        if not (np.isfinite(dt) and dt > 0):
+        dt, exponent, count = float(dt), float(exponent), float(count)
+        if not (math.isfinite(dt) and dt > 0):
             raise ConfigError("dt", f"the exposure time must be a finite number > 0, got {dt}")
-        if not (np.isfinite(exponent) and exponent >= 0):
+        if not (math.isfinite(exponent) and exponent >= 0):
             raise ConfigError("exponent", f"must be a finite number >= 0, got {exponent}")
-        if not (np.isfinite(count) and count >= 0):
+        if not (math.isfinite(count) and count >= 0):
             raise ConfigError("count", f"must be a finite number >= 0, got {count}")
         if self._n < len(self._counts):
             i = self._n

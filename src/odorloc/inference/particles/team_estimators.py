@@ -71,9 +71,13 @@ from odorloc.inference.particles.pugl import (
     reversible_col_move,
     reversible_env_move,
 )
-from odorloc.inference.particles.resampling import Resampler
+from odorloc.inference.particles.resampling import Resampler, SystematicResampler
 from odorloc.inference.weights import normalise_log_weights
 from odorloc.models.base import MeasurementModel
+
+#: Added to the diagonals of both fits in eq. 10's divergence (m^2), as
+#: :func:`~odorloc.inference.weights.kl_gaussians` does by default.
+KL_JITTER = 1e-9
 
 __all__ = [
     "ColPFEstimator",
@@ -385,12 +389,14 @@ class ColPFEstimator(TeamEstimator):
             return None
         lo = np.array(ctx.arena.lo, float)
         hi = np.array(ctx.arena.hi, float)
+        arena_lo, arena_hi = lo.copy(), hi.copy()
         region = ctx.search_region
         if region is not None:
             k = len(region[0])
             lo[:k] = np.maximum(lo[:k], np.asarray(region[0], float))
             hi[:k] = np.minimum(hi[:k], np.asarray(region[1], float))
-        return (*consts, lo, hi)
+        # the prior's support (PUGL), then the arena's bounds (the resampler's constraint)
+        return (*consts, lo, hi, arena_lo, arena_hi)
 
     def update(
         self, m: Measurement, inbox: Mapping[int, Payload], rng: np.random.Generator
@@ -402,12 +408,16 @@ class ColPFEstimator(TeamEstimator):
         mean_i, cov_i = self.fit
         if p.weighting == "confidence":
             d = len(mean_i)
-            betas = confidence_factors(
-                mean_i,
-                cov_i,
-                np.array([f.mean for f in fits]).reshape(len(fits), d),
-                np.array([f.cov for f in fits]).reshape(len(fits), d, d),
-            )
+            means = np.array([f.mean for f in fits]).reshape(len(fits), d)
+            covs = np.array([f.cov for f in fits]).reshape(len(fits), d, d)
+            betas = None
+            if self._compiled is not None and fits:
+                kl, ok = colpf_kernels.kl_divergences(mean_i, cov_i, means, covs, KL_JITTER)
+                # KL >= 0 in exact arithmetic; round-off may leave -1e-12 (eq. 10)
+                betas = np.exp(-np.maximum(kl, 0.0)) if ok else None
+            if betas is None:
+                # the NumPy factors, which also say what is wrong with a covariance
+                betas = confidence_factors(mean_i, cov_i, means, covs)
         else:
             betas = np.ones(len(fits))
         self.betas = {f.sender: float(b) for f, b in zip(fits, betas, strict=True)}
@@ -431,7 +441,10 @@ class ColPFEstimator(TeamEstimator):
                 self.history.append(*reading)
             pf.update(self._compiled_log_likelihood(readings, pf.positions))
         evaluated = pf.n * len(readings)
-        pf.resample_if_needed(rng, n=self.target_n)
+        if self._compiled is not None and type(pf.resampler) is SystematicResampler:
+            self._compiled_resample(rng)
+        else:
+            pf.resample_if_needed(rng, n=self.target_n)
         if p.pugl_move == "reversible":
             self.n_moved, judged = self._pugl_reversible(m, fits, betas, rng)
         else:
@@ -440,7 +453,10 @@ class ColPFEstimator(TeamEstimator):
         if p.adaptive_count:
             dist = float(np.linalg.norm(m.position - pf.estimate()))
             self.target_n = self.counter.next(pf.n, self.cue_iterations, m.k, dist)
-        self.fit = pf.gaussian()
+        if self._compiled is not None:
+            self.fit = colpf_kernels.weighted_fit(pf.positions, pf.weights)
+        else:
+            self.fit = pf.gaussian()
         received = sum(f.mean.size + f.cov.size + f.position.size + 2 for f in fits)
         self.processed = float(
             (evaluated + judged * len(self.history)) * (d + 1) + self.n_moved * d + received
@@ -541,9 +557,29 @@ class ColPFEstimator(TeamEstimator):
         pf.replace(x, pf.log_weights)
         return n_s, judged
 
+    def _compiled_resample(self, rng: np.random.Generator) -> None:
+        """``pf.resample_if_needed(rng, n=target_n)`` with the low-variance resampler in one
+        compiled pass (:func:`~odorloc.inference.particles.colpf_kernels.resample_systematic`),
+        drawing the offset and then the roughening as the resampler does."""
+        pf = self.pf
+        target = int(self.target_n)
+        if target == pf.n and not pf.needs_resampling():
+            return
+        if target < 1:
+            raise ConfigError("n", f"the target particle count must be >= 1, got {target}")
+        d = pf.positions.shape[1]
+        u0 = rng.random()
+        std = float(pf.resampler.params.jitter_std)  # type: ignore[union-attr]
+        noise = rng.normal(0.0, std, size=(target, d)) if std > 0 else np.zeros((0, d))
+        # the weights as the resampler reads them: from the log-weights
+        w = normalise_log_weights(pf.log_weights)[1]
+        lo, hi = self._compiled[7], self._compiled[8]
+        x = colpf_kernels.resample_systematic(pf.positions, w, target, u0, noise, lo, hi)
+        pf.replace(x, np.full(target, -math.log(target)), resampled=True)
+
     def _compiled_log_likelihood(self, readings: list[Reading], x: np.ndarray) -> np.ndarray:
         """:func:`_readings_log_likelihood` in one compiled pass (readings already checked)."""
-        aq, adv, inv_lam, a2, default, _, _ = self._compiled
+        aq, adv, inv_lam, a2, default = self._compiled[:5]
         d = x.shape[1]
         nan = np.full(d, np.nan)
         return colpf_kernels.readings_log_likelihood(
@@ -576,7 +612,7 @@ class ColPFEstimator(TeamEstimator):
         evaluations."""
         p = self.params
         pf = self.pf
-        aq, adv, inv_lam, a2, default, lo, hi = self._compiled
+        aq, adv, inv_lam, a2, default, lo, hi = self._compiled[:7]
         n_s = len(sel)
         d = pf.positions.shape[1]
         up = np.zeros(d)
