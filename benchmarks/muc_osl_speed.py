@@ -546,6 +546,7 @@ def _time_split(episodes: int) -> tuple[float, dict[str, float]]:
     and, inside those, the compiled kernels (the arithmetic; the rest is interpreter work on
     small arrays). Timers wrap the functions for this measurement only."""
     import odorloc.engine.episode as engine
+    import odorloc.inference.particles.colpf_kernels as colpf_kernels
     import odorloc.inference.particles.team_estimators as estimators
     import odorloc.models.kernels as model_kernels
     import odorloc.planning.adaptive as adaptive
@@ -570,7 +571,7 @@ def _time_split(episodes: int) -> tuple[float, dict[str, float]]:
     wrap(engine.Episode, "step", "engine step")
     wrap(estimators.ColPFEstimator, "update", "update")
     wrap(adaptive.AdaptivePathPlanner, "plan", "plan")
-    for mod in (model_kernels, planning_kernels):
+    for mod in (model_kernels, planning_kernels, colpf_kernels):
         for name in list(vars(mod)):
             if type(getattr(mod, name)).__name__ == "CPUDispatcher":
                 wrap(mod, name, "kernels")

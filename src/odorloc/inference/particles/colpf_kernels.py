@@ -177,6 +177,7 @@ def _inside(p: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> bool:
 @jit
 def reversible_moves(
     xs: np.ndarray,
+    ll_in: np.ndarray,
     s: np.ndarray,
     directions: np.ndarray,
     counts: np.ndarray,
@@ -198,13 +199,16 @@ def reversible_moves(
     chol: np.ndarray,
     normals: np.ndarray,
     col_uniforms: np.ndarray,
-) -> tuple[np.ndarray, int, int, int]:
+) -> tuple[np.ndarray, np.ndarray, int, int, int]:
     """PUGL's reversible moves of the selected particles (eqs. 16-17) against the history.
 
     Parameters
     ----------
     xs : (S, 3) ndarray, metres
         The selected particles (not modified).
+    ll_in : (S,) ndarray
+        The history's log-likelihood at ``xs`` (:func:`readings_log_likelihood`, or kept from
+        the last iteration plus this iteration's readings).
     s, directions, counts, dts, exponents, default, aq, adv, inv_lam, a2
         The measurement history and the model, as :func:`readings_log_likelihood`.
     lo, hi : (3,) ndarray, metres
@@ -231,20 +235,18 @@ def reversible_moves(
     Returns
     -------
     positions : (S, 3) ndarray, metres
+    log_likelihood : (S,) ndarray
+        The history's log-likelihood at the new positions.
     env_accepted, col_accepted : int
     evaluated : int
-        History evaluations (the selected particles' own, then every proposal in the support).
+        History evaluations of proposals (those in the support).
     """
     m, d = xs.shape
     e = unit_rows(directions, default)
     lf = _log_factorials(counts)
     out = xs.copy()
-    ll = np.empty(m)
-    for i in range(m):
-        ll[i] = _point_log_likelihood(
-            out[i, 0], out[i, 1], out[i, 2], s, e, counts, lf, dts, exponents, aq, adv, inv_lam, a2
-        )
-    evaluated = m
+    ll = ll_in.copy()
+    evaluated = 0
     env_acc = 0
     col_acc = 0
     prop = np.empty(d)
@@ -298,7 +300,7 @@ def reversible_moves(
                     out[i, a] = prop[a]
                 ll[i] = new
                 col_acc += 1
-    return out, env_acc, col_acc, evaluated
+    return out, ll, env_acc, col_acc, evaluated
 
 
 @jit

@@ -59,6 +59,7 @@ class MeasurementHistory:
         self._n = 0  # readings held
         self._next = 0  # the oldest reading of a full bounded history (overwritten next)
         self._total = 0  # readings ever appended
+        self._version = 0  # changes (appends and clears) ever made
 
     def _alloc(self, size: int) -> None:
         self._counts = np.zeros(size)
@@ -135,16 +136,29 @@ class MeasurementHistory:
         self._exponents[i] = exponent
         self._prepared = self._prepared_for = None
         self._total += 1
+        self._version += 1
 
     def clear(self) -> None:
         """Forget every reading."""
         self._n = self._next = self._total = 0
         self._prepared = self._prepared_for = None
+        self._version += 1
 
     # ----------------------------------------------------------------- reading
     def __len__(self) -> int:
         """Readings held (at most ``capacity``)."""
         return self._n
+
+    @property
+    def version(self) -> int:
+        """Changes made since construction (each :meth:`append` and :meth:`clear` counts; never
+        reset): what a cache of evaluations against the history is keyed by."""
+        return self._version
+
+    @property
+    def dropped(self) -> bool:
+        """``True`` once a bounded history has let a reading drop out."""
+        return self._total > self._n
 
     @property
     def total(self) -> int:

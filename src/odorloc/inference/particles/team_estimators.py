@@ -377,6 +377,9 @@ class ColPFEstimator(TeamEstimator):
         #: proposals and acceptances of the reversible moves so far, per kind
         self.moves = {"env": [0, 0], "col": [0, 0]}
         self._compiled = self._compiled_setup(ctx, model)
+        # the compiled path's history log-likelihood of every particle: (positions, values,
+        # history version) while the particles have not moved and no reading dropped out
+        self._known: tuple[np.ndarray, np.ndarray, int] | None = None
 
     def _compiled_setup(self, ctx: SearchContext, model: MeasurementModel) -> tuple | None:
         """The model's constants and the prior's support box for the compiled path
@@ -437,9 +440,16 @@ class ColPFEstimator(TeamEstimator):
                 self.history.append(*reading)
         else:
             # the history checks each reading as it takes it; the kernel trusts them
+            before = self.history.version
             for reading in readings:
                 self.history.append(*reading)
-            pf.update(self._compiled_log_likelihood(readings, pf.positions))
+            ll = self._compiled_log_likelihood(readings, pf.positions)
+            pf.update(ll)
+            known = self._known
+            self._known = None
+            if known is not None and known[2] == before and not self.history.dropped:
+                # the history's log-likelihood grows by this iteration's readings (eq. 13)
+                self._known = (known[0], known[1] + ll, self.history.version)
         evaluated = pf.n * len(readings)
         if self._compiled is not None and type(pf.resampler) is SystematicResampler:
             self._compiled_resample(rng)
@@ -642,8 +652,16 @@ class ColPFEstimator(TeamEstimator):
             uniforms = rng.random(n_s)
         counts, where, dts, dirs, exps = self.history.held()
         x = pf.positions.copy()
-        moved, env_acc, col_acc, evaluated = colpf_kernels.reversible_moves(
+        hist = (where, dirs, counts, dts, exps, default, aq, adv, inv_lam, a2)
+        known = self._known
+        if known is not None and known[2] == self.history.version and np.array_equal(known[0], x):
+            ll = known[1]
+        else:
+            # every particle's, once: kept for the next iterations while they stay put
+            ll = colpf_kernels.readings_log_likelihood(x, *hist)
+        moved, ll_moved, env_acc, col_acc, evaluated = colpf_kernels.reversible_moves(
             np.ascontiguousarray(x[sel]),
+            ll[sel],
             where,
             dirs,
             counts,
@@ -669,8 +687,13 @@ class ColPFEstimator(TeamEstimator):
         self.moves["env"][1] += int(env_acc)
         self.moves["col"][1] += int(col_acc)
         x[sel] = moved
+        ll = ll.copy()
+        ll[sel] = ll_moved
         pf.replace(x, pf.log_weights)
-        return int(evaluated)
+        self._known = (x, ll, self.history.version)
+        # the work of eq. 7 as the NumPy path counts it: the selected particles, then every
+        # proposal in the support
+        return n_s + int(evaluated)
 
     def acceptance(self) -> dict[str, float]:
         """Share of the reversible moves accepted so far, per kind (NaN before any)."""
