@@ -192,6 +192,8 @@ def _run_updates(model: VergassolaModel, seed: int, params: ColPFParams) -> list
         # never resampled: the history's log-likelihood is carried from one iteration to the next
         {"adaptive_count": False, "resample_threshold": 0.0},
         {"history": 20},
+        # col-pu alone: after the first cue nothing moves, and resampling changes the count
+        {"env_pu": "off"},
     ],
 )
 def test_a_whole_update_equals_the_numpy_update(settings: dict) -> None:
@@ -213,6 +215,9 @@ def test_a_whole_update_equals_the_numpy_update(settings: dict) -> None:
             assert b[9][sender] == pytest.approx(beta, rel=RTOL)
     # both kinds of move were proposed and judged
     moves = ref[-1][6]
+    if params.env_pu == "off":
+        assert moves["env"][0] == 0 and moves["col"][0] > 0
+        return
     assert moves["env"][0] > 0 and moves["col"][0] > 0 and moves["col"][1] > 0
     if params.adaptive_count:
         # the particle count changed (eq. 18) and the set was resampled more than once

@@ -447,7 +447,12 @@ class ColPFEstimator(TeamEstimator):
             pf.update(ll)
             known = self._known
             self._known = None
-            if known is not None and known[2] == before and not self.history.dropped:
+            if (
+                known is not None
+                and known[2] == before
+                and not self.history.dropped
+                and np.array_equal(known[0], pf.positions)
+            ):
                 # the history's log-likelihood grows by this iteration's readings (eq. 13)
                 self._known = (known[0], known[1] + ll, self.history.version)
         evaluated = pf.n * len(readings)
