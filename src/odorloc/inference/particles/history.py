@@ -179,21 +179,20 @@ class MeasurementHistory:
         }
 
     def held(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """Read-only views of the readings held, in storage order (a bounded history's ring is
-        not unrolled): ``counts (K,)``, ``positions (K, d)``, ``dts (K,)``, ``directions (K, d)``
+        """Views of the readings held, in storage order (a bounded history's ring is not
+        unrolled): ``counts (K,)``, ``positions (K, d)``, ``dts (K,)``, ``directions (K, d)``
         (NaN rows: the model's default) and ``exponents (K,)``. For compiled evaluations that
-        take the checked readings as they are stored; valid until the next :meth:`append`."""
+        take the checked readings as they are stored: read them, never write (they are left
+        writable so that a kernel sees one array type, compiled once); valid until the next
+        :meth:`append`."""
         n = self._n
-        views = (
+        return (
             self._counts[:n],
             self._positions[:n],
             self._dts[:n],
             self._directions[:n],
             self._exponents[:n],
         )
-        for v in views:
-            v.flags.writeable = False
-        return views
 
     def _order(self) -> np.ndarray:
         n = self._n

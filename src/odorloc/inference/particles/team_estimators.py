@@ -598,7 +598,8 @@ class ColPFEstimator(TeamEstimator):
         d = x.shape[1]
         nan = np.full(d, np.nan)
         return colpf_kernels.readings_log_likelihood(
-            np.ascontiguousarray(x),
+            # a writable copy: the kernel is compiled for one array type (the moves pass theirs)
+            np.array(x, float, order="C"),
             np.array([r[1] for r in readings], float).reshape(len(readings), d),
             np.array([nan if r[3] is None else r[3] for r in readings], float),
             np.array([r[0] for r in readings], float),
