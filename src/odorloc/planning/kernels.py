@@ -27,7 +27,7 @@ import math
 import numpy as np
 
 from odorloc.core.jit import jit as _cached_jit
-from odorloc.models.kernels import jit
+from odorloc.models.kernels import inside_box, jit, rate_means_direct
 
 __all__ = [
     "adap_pp_choose",
@@ -573,15 +573,6 @@ poisson_direction_rewards = _cached_jit(
 
 
 @jit
-def _inside_box(p: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> bool:
-    # a loop, not all() over a generator: numba compiles no generator expressions
-    for a in range(p.shape[0]):  # noqa: SIM110
-        if not (lo[a] <= p[a] <= hi[a]):
-            return False
-    return True
-
-
-@jit
 def adap_pp_means(
     x: np.ndarray,
     position: np.ndarray,
@@ -627,13 +618,13 @@ def adap_pp_means(
     m, d = steps.shape
     n = x.shape[0]
     ok = np.zeros(m, np.bool_)
-    here = _inside_box(position, lo, hi)
+    here = inside_box(position, lo, hi)
     t = np.empty(d)
     count = 0
     for i in range(m):
         for a in range(d):
             t[a] = position[a] + steps[i, a]
-        if here and _inside_box(t, lo, hi):
+        if here and inside_box(t, lo, hi):
             ok[i] = True
             count += 1
     targets = np.empty((count, d))
@@ -643,23 +634,7 @@ def adap_pp_means(
             for a in range(d):
                 targets[c, a] = position[a] + steps[i, a]
             c += 1
-    mu = np.empty((count, n))
-    top = -np.inf
-    for i in range(count):
-        for j in range(n):
-            r2 = 0.0
-            along = 0.0
-            for a in range(d):
-                diff = targets[i, a] - x[j, a]
-                r2 += diff * diff
-                along += diff * e[a]
-            if r2 < a2:
-                r2 = a2
-            r = math.sqrt(r2)
-            v = dt * (aq * math.exp(along * adv - r * inv_lam) / r)
-            mu[i, j] = v
-            if v > top:
-                top = v
+    mu, top = rate_means_direct(targets, x, e, np.full(n, aq), dt, adv, inv_lam, a2)
     return ok, targets, mu, top
 
 
@@ -772,7 +747,7 @@ def adap_pp_choose(
     for li in range(l_max):
         for a in range(d):
             p[a] = position[a] + (li + 1) * step[a]
-        if not _inside_box(p, lo, hi):
+        if not inside_box(p, lo, hi):
             break
         if math.isfinite(scores[li]) and scores[li] < best:
             best = scores[li]

@@ -46,6 +46,7 @@ import math
 import numpy as np
 
 from odorloc.core.jit import jit
+from odorloc.models.kernels import history_term, inside_box
 
 __all__ = [
     "kl_divergences",
@@ -74,44 +75,6 @@ def unit_rows(raw: np.ndarray, default: np.ndarray) -> np.ndarray:
         for a in range(d):
             out[j, a] = raw[j, a] / s
     return out
-
-
-@jit
-def _point_log_likelihood(
-    px: float,
-    py: float,
-    pz: float,
-    s: np.ndarray,
-    e: np.ndarray,
-    counts: np.ndarray,
-    log_fact: np.ndarray,
-    scale: np.ndarray,
-    exponents: np.ndarray,
-    aq: float,
-    adv: float,
-    inv_lam: float,
-    a2: float,
-) -> float:
-    """The weighted log-likelihood of the readings for one source hypothesis."""
-    acc = 0.0
-    for j in range(s.shape[0]):
-        if exponents[j] == 0.0:
-            continue
-        dx = s[j, 0] - px
-        dy = s[j, 1] - py
-        dz = s[j, 2] - pz
-        r2 = dx * dx + dy * dy + dz * dz
-        along = dx * e[j, 0] + dy * e[j, 1] + dz * e[j, 2]
-        if r2 < a2:
-            r2 = a2
-        r = math.sqrt(r2)
-        expo = along * adv - r * inv_lam
-        mu = scale[j] * aq * math.exp(expo) / r
-        v = -mu - log_fact[j]
-        if counts[j] != 0.0:
-            v += counts[j] * (math.log(scale[j] * aq) + expo - math.log(r))
-        acc += exponents[j] * v
-    return acc
 
 
 @jit
@@ -159,19 +122,8 @@ def readings_log_likelihood(
     n = x.shape[0]
     out = np.empty(n)
     for i in range(n):
-        out[i] = _point_log_likelihood(
-            x[i, 0], x[i, 1], x[i, 2], s, e, counts, lf, dts, exponents, aq, adv, inv_lam, a2
-        )
+        out[i] = history_term(x[i], s, e, counts, lf, dts, exponents, aq, adv, inv_lam, a2)
     return out
-
-
-@jit
-def _inside(p: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> bool:
-    # a loop, not all() over a generator: numba compiles no generator expressions
-    for a in range(p.shape[0]):  # noqa: SIM110
-        if not (lo[a] <= p[a] <= hi[a]):
-            return False
-    return True
 
 
 @jit
@@ -256,12 +208,10 @@ def reversible_moves(
             f = side * step * env_draws[i, 0]
             for a in range(d):
                 prop[a] = out[i, a] + f * upwind[a]
-            if not _inside(prop, lo, hi):
+            if not inside_box(prop, lo, hi):
                 continue
             evaluated += 1
-            new = _point_log_likelihood(
-                prop[0], prop[1], prop[2], s, e, counts, lf, dts, exponents, aq, adv, inv_lam, a2
-            )
+            new = history_term(prop, s, e, counts, lf, dts, exponents, aq, adv, inv_lam, a2)
             u = env_draws[i, 2]
             log_u = math.log(u) if u > 0.0 else -math.inf
             if log_u < new - ll[i]:
@@ -279,7 +229,7 @@ def reversible_moves(
                     v += chol[a, b] * normals[i, b]
                 prop[a] = v
                 zz += normals[i, a] * normals[i, a]
-            if not _inside(prop, lo, hi):
+            if not inside_box(prop, lo, hi):
                 continue
             # log q(x) - log q(x'): chol^-1 (x - g) by forward substitution
             bb = 0.0
@@ -290,9 +240,7 @@ def reversible_moves(
                 back[a] = v / chol[a, a]
                 bb += back[a] * back[a]
             evaluated += 1
-            new = _point_log_likelihood(
-                prop[0], prop[1], prop[2], s, e, counts, lf, dts, exponents, aq, adv, inv_lam, a2
-            )
+            new = history_term(prop, s, e, counts, lf, dts, exponents, aq, adv, inv_lam, a2)
             u = col_uniforms[i]
             log_u = math.log(u) if u > 0.0 else -math.inf
             if log_u < new - ll[i] + (-0.5 * bb + 0.5 * zz):
