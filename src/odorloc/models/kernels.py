@@ -41,6 +41,8 @@ __all__ = [
     "Backend",
     "censored_classes",
     "compiled",
+    "history_term",
+    "inside_box",
     "jit",
     "poisson_log_rows",
     "rate_exponent_direct",
@@ -363,31 +365,61 @@ def weighted_poisson_log_likelihood(
     expected count that underflows never gives ``-inf`` where the rate is merely tiny.
     """
     n = x.shape[0]
-    k = s.shape[0]
-    d = x.shape[1]
     out = np.empty(n)
     for i in range(n):
-        acc = 0.0
-        for j in range(k):
-            if exponents[j] == 0.0:
-                continue
-            r2 = 0.0
-            along = 0.0
-            for a in range(d):
-                diff = s[j, a] - x[i, a]
-                r2 += diff * diff
-                along += diff * e[j, a]
-            if r2 < a2:
-                r2 = a2
-            r = math.sqrt(r2)
-            expo = along * adv - r * inv_lam
-            mu = scale[j] * aq[i] * math.exp(expo) / r
-            v = -mu - log_fact[j]
-            if counts[j] != 0.0:
-                v += counts[j] * (math.log(scale[j] * aq[i]) + expo - math.log(r))
-            acc += exponents[j] * v
-        out[i] = acc
+        out[i] = history_term(
+            x[i], s, e, counts, log_fact, scale, exponents, aq[i], adv, inv_lam, a2
+        )
     return out
+
+
+@jit
+def history_term(
+    p: np.ndarray,
+    s: np.ndarray,
+    e: np.ndarray,
+    counts: np.ndarray,
+    log_fact: np.ndarray,
+    scale: np.ndarray,
+    exponents: np.ndarray,
+    aq: float,
+    adv: float,
+    inv_lam: float,
+    a2: float,
+) -> float:
+    """:func:`weighted_poisson_log_likelihood` of one hypothesis ``p`` ``(d,)`` with ``a Q =
+    aq``: the weighted log-likelihood of the readings, summed in reading order."""
+    d = p.shape[0]
+    acc = 0.0
+    for j in range(s.shape[0]):
+        if exponents[j] == 0.0:
+            continue
+        r2 = 0.0
+        along = 0.0
+        for a in range(d):
+            diff = s[j, a] - p[a]
+            r2 += diff * diff
+            along += diff * e[j, a]
+        if r2 < a2:
+            r2 = a2
+        r = math.sqrt(r2)
+        expo = along * adv - r * inv_lam
+        mu = scale[j] * aq * math.exp(expo) / r
+        v = -mu - log_fact[j]
+        if counts[j] != 0.0:
+            v += counts[j] * (math.log(scale[j] * aq) + expo - math.log(r))
+        acc += exponents[j] * v
+    return acc
+
+
+@jit
+def inside_box(p: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> bool:
+    """Whether the point ``p`` lies in the box ``[lo, hi]`` (bounds included)."""
+    # a loop, not all() over a generator: numba compiles no generator expressions
+    for a in range(p.shape[0]):  # noqa: SIM110
+        if not (lo[a] <= p[a] <= hi[a]):
+            return False
+    return True
 
 
 @jit

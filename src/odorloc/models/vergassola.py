@@ -358,6 +358,19 @@ class VergassolaModel(MeasurementModel):
         mu = self.rate(sp, hypotheses, conditions.get("release"), conditions.get("direction"))
         return poisson_log_pmf(k, mu * dt)
 
+    def kernel_constants(self) -> tuple[float, float, float, float, np.ndarray] | None:
+        """What compiled 3-D evaluations of eqs. 1-3 need, or ``None`` without the compiled
+        backend: ``a Q`` (one release rate for every hypothesis), ``V / (2 D)`` (1/m),
+        ``1 / lambda`` (1/m), ``a^2`` (m^2) and the model's unit wind direction ``(3,)``."""
+        if not self._compiled:
+            return None
+        p = self.params
+        if p.wind_direction is not None and np.size(p.wind_direction) != 3:
+            return None
+        adv, inv_lam, a2 = self._consts
+        default = unit_direction(p.wind_direction, 3)
+        return float(p.sensor_radius * p.Q), adv, inv_lam, a2, default
+
     def prepare_readings(
         self,
         z: Any,

@@ -54,6 +54,7 @@ from odorloc.core.params import NonNegative
 from odorloc.core.registry import register
 from odorloc.inference.belief import ParticleBelief
 from odorloc.models.base import BoundModel
+from odorloc.models.vergassola import unit_direction
 from odorloc.planning import kernels
 from odorloc.planning.base import Plan, Pose
 from odorloc.planning.selection import select
@@ -310,6 +311,9 @@ class AdaptivePathPlanner(StepPlanner):
         return self.l_max
 
     def plan(self, belief: ParticleBelief, pose: Pose, rng: np.random.Generator) -> Plan:
+        fused = self._fused_inputs(belief, pose)
+        if fused is not None:
+            return self._plan_fused(belief, *fused)
         p = self.params
         pos = np.asarray(pose.position, float)
         model = self.bound_model(pose)
@@ -351,6 +355,76 @@ class AdaptivePathPlanner(StepPlanner):
         work = size * (x.shape[1] + 1) + l_max * (len(history) + 1)
         extra = {"length": length, "l_max": l_max, "step_scores": r}
         return Plan(k, pos + length * self.steps, scores, ok, int(work), extra)
+
+    def _fused_inputs(
+        self, belief: ParticleBelief, pose: Pose
+    ) -> tuple[np.ndarray, float, np.ndarray, tuple] | None:
+        """What the two compiled halves of a decision need (:func:`~odorloc.planning.kernels.
+        adap_pp_means`, :func:`~odorloc.planning.kernels.adap_pp_choose`): the UAV's position,
+        the exposure, the unit wind direction and the model's constants; ``None`` where the
+        step-by-step path runs (NumPy backend, a model without compiled 3-D kernels, an arena
+        with obstacles, conditions other than the exposure and the wind direction)."""
+        if not self.compiled or self.ctx.arena.occ is not None or self.ctx.dim != 3:
+            return None
+        get = getattr(self.model, "kernel_constants", None)
+        consts = get() if callable(get) else None
+        cond = pose.conditions
+        if consts is None or set(cond) - {"dt", "direction"}:
+            return None
+        dt = cond.get("dt")
+        if dt is None or not (math.isfinite(dt) and dt > 0):
+            return None  # the step-by-step path says what is wrong with it
+        direction = cond.get("direction")
+        e = consts[4] if direction is None else unit_direction(direction, 3)
+        pos = np.asarray(pose.position, float)
+        if pos.shape != (3,):
+            return None
+        return pos, float(dt), e, consts
+
+    def _plan_fused(
+        self, belief: ParticleBelief, pos: np.ndarray, dt: float, e: np.ndarray, consts: tuple
+    ) -> Plan:
+        """:meth:`plan` in two compiled passes (the same choice within round-off)."""
+        p = self.params
+        if self.l_max is None:
+            self._l_max(self.model.bind(dt=dt, direction=e))
+        l_max = int(self.l_max)  # type: ignore[arg-type]
+        aq, adv, inv_lam, a2, _ = consts
+        lo, hi = self.ctx.arena.lo, self.ctx.arena.hi
+        x = np.ascontiguousarray(belief.positions, dtype=float)
+        lw = np.ascontiguousarray(belief.log_weights, dtype=float)
+        ok, targets, mu, top = kernels.adap_pp_means(
+            x, pos, self.steps, lo, hi, e, aq, dt, adv, inv_lam, a2
+        )
+        scores = np.full(len(ok), np.inf)
+        if not ok.any():
+            return Plan(None, pos + self.steps, scores, ok, 0, {"length": 0, "l_max": l_max})
+        if not (top < math.inf and mu.min() >= 0.0):
+            raise ConfigError("expected_counts", "must be finite and >= 0")
+        z = self.model.n_classes(np.array([top]))
+        rewards, kept, k, r, length = kernels.adap_pp_choose(
+            mu,
+            int(z),
+            x,
+            lw,
+            pos,
+            self.steps,
+            ok,
+            targets,
+            p.tail_mass,
+            p.h1_scale,
+            p.h1 == "variance",
+            l_max,
+            lo,
+            hi,
+            self.history,
+            p.h2_scale,
+        )
+        scores[ok] = -rewards
+        assert k >= 0
+        work = mu.shape[0] * kept * mu.shape[1] * (x.shape[1] + 1) + l_max * (len(self.history) + 1)
+        extra = {"length": int(length), "l_max": l_max, "step_scores": r}
+        return Plan(int(k), pos + length * self.steps, scores, ok, int(work), extra)
 
     def _direction_rewards(
         self,

@@ -27,9 +27,11 @@ import math
 import numpy as np
 
 from odorloc.core.jit import jit as _cached_jit
-from odorloc.models.kernels import jit
+from odorloc.models.kernels import inside_box, jit, rate_means_direct
 
 __all__ = [
+    "adap_pp_choose",
+    "adap_pp_means",
     "direction_finish",
     "direction_terms",
     "found_entropy",
@@ -568,3 +570,186 @@ def _poisson_direction_rewards(
 poisson_direction_rewards = _cached_jit(
     _poisson_direction_rewards, nogil=True, fastmath={"reassoc", "contract", "nsz"}
 )
+
+
+@jit
+def adap_pp_means(
+    x: np.ndarray,
+    position: np.ndarray,
+    steps: np.ndarray,
+    lo: np.ndarray,
+    hi: np.ndarray,
+    e: np.ndarray,
+    aq: float,
+    dt: float,
+    adv: float,
+    inv_lam: float,
+    a2: float,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+    """The first half of an Adap-PP decision in an obstacle-free box: the feasible candidates
+    one step away and the expected counts of a measurement there (eqs. 1, 3).
+
+    Parameters
+    ----------
+    x : (N, 3) ndarray, metres
+        Particles (source hypotheses).
+    position : (3,) ndarray, metres
+        The UAV.
+    steps : (M, 3) ndarray, metres
+        The lattice steps.
+    lo, hi : (3,) ndarray, metres
+        The arena's bounds (a box is convex: a target inside, from a position inside, is
+        reachable).
+    e : (3,) ndarray
+        Unit vector the wind blows towards.
+    aq, dt, adv, inv_lam, a2 : float
+        ``a Q``, the exposure (s), ``V / (2 D)``, ``1 / lambda`` and ``a^2`` of eq. 1.
+
+    Returns
+    -------
+    feasible : (M,) bool ndarray
+    targets : (M', 3) ndarray, metres
+        The feasible candidates' hover points.
+    mu : (M', N) ndarray
+        Expected counts (:func:`~odorloc.models.kernels.rate_means_direct`).
+    top : float
+        Their maximum (``-inf`` when none).
+    """
+    m, d = steps.shape
+    n = x.shape[0]
+    ok = np.zeros(m, np.bool_)
+    here = inside_box(position, lo, hi)
+    t = np.empty(d)
+    count = 0
+    for i in range(m):
+        for a in range(d):
+            t[a] = position[a] + steps[i, a]
+        if here and inside_box(t, lo, hi):
+            ok[i] = True
+            count += 1
+    targets = np.empty((count, d))
+    c = 0
+    for i in range(m):
+        if ok[i]:
+            for a in range(d):
+                targets[c, a] = position[a] + steps[i, a]
+            c += 1
+    mu, top = rate_means_direct(targets, x, e, np.full(n, aq), dt, adv, inv_lam, a2)
+    return ok, targets, mu, top
+
+
+@jit
+def adap_pp_choose(
+    mu: np.ndarray,
+    n_classes: int,
+    x: np.ndarray,
+    log_w: np.ndarray,
+    position: np.ndarray,
+    steps: np.ndarray,
+    feasible: np.ndarray,
+    targets: np.ndarray,
+    tail_mass: float,
+    h1_scale: float,
+    h1_variance: bool,
+    l_max: int,
+    lo: np.ndarray,
+    hi: np.ndarray,
+    history: np.ndarray,
+    h2_scale: float,
+) -> tuple[np.ndarray, int, int, np.ndarray, int]:
+    """The second half of an Adap-PP decision: the direction (eqs. 21-25) and the step length
+    (eqs. 26-28), as :class:`~odorloc.planning.adaptive.AdaptivePathPlanner` chooses them.
+
+    Parameters
+    ----------
+    mu : (M', N) ndarray
+        From :func:`adap_pp_means`.
+    n_classes : int
+        The model's count classes ``Z`` for these means.
+    x : (N, 3) ndarray, metres
+    log_w : (N,) ndarray
+        Normalised log-weights.
+    position : (3,) ndarray, metres
+    steps : (M, 3) ndarray, metres
+    feasible : (M,) bool ndarray
+    targets : (M', 3) ndarray, metres
+    tail_mass : float
+        ``d_max`` of eq. 24.
+    h1_scale : float
+    h1_variance : bool
+        ``h1 = h1_scale tr(Sigma)`` (else ``h1_scale sqrt(tr Sigma)``).
+    l_max : int
+    lo, hi : (3,) ndarray, metres
+        The arena's bounds.
+    history : (K, 3) ndarray, metres
+        Past measurement points.
+    h2_scale : float
+
+    Returns
+    -------
+    rewards : (M',) ndarray, metres
+        ``W_k - E[W_{k+1}]`` of the feasible candidates.
+    kept : int
+        Count classes after the tail cut.
+    k : int
+        The chosen direction (an index into ``steps``).
+    step_scores : (l_max,) ndarray
+        ``R(l)`` (eq. 27).
+    length : int
+        The chosen number of cells.
+    """
+    n, d = x.shape
+    w = np.empty(n)
+    est = np.zeros(d)
+    h_now = 0.0
+    for j in range(n):
+        w[j] = math.exp(log_w[j])
+        h_now -= _xlogx(w[j])
+        for a in range(d):
+            est[a] += w[j] * x[j, a]
+    var = 0.0
+    for j in range(n):
+        for a in range(d):
+            diff = x[j, a] - est[a]
+            var += w[j] * diff * diff
+    if var < 0.0:
+        var = 0.0
+    h1 = h1_scale * (var if h1_variance else math.sqrt(var))
+    gap = 0.0
+    for a in range(d):
+        diff = position[a] - est[a]
+        gap += diff * diff
+    d_now = math.sqrt(gap)
+    rewards, kept = poisson_direction_rewards(
+        mu, w, log_w, x, targets, n_classes, tail_mass, h1, d_now + h1 * h_now
+    )
+    # the feasible candidate of the largest reward, the first of equals
+    k = -1
+    best = -np.inf
+    c = 0
+    for i in range(feasible.shape[0]):
+        if feasible[i]:
+            if math.isfinite(rewards[c]) and (k < 0 or rewards[c] > best):
+                k = i
+                best = rewards[c]
+            c += 1
+    if k < 0:
+        return rewards, kept, k, np.empty(0), 1
+    step = steps[k]
+    s2 = 0.0
+    for a in range(d):
+        s2 += step[a] * step[a]
+    scores = step_rewards(position, step, math.sqrt(s2), l_max, est, history, h2_scale * d_now)
+    # a move is feasible only up to its first blocked length
+    length = 1
+    best = np.inf
+    p = np.empty(d)
+    for li in range(l_max):
+        for a in range(d):
+            p[a] = position[a] + (li + 1) * step[a]
+        if not inside_box(p, lo, hi):
+            break
+        if math.isfinite(scores[li]) and scores[li] < best:
+            best = scores[li]
+            length = li + 1
+    return rewards, kept, k, scores, length

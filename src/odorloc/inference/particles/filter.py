@@ -212,7 +212,13 @@ class ParticleFilter:
             return True
         return False
 
-    def replace(self, positions: np.ndarray, log_weights: np.ndarray | None = None) -> None:
+    def replace(
+        self,
+        positions: np.ndarray,
+        log_weights: np.ndarray | None = None,
+        *,
+        resampled: bool = False,
+    ) -> None:
         """Replace the particle set (e.g. after a position-update move); history is kept.
 
         Parameters
@@ -221,10 +227,15 @@ class ParticleFilter:
             Finite; ``d`` as before, ``N`` may change.
         log_weights : (N,) array_like, optional
             Default uniform; ``-inf`` allowed, NaN and ``+inf`` are not.
+        resampled : bool
+            The new set is a resampling of the old one (done outside :meth:`resample`, e.g. by
+            compiled code): counted in :attr:`n_resamples`.
         """
         pos, lw = _particle_set(positions, log_weights, self._positions.shape[1])
         self._positions = pos
         self._log_weights, self._weights = normalise_log_weights(lw)
+        if resampled:
+            self.n_resamples += 1
 
     # ----------------------------------------------------------------- stopping
     def spread(self, variance: Literal["trace", "radius", "max_axis"] = "trace") -> float:

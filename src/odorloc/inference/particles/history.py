@@ -23,6 +23,7 @@ doubling its arrays.
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -58,6 +59,7 @@ class MeasurementHistory:
         self._n = 0  # readings held
         self._next = 0  # the oldest reading of a full bounded history (overwritten next)
         self._total = 0  # readings ever appended
+        self._version = 0  # changes (appends and clears) ever made
 
     def _alloc(self, size: int) -> None:
         self._counts = np.zeros(size)
@@ -101,14 +103,17 @@ class MeasurementHistory:
         exponent : float
             The power its likelihood entered the weights with (``>= 0``).
         """
+        # checked number by number: a filter appends a few readings per iteration, and array
+        # reductions on 3-vectors cost more than the arithmetic
         pos = np.asarray(position, float).reshape(-1)
-        if pos.shape != (self.dim,) or not np.all(np.isfinite(pos)):
+        if pos.shape != (self.dim,) or not all(map(math.isfinite, pos.tolist())):
             raise ConfigError("position", f"needs a finite {self.dim}-vector, got {pos}")
-        if not (np.isfinite(dt) and dt > 0):
+        dt, exponent, count = float(dt), float(exponent), float(count)
+        if not (math.isfinite(dt) and dt > 0):
             raise ConfigError("dt", f"the exposure time must be a finite number > 0, got {dt}")
-        if not (np.isfinite(exponent) and exponent >= 0):
+        if not (math.isfinite(exponent) and exponent >= 0):
             raise ConfigError("exponent", f"must be a finite number >= 0, got {exponent}")
-        if not (np.isfinite(count) and count >= 0):
+        if not (math.isfinite(count) and count >= 0):
             raise ConfigError("count", f"must be a finite number >= 0, got {count}")
         if self._n < len(self._counts):
             i = self._n
@@ -131,16 +136,29 @@ class MeasurementHistory:
         self._exponents[i] = exponent
         self._prepared = self._prepared_for = None
         self._total += 1
+        self._version += 1
 
     def clear(self) -> None:
         """Forget every reading."""
         self._n = self._next = self._total = 0
         self._prepared = self._prepared_for = None
+        self._version += 1
 
     # ----------------------------------------------------------------- reading
     def __len__(self) -> int:
         """Readings held (at most ``capacity``)."""
         return self._n
+
+    @property
+    def version(self) -> int:
+        """Changes made since construction (each :meth:`append` and :meth:`clear` counts; never
+        reset): what a cache of evaluations against the history is keyed by."""
+        return self._version
+
+    @property
+    def dropped(self) -> bool:
+        """``True`` once a bounded history has let a reading drop out."""
+        return self._total > self._n
 
     @property
     def total(self) -> int:
@@ -159,6 +177,22 @@ class MeasurementHistory:
             "directions": self._directions[order],
             "exponents": self._exponents[order],
         }
+
+    def held(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Views of the readings held, in storage order (a bounded history's ring is not
+        unrolled): ``counts (K,)``, ``positions (K, d)``, ``dts (K,)``, ``directions (K, d)``
+        (NaN rows: the model's default) and ``exponents (K,)``. For compiled evaluations that
+        take the checked readings as they are stored: read them, never write (they are left
+        writable so that a kernel sees one array type, compiled once); valid until the next
+        :meth:`append`."""
+        n = self._n
+        return (
+            self._counts[:n],
+            self._positions[:n],
+            self._dts[:n],
+            self._directions[:n],
+            self._exponents[:n],
+        )
 
     def _order(self) -> np.ndarray:
         n = self._n

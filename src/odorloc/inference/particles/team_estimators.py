@@ -44,6 +44,7 @@ from odorloc.core.params import NonNegative, Params, Positive
 from odorloc.core.registry import ComponentRef, Ref, register
 from odorloc.core.types import Payload, SearchContext
 from odorloc.inference.belief import ParticleBelief
+from odorloc.inference.particles import colpf_kernels
 from odorloc.inference.particles.adaptive_count import CueDistanceCount, spacing_minimum
 from odorloc.inference.particles.collaborative import (
     MeasurementMessage,
@@ -70,9 +71,13 @@ from odorloc.inference.particles.pugl import (
     reversible_col_move,
     reversible_env_move,
 )
-from odorloc.inference.particles.resampling import Resampler
+from odorloc.inference.particles.resampling import Resampler, SystematicResampler
 from odorloc.inference.weights import normalise_log_weights
 from odorloc.models.base import MeasurementModel
+
+#: Added to the diagonals of both fits in eq. 10's divergence (m^2), as
+#: :func:`~odorloc.inference.weights.kl_gaussians` does by default.
+KL_JITTER = 1e-9
 
 __all__ = [
     "ColPFEstimator",
@@ -371,6 +376,30 @@ class ColPFEstimator(TeamEstimator):
         self.support = PriorSupport(ctx.arena, ctx.search_region)
         #: proposals and acceptances of the reversible moves so far, per kind
         self.moves = {"env": [0, 0], "col": [0, 0]}
+        self._compiled = self._compiled_setup(ctx, model)
+        # the compiled path's history log-likelihood of every particle: (positions, values,
+        # history version) while the particles have not moved and no reading dropped out
+        self._known: tuple[np.ndarray, np.ndarray, int] | None = None
+
+    def _compiled_setup(self, ctx: SearchContext, model: MeasurementModel) -> tuple | None:
+        """The model's constants and the prior's support box for the compiled path
+        (:mod:`~odorloc.inference.particles.colpf_kernels`), or ``None``: that path needs a
+        3-D model with compiled kernels (``kernel_constants``) and an arena without
+        obstacles (its free space a box)."""
+        get = getattr(model, "kernel_constants", None)
+        consts = get() if callable(get) else None
+        if consts is None or ctx.dim != 3 or ctx.arena.occ is not None:
+            return None
+        lo = np.array(ctx.arena.lo, float)
+        hi = np.array(ctx.arena.hi, float)
+        arena_lo, arena_hi = lo.copy(), hi.copy()
+        region = ctx.search_region
+        if region is not None:
+            k = len(region[0])
+            lo[:k] = np.maximum(lo[:k], np.asarray(region[0], float))
+            hi[:k] = np.minimum(hi[:k], np.asarray(region[1], float))
+        # the prior's support (PUGL), then the arena's bounds (the resampler's constraint)
+        return (*consts, lo, hi, arena_lo, arena_hi)
 
     def update(
         self, m: Measurement, inbox: Mapping[int, Payload], rng: np.random.Generator
@@ -382,12 +411,16 @@ class ColPFEstimator(TeamEstimator):
         mean_i, cov_i = self.fit
         if p.weighting == "confidence":
             d = len(mean_i)
-            betas = confidence_factors(
-                mean_i,
-                cov_i,
-                np.array([f.mean for f in fits]).reshape(len(fits), d),
-                np.array([f.cov for f in fits]).reshape(len(fits), d, d),
-            )
+            means = np.array([f.mean for f in fits]).reshape(len(fits), d)
+            covs = np.array([f.cov for f in fits]).reshape(len(fits), d, d)
+            betas = None
+            if self._compiled is not None and fits:
+                kl, ok = colpf_kernels.kl_divergences(mean_i, cov_i, means, covs, KL_JITTER)
+                # KL >= 0 in exact arithmetic; round-off may leave -1e-12 (eq. 10)
+                betas = np.exp(-np.maximum(kl, 0.0)) if ok else None
+            if betas is None:
+                # the NumPy factors, which also say what is wrong with a covariance
+                betas = confidence_factors(mean_i, cov_i, means, covs)
         else:
             betas = np.ones(len(fits))
         self.betas = {f.sender: float(b) for f, b in zip(fits, betas, strict=True)}
@@ -400,12 +433,33 @@ class ColPFEstimator(TeamEstimator):
                 for f, b in zip(fits, betas, strict=True)
             ),
         ]
-        ll = _readings_log_likelihood(self.model, readings, pf.positions)
-        pf.update(ll)
-        for reading in readings:
-            self.history.append(*reading)
+        if self._compiled is None:
+            ll = _readings_log_likelihood(self.model, readings, pf.positions)
+            pf.update(ll)
+            for reading in readings:
+                self.history.append(*reading)
+        else:
+            # the history checks each reading as it takes it; the kernel trusts them
+            before = self.history.version
+            for reading in readings:
+                self.history.append(*reading)
+            ll = self._compiled_log_likelihood(readings, pf.positions)
+            pf.update(ll)
+            known = self._known
+            self._known = None
+            if (
+                known is not None
+                and known[2] == before
+                and not self.history.dropped
+                and np.array_equal(known[0], pf.positions)
+            ):
+                # the history's log-likelihood grows by this iteration's readings (eq. 13)
+                self._known = (known[0], known[1] + ll, self.history.version)
         evaluated = pf.n * len(readings)
-        pf.resample_if_needed(rng, n=self.target_n)
+        if self._compiled is not None and type(pf.resampler) is SystematicResampler:
+            self._compiled_resample(rng)
+        else:
+            pf.resample_if_needed(rng, n=self.target_n)
         if p.pugl_move == "reversible":
             self.n_moved, judged = self._pugl_reversible(m, fits, betas, rng)
         else:
@@ -414,7 +468,10 @@ class ColPFEstimator(TeamEstimator):
         if p.adaptive_count:
             dist = float(np.linalg.norm(m.position - pf.estimate()))
             self.target_n = self.counter.next(pf.n, self.cue_iterations, m.k, dist)
-        self.fit = pf.gaussian()
+        if self._compiled is not None:
+            self.fit = colpf_kernels.weighted_fit(pf.positions, pf.weights)
+        else:
+            self.fit = pf.gaussian()
         received = sum(f.mean.size + f.cov.size + f.position.size + 2 for f in fits)
         self.processed = float(
             (evaluated + judged * len(self.history)) * (d + 1) + self.n_moved * d + received
@@ -489,6 +546,8 @@ class ColPFEstimator(TeamEstimator):
                 )
         if not env and proposal is None:
             return n_s, 0
+        if self._compiled is not None:
+            return n_s, self._compiled_moves(m, sel, env, proposal, rng)
 
         def target(points: np.ndarray) -> np.ndarray:
             return self.history.log_likelihood(self.model, points)
@@ -512,6 +571,135 @@ class ColPFEstimator(TeamEstimator):
         x[sel] = xs
         pf.replace(x, pf.log_weights)
         return n_s, judged
+
+    def _compiled_resample(self, rng: np.random.Generator) -> None:
+        """``pf.resample_if_needed(rng, n=target_n)`` with the low-variance resampler in one
+        compiled pass (:func:`~odorloc.inference.particles.colpf_kernels.resample_systematic`),
+        drawing the offset and then the roughening as the resampler does."""
+        pf = self.pf
+        target = int(self.target_n)
+        if target == pf.n and not pf.needs_resampling():
+            return
+        if target < 1:
+            raise ConfigError("n", f"the target particle count must be >= 1, got {target}")
+        d = pf.positions.shape[1]
+        u0 = rng.random()
+        std = float(pf.resampler.params.jitter_std)  # type: ignore[union-attr]
+        noise = rng.normal(0.0, std, size=(target, d)) if std > 0 else np.zeros((0, d))
+        # the weights as the resampler reads them: from the log-weights
+        w = normalise_log_weights(pf.log_weights)[1]
+        lo, hi = self._compiled[7], self._compiled[8]
+        x = colpf_kernels.resample_systematic(pf.positions, w, target, u0, noise, lo, hi)
+        pf.replace(x, np.full(target, -math.log(target)), resampled=True)
+
+    def _compiled_log_likelihood(self, readings: list[Reading], x: np.ndarray) -> np.ndarray:
+        """:func:`_readings_log_likelihood` in one compiled pass (readings already checked)."""
+        aq, adv, inv_lam, a2, default = self._compiled[:5]
+        d = x.shape[1]
+        nan = np.full(d, np.nan)
+        return colpf_kernels.readings_log_likelihood(
+            # a writable copy: the kernel is compiled for one array type (the moves pass theirs)
+            np.array(x, float, order="C"),
+            np.array([r[1] for r in readings], float).reshape(len(readings), d),
+            np.array([nan if r[3] is None else r[3] for r in readings], float),
+            np.array([r[0] for r in readings], float),
+            np.array([r[2] for r in readings], float),
+            np.array([r[4] for r in readings], float),
+            default,
+            aq,
+            adv,
+            inv_lam,
+            a2,
+        )
+
+    def _compiled_moves(
+        self,
+        m: Measurement,
+        sel: np.ndarray,
+        env: bool,
+        proposal: tuple[np.ndarray, np.ndarray] | None,
+        rng: np.random.Generator,
+    ) -> int:
+        """:meth:`_pugl_reversible`'s moves in one compiled pass
+        (:func:`~odorloc.inference.particles.colpf_kernels.reversible_moves`); the random
+        numbers drawn here with the calls, in the order, of
+        :func:`~odorloc.inference.particles.pugl.reversible_env_move` and
+        :func:`~odorloc.inference.particles.pugl.reversible_col_move`. Returns the history
+        evaluations."""
+        p = self.params
+        pf = self.pf
+        aq, adv, inv_lam, a2, default, lo, hi = self._compiled[:7]
+        n_s = len(sel)
+        d = pf.positions.shape[1]
+        up = np.zeros(d)
+        env_draws = np.zeros((0, 3))
+        env_on = False
+        if env:
+            self.moves["env"][0] += n_s
+            up[:2] = -np.asarray(m.direction, float)[:2]
+            norm = math.hypot(up[0], up[1])
+            # no horizontal wind: no env-pu proposal (and no draws), as the NumPy move
+            if norm >= 1e-12:
+                up /= norm
+                env_on = True
+                env_draws = rng.random((n_s, 3))
+        centre, chol = np.zeros(d), np.eye(d)
+        normals, uniforms = np.zeros((0, d)), np.zeros(0)
+        if proposal is not None:
+            self.moves["col"][0] += n_s
+            centre = np.asarray(proposal[0], float)
+            try:
+                chol = np.linalg.cholesky(np.asarray(proposal[1], float))
+            except np.linalg.LinAlgError:
+                raise ConfigError(
+                    "cov", "the col-pu proposal needs a positive definite covariance"
+                ) from None
+            normals = rng.standard_normal((n_s, d))
+            uniforms = rng.random(n_s)
+        counts, where, dts, dirs, exps = self.history.held()
+        x = pf.positions.copy()
+        hist = (where, dirs, counts, dts, exps, default, aq, adv, inv_lam, a2)
+        known = self._known
+        if known is not None and known[2] == self.history.version and np.array_equal(known[0], x):
+            ll = known[1]
+        else:
+            # every particle's, once: kept for the next iterations while they stay put
+            ll = colpf_kernels.readings_log_likelihood(x, *hist)
+        moved, ll_moved, env_acc, col_acc, evaluated = colpf_kernels.reversible_moves(
+            np.ascontiguousarray(x[sel]),
+            ll[sel],
+            where,
+            dirs,
+            counts,
+            dts,
+            exps,
+            default,
+            aq,
+            adv,
+            inv_lam,
+            a2,
+            lo,
+            hi,
+            env_on,
+            up,
+            float(p.env_step),
+            env_draws,
+            proposal is not None,
+            centre,
+            chol,
+            normals,
+            uniforms,
+        )
+        self.moves["env"][1] += int(env_acc)
+        self.moves["col"][1] += int(col_acc)
+        x[sel] = moved
+        ll = ll.copy()
+        ll[sel] = ll_moved
+        pf.replace(x, pf.log_weights)
+        self._known = (x, ll, self.history.version)
+        # the work of eq. 7 as the NumPy path counts it: the selected particles, then every
+        # proposal in the support
+        return n_s + int(evaluated)
 
     def acceptance(self) -> dict[str, float]:
         """Share of the reversible moves accepted so far, per kind (NaN before any)."""
