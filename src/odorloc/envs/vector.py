@@ -47,7 +47,8 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 
 from odorloc.core.errors import ConfigError
 from odorloc.core.jit import jit
-from odorloc.core.seeds import check_seed, episode_seeds, world_generators
+from odorloc.core.pcg import pcg_double, pcg_seed, seed_words
+from odorloc.core.seeds import check_seed, stream_words
 from odorloc.envs.core import RewardParams, load_scenario, validated
 from odorloc.models.lattice import (
     IsotropicHitModel,
@@ -66,29 +67,34 @@ from odorloc.scenarios import Scenario
 
 __all__ = ["LatticeVectorEnv"]
 
-_BLOCK = 256  # uniform numbers read from a sensor stream at a time
-_MARGIN = 96  # refill below this many unread numbers (a draw below 10 hits needs far fewer)
-
 
 # ---------------------------------------------------------------------- compiled batch step
-def _poisson_mult(u: np.ndarray, pos: int, enlam: float) -> tuple[int, int]:
-    """NumPy's Poisson draw by multiplication (mean below 10) from uniforms ``u[pos:]``;
-    returns the count and the new read position (``-1`` if the block ran out)."""
+def _poisson_mult(st: np.ndarray, enlam: float) -> int:
+    """NumPy's Poisson draw by multiplication (mean below 10, ``enlam = exp(-mean)``) from the
+    PCG64 stream ``st`` (advanced in place)."""
     x = 0
     prod = 1.0
     while True:
-        if pos >= u.shape[0]:
-            return 0, -1
-        prod *= u[pos]
-        pos += 1
+        prod *= pcg_double(st)
         if prod > enlam:
             x += 1
         else:
-            return x, pos
+            return x
 
 
-def _batch_step(
-    actions: np.ndarray,
+def _start(
+    i: int,
+    episode: int,
+    words: np.ndarray,
+    n_root: int,
+    cdf_h0: np.ndarray,
+    cdf_b0: np.ndarray,
+    b0: np.ndarray,
+    logb0: np.ndarray,
+    ent0: np.ndarray,
+    mom0: np.ndarray,
+    start: np.ndarray,
+    dim: int,
     ag: np.ndarray,
     src: np.ndarray,
     prev: np.ndarray,
@@ -99,70 +105,57 @@ def _batch_step(
     ent: np.ndarray,
     mom: np.ndarray,
     last: np.ndarray,
-    u: np.ndarray,
-    upos: np.ndarray,
-    enlam: np.ndarray,
-    prob: np.ndarray,
-    ch: np.ndarray,
-    half: np.ndarray,
-    dim: int,
-    z: int,
-    n_steps: int,
-    stuck: int,
-    status: np.ndarray,
+    sense: np.ndarray,
+    epi: np.ndarray,
 ) -> None:
-    """One step of every sub-environment (module docstring). ``status``: 0 running,
-    1 reached, 2 time limit, 3 stuck, -1 out of uniform numbers (an error)."""
-    nb = actions.shape[0]
-    shape = b.shape[1:]
-    for i in range(nb):
-        if steps[i] >= n_steps:
-            status[i] = 2
-            continue
-        a = actions[i]
-        axis = a // 2 + (3 - dim)
-        old0 = ag[i, 0]
-        old1 = ag[i, 1]
-        old2 = ag[i, 2]
-        v = ag[i, axis] + (1 if a % 2 == 1 else -1)
-        if 0 <= v < shape[axis]:
-            ag[i, axis] = v
-        steps[i] += 1
-        # the hit count is drawn at every step, on the source cell too (as the engine does)
-        r0 = src[i, 0] - ag[i, 0] + half[0]
-        r1 = src[i, 1] - ag[i, 1] + half[1]
-        r2 = src[i, 2] - ag[i, 2] + half[2]
-        el = enlam[r0, r1, r2]
-        count = 0
-        if el < 1.0:
-            count, p = _poisson_mult(u[i], upos[i], el)
-            if p < 0:
-                status[i] = -1
-                continue
-            upos[i] = p
-        h = count if count < z - 1 else z - 1
-        last[i] = h
-        reached = ag[i, 0] == src[i, 0] and ag[i, 1] == src[i, 1] and ag[i, 2] == src[i, 2]
-        # the stuck counter: back to the cell of two steps ago
-        if steps[i] >= 2:
-            if ag[i, 0] == prev[i, 0] and ag[i, 1] == prev[i, 1] and ag[i, 2] == prev[i, 2]:
-                back[i] += 1
-            else:
-                back[i] = 0
-        prev[i, 0] = old0
-        prev[i, 1] = old1
-        prev[i, 2] = old2
-        if reached:
-            status[i] = 1
-            continue
-        ent[i] = _observe_kernel(b[i], logb[i], ag[i], prob, ch, half, h, mom[i])
-        if stuck >= 0 and back[i] > stuck and steps[i] < n_steps:
-            status[i] = 3
-        else:
-            status[i] = 0
+    """Start ``episode`` in sub-environment ``i`` (module docstring). ``words`` holds the
+    root's ``n_root`` words, the world stream (0) and the key's eight words, then room for the
+    episode's one or two words."""
+    # the world seed of episode_seeds(root, key, episode), then world_generators(world seed)
+    n = n_root + 9
+    w = np.empty(n + 2, np.uint64)
+    w[:n] = words[:n]
+    w[n] = np.uint64(episode & 0xFFFFFFFF)
+    if episode >> 32:
+        w[n + 1] = np.uint64(episode >> 32)
+        n += 2
+    else:
+        n += 1
+    ws = seed_words(w[:n], n_root)
+    v = np.empty(3, np.uint64)
+    v[0] = ws & np.uint64(0xFFFFFFFF)
+    n_ws = 1
+    if ws >> np.uint64(32):
+        v[1] = ws >> np.uint64(32)
+        n_ws = 2
+    world = np.empty(4, np.uint64)
+    v[n_ws] = np.uint64(0)
+    pcg_seed(v[: n_ws + 1], n_ws, world)
+    v[n_ws] = np.uint64(1)
+    pcg_seed(v[: n_ws + 1], n_ws, sense[i])
+    # the plume's draws: the first hit class, then the source from that hit's start belief
+    h0 = np.searchsorted(cdf_h0, pcg_double(world), side="right")
+    cell = np.searchsorted(cdf_b0[h0], pcg_double(world), side="right")
+    n1 = b.shape[2]
+    n2 = b.shape[3]
+    src[i, 0] = cell // (n1 * n2)
+    src[i, 1] = (cell // n2) % n1
+    src[i, 2] = cell % n2
+    for a in range(3):
+        ag[i, a] = start[a]
+        prev[i, a] = start[a]
+        mom[i, a] = mom0[h0, a]
+    back[i] = 0
+    steps[i] = 0
+    last[i] = h0
+    b[i] = b0[h0]
+    logb[i] = logb0[h0]
+    ent[i] = ent0[h0]
+    epi[i] = episode
 
 
-def _features(
+def _feature_row(
+    i: int,
     ag: np.ndarray,
     b: np.ndarray,
     ent: np.ndarray,
@@ -171,46 +164,179 @@ def _features(
     dim: int,
     z: int,
     ent_max: float,
-    rows: np.ndarray,
     out: np.ndarray,
 ) -> None:
-    """The observation rows ``rows`` (module docstring) into ``out`` ``(B, F)`` float32."""
+    """Sub-environment ``i``'s observation (module docstring) into ``out`` ``(F,)``."""
     shape = b.shape[1:]
     lead = 3 - dim
-    for i in rows:
-        k = 0
-        for a in range(dim):
-            n = shape[lead + a]
-            out[i, k] = ag[i, lead + a] / max(n - 1, 1)
-            k += 1
-        for h in range(z):
-            out[i, k] = 1.0 if last[i] == h else 0.0
-            k += 1
-        out[i, k] = ent[i] / ent_max
+    k = 0
+    for a in range(dim):
+        n = shape[lead + a]
+        out[k] = ag[i, lead + a] / max(n - 1, 1)
         k += 1
-        for a in range(2 * dim):
-            axis = lead + a // 2
-            c0 = ag[i, 0]
-            c1 = ag[i, 1]
-            c2 = ag[i, 2]
-            step = 1 if a % 2 == 1 else -1
-            if axis == 0:
-                c0 += step
-            elif axis == 1:
-                c1 += step
+    for h in range(z):
+        out[k] = 1.0 if last[i] == h else 0.0
+        k += 1
+    out[k] = ent[i] / ent_max
+    k += 1
+    for a in range(2 * dim):
+        axis = lead + a // 2
+        c0 = ag[i, 0]
+        c1 = ag[i, 1]
+        c2 = ag[i, 2]
+        step = 1 if a % 2 == 1 else -1
+        if axis == 0:
+            c0 += step
+        elif axis == 1:
+            c1 += step
+        else:
+            c2 += step
+        inside = 0 <= c0 < shape[0] and 0 <= c1 < shape[1] and 0 <= c2 < shape[2]
+        out[k] = b[i, c0, c1, c2] if inside else 0.0
+        k += 1
+    for a in range(dim):
+        out[k] = (mom[i, lead + a] - ag[i, lead + a]) / shape[lead + a]
+        k += 1
+
+
+def _reset_all(
+    first: int,
+    words: np.ndarray,
+    n_root: int,
+    cdf_h0: np.ndarray,
+    cdf_b0: np.ndarray,
+    b0: np.ndarray,
+    logb0: np.ndarray,
+    ent0: np.ndarray,
+    mom0: np.ndarray,
+    start: np.ndarray,
+    dim: int,
+    z: int,
+    ent_max: float,
+    ag: np.ndarray,
+    src: np.ndarray,
+    prev: np.ndarray,
+    back: np.ndarray,
+    steps: np.ndarray,
+    b: np.ndarray,
+    logb: np.ndarray,
+    ent: np.ndarray,
+    mom: np.ndarray,
+    last: np.ndarray,
+    sense: np.ndarray,
+    epi: np.ndarray,
+    obs: np.ndarray,
+) -> None:
+    """Episodes ``first .. first + B - 1`` in sub-environments ``0 .. B - 1``, and their
+    observations."""
+    for i in range(ag.shape[0]):
+        _start(
+            i, first + i, words, n_root, cdf_h0, cdf_b0, b0, logb0, ent0, mom0, start, dim,
+            ag, src, prev, back, steps, b, logb, ent, mom, last, sense, epi,
+        )  # fmt: skip
+        _feature_row(i, ag, b, ent, mom, last, dim, z, ent_max, obs[i])
+
+
+def _batch_step(
+    actions: np.ndarray,
+    nxt: int,
+    words: np.ndarray,
+    n_root: int,
+    cdf_h0: np.ndarray,
+    cdf_b0: np.ndarray,
+    b0: np.ndarray,
+    logb0: np.ndarray,
+    ent0: np.ndarray,
+    mom0: np.ndarray,
+    start: np.ndarray,
+    enlam: np.ndarray,
+    prob: np.ndarray,
+    ch: np.ndarray,
+    half: np.ndarray,
+    dim: int,
+    z: int,
+    ent_max: float,
+    n_steps: int,
+    stuck: int,
+    ag: np.ndarray,
+    src: np.ndarray,
+    prev: np.ndarray,
+    back: np.ndarray,
+    steps: np.ndarray,
+    b: np.ndarray,
+    logb: np.ndarray,
+    ent: np.ndarray,
+    mom: np.ndarray,
+    last: np.ndarray,
+    sense: np.ndarray,
+    epi: np.ndarray,
+    status: np.ndarray,
+    obs: np.ndarray,
+    final: np.ndarray,
+    final_epi: np.ndarray,
+) -> int:
+    """One step of every sub-environment (module docstring), their observations into ``obs``;
+    an ended episode's last observation goes to ``final`` and the sub-environment starts
+    episode ``nxt``, ``nxt + 1``, ... in order. ``status``: 0 running, 1 reached, 2 time
+    limit, 3 stuck. Returns the next unused episode."""
+    nb = actions.shape[0]
+    shape = b.shape[1:]
+    for i in range(nb):
+        if steps[i] >= n_steps:
+            status[i] = 2
+        else:
+            a = actions[i]
+            axis = a // 2 + (3 - dim)
+            old0 = ag[i, 0]
+            old1 = ag[i, 1]
+            old2 = ag[i, 2]
+            v = ag[i, axis] + (1 if a % 2 == 1 else -1)
+            if 0 <= v < shape[axis]:
+                ag[i, axis] = v
+            steps[i] += 1
+            # the hit count is drawn at every step, on the source cell too (as the engine does)
+            r0 = src[i, 0] - ag[i, 0] + half[0]
+            r1 = src[i, 1] - ag[i, 1] + half[1]
+            r2 = src[i, 2] - ag[i, 2] + half[2]
+            el = enlam[r0, r1, r2]
+            count = _poisson_mult(sense[i], el) if el < 1.0 else 0
+            h = count if count < z - 1 else z - 1
+            last[i] = h
+            reached = ag[i, 0] == src[i, 0] and ag[i, 1] == src[i, 1] and ag[i, 2] == src[i, 2]
+            # the stuck counter: back to the cell of two steps ago
+            if steps[i] >= 2:
+                if ag[i, 0] == prev[i, 0] and ag[i, 1] == prev[i, 1] and ag[i, 2] == prev[i, 2]:
+                    back[i] += 1
+                else:
+                    back[i] = 0
+            prev[i, 0] = old0
+            prev[i, 1] = old1
+            prev[i, 2] = old2
+            if reached:
+                status[i] = 1
             else:
-                c2 += step
-            inside = 0 <= c0 < shape[0] and 0 <= c1 < shape[1] and 0 <= c2 < shape[2]
-            out[i, k] = b[i, c0, c1, c2] if inside else 0.0
-            k += 1
-        for a in range(dim):
-            out[i, k] = (mom[i, lead + a] - ag[i, lead + a]) / shape[lead + a]
-            k += 1
+                ent[i] = _observe_kernel(b[i], logb[i], ag[i], prob, ch, half, h, mom[i])
+                if stuck >= 0 and back[i] > stuck and steps[i] < n_steps:
+                    status[i] = 3
+                else:
+                    status[i] = 0
+        final_epi[i] = epi[i]
+        if status[i] != 0:
+            _feature_row(i, ag, b, ent, mom, last, dim, z, ent_max, final[i])
+            _start(
+                i, nxt, words, n_root, cdf_h0, cdf_b0, b0, logb0, ent0, mom0, start, dim,
+                ag, src, prev, back, steps, b, logb, ent, mom, last, sense, epi,
+            )  # fmt: skip
+            nxt += 1
+        _feature_row(i, ag, b, ent, mom, last, dim, z, ent_max, obs[i])
+    return nxt
 
 
 _poisson_mult = jit(_poisson_mult)
+_start = jit(_start)
+_feature_row = jit(_feature_row)
+_reset_all = jit(_reset_all)
 _batch_step = jit(_batch_step)
-_features = jit(_features)
 
 
 # ---------------------------------------------------------------------- the environment
@@ -374,25 +500,38 @@ class LatticeVectorEnv(VectorEnv):
         self._back = np.zeros(nb, np.int64)
         self._steps = np.zeros(nb, np.int64)
         self._last = np.zeros(nb, np.int64)
-        self._u = np.zeros((nb, _BLOCK))
-        self._upos = np.full(nb, _BLOCK, np.int64)
+        self._sense = np.zeros((nb, 4), np.uint64)  # each episode's sensor stream (PCG64)
         self._status = np.zeros(nb, np.int64)
         self._episode = np.full(nb, -1, np.int64)
-        self._sense: list[np.random.Generator | None] = [None] * nb
+        self._final_episode = np.full(nb, -1, np.int64)
         self._obs = np.zeros((nb, f), np.float32)
-        self._all = np.arange(nb, dtype=np.int64)
+        self._final = np.zeros((nb, f), np.float32)
         self._ent_max = math.log2(math.prod(pr.shape))
-        # the start beliefs of each first hit, kernel-shaped, with their logarithm and entropy
-        self._starts: list[tuple[np.ndarray, np.ndarray, float, np.ndarray] | None] = []
-        for b0 in pr.b0:
+        # what depends only on the scenario, once: per first hit class, the start belief (as
+        # the kernels hold it), its logarithm, entropy, first moments and the cumulative sum
+        # the source is drawn from (zero rows for classes that cannot come first)
+        n = math.prod(k.shape)
+        self._b0 = np.zeros((z, *k.shape))
+        self._logb0 = np.full((z, *k.shape), -np.inf)
+        self._ent0 = np.zeros(z)
+        self._mom0 = np.zeros((z, 3))
+        self._cdf_b0 = np.zeros((z, n))
+        grids = np.meshgrid(*[np.arange(m) for m in k.shape], indexing="ij")
+        for h, b0 in enumerate(pr.b0):
             if b0 is None:
-                self._starts.append(None)
                 continue
             bk = k.as_kernel(b0.copy())
             logb, ent = log_belief(k, bk)
-            grids = np.meshgrid(*[np.arange(n) for n in k.shape], indexing="ij")
-            mom = np.array([float((bk * g).sum()) for g in grids])
-            self._starts.append((bk, logb, ent, mom))
+            self._b0[h], self._logb0[h], self._ent0[h] = bk, logb, ent
+            self._mom0[h] = [float((bk * g).sum()) for g in grids]
+            cdf = pr.cdf_b0[h]
+            assert cdf is not None
+            self._cdf_b0[h] = cdf
+        start = np.zeros(3, np.int64)
+        start[3 - d :] = pr.start
+        self._start_cell = start
+        self._words = np.zeros(13, np.uint64)
+        self._n_root = 0
         self.root: int | None = None
         self._next = 0
 
@@ -417,61 +556,36 @@ class LatticeVectorEnv(VectorEnv):
         """Every source's cell, ``(B, d)`` (grid indices)."""
         return self._src[:, 3 - self.problem.dim :].copy()
 
-    def _start(self, i: int, episode: int) -> None:
-        pr = self.problem
-        assert self.root is not None
-        ws, _ = episode_seeds(self.root, self.world_key, episode)
-        rng_world, rng_sense = world_generators(ws)
-        h0 = int(pr.cdf_h0.searchsorted(rng_world.random(), side="right"))
-        cdf = pr.cdf_b0[h0]
-        start = self._starts[h0]
-        assert cdf is not None and start is not None
-        cell = int(cdf.searchsorted(rng_world.random(), side="right"))
-        src = np.unravel_index(cell, pr.shape)
-        lead = 3 - pr.dim
-        self._src[i] = 0
-        self._src[i, lead:] = src
-        self._ag[i] = 0
-        self._ag[i, lead:] = pr.start
-        self._prev[i] = self._ag[i]
-        self._back[i] = 0
-        self._steps[i] = 0
-        self._last[i] = h0
-        self._b[i] = start[0]
-        self._logb[i] = start[1]
-        self._ent[i] = start[2]
-        self._mom[i] = start[3]
-        self._u[i] = rng_sense.random(_BLOCK)
-        self._upos[i] = 0
-        self._sense[i] = rng_sense
-        self._episode[i] = episode
+    def _common(self) -> tuple[Any, ...]:
+        """The episode-start arguments of the kernels, in their order."""
+        return (
+            self._words,
+            self._n_root,
+            self.problem.cdf_h0,
+            self._cdf_b0,
+            self._b0,
+            self._logb0,
+            self._ent0,
+            self._mom0,
+            self._start_cell,
+        )
 
-    def _refill(self) -> None:
-        low = np.flatnonzero(self._upos > _BLOCK - _MARGIN)
-        for i in low:
-            p = int(self._upos[i])
-            rng = self._sense[i]
-            assert rng is not None
-            self._u[i, : _BLOCK - p] = self._u[i, p:]
-            self._u[i, _BLOCK - p :] = rng.random(p)
-            self._upos[i] = 0
-
-    def _observe(self, rows: np.ndarray | None = None) -> np.ndarray:
-        pr = self.problem
-        r = self._all if rows is None else rows
-        _features(
+    def _state(self) -> tuple[np.ndarray, ...]:
+        """The per-sub-environment arrays of the kernels, in their order."""
+        return (
             self._ag,
+            self._src,
+            self._prev,
+            self._back,
+            self._steps,
             self._b,
+            self._logb,
             self._ent,
             self._mom,
             self._last,
-            pr.dim,
-            pr.z,
-            self._ent_max,
-            r,
-            self._obs,
+            self._sense,
+            self._episode,
         )
-        return self._obs.copy()
 
     def reset(
         self, *, seed: int | list[int] | None = None, options: dict[str, Any] | None = None
@@ -485,10 +599,14 @@ class LatticeVectorEnv(VectorEnv):
             self.root = check_seed(int(seed), "seed")
         elif self.root is None:
             self.root = int(self.np_random.integers(0, 2**63 - 1, dtype=np.int64))
-        for i in range(self.num_envs):
-            self._start(i, i)
+        words, n_root = stream_words(self.root, self.world_key, 0)
+        self._words[:] = 0
+        self._words[: len(words)] = words
+        self._n_root = n_root
+        pr = self.problem
+        _reset_all(0, *self._common(), pr.dim, pr.z, self._ent_max, *self._state(), self._obs)
         self._next = self.num_envs
-        return self._observe(), {"episode": self._episode.copy()}
+        return self._obs.copy(), {"episode": self._episode.copy()}
 
     def step(
         self, actions: Any
@@ -502,49 +620,36 @@ class LatticeVectorEnv(VectorEnv):
         if act.min() < 0 or act.max() >= 2 * self.problem.dim:
             raise ValueError(f"actions must lie in [0, {2 * self.problem.dim})")
         pr, k = self.problem, self.problem.kernels
-        self._refill()
-        _batch_step(
+        self._next = _batch_step(
             act.astype(np.int64),
-            self._ag,
-            self._src,
-            self._prev,
-            self._back,
-            self._steps,
-            self._b,
-            self._logb,
-            self._ent,
-            self._mom,
-            self._last,
-            self._u,
-            self._upos,
+            self._next,
+            *self._common(),
             pr.enlam,
             k.prob,
             k.channels,
             k.half,
             pr.dim,
             pr.z,
+            self._ent_max,
             pr.n_steps,
             pr.stuck,
+            *self._state(),
             self._status,
+            self._obs,
+            self._final,
+            self._final_episode,
         )
         st = self._status
-        if np.any(st < 0):
-            raise RuntimeError("a hit count read past its block of uniform numbers")
         rp = self.reward_params
         reward = np.where(st == 1, rp.step + rp.reach, rp.step)
         terminated = st == 1
         truncated = (st == 2) | (st == 3)
-        obs = self._observe()
         info: dict[str, Any] = {}
-        done = np.flatnonzero(terminated | truncated)
-        if done.size:
-            final = np.zeros_like(obs)
-            final[done] = obs[done]
+        ended = terminated | truncated
+        if ended.any():
+            final = np.zeros_like(self._obs)
+            final[ended] = self._final[ended]
             info["final_obs"] = final
-            info["_final_obs"] = terminated | truncated
-            info["final_episode"] = self._episode.copy()
-            for i in done:
-                self._start(int(i), self._next)
-                self._next += 1
-            obs = self._observe(done.astype(np.int64))
-        return obs, reward.astype(np.float64), terminated, truncated, info
+            info["_final_obs"] = ended
+            info["final_episode"] = self._final_episode.copy()
+        return self._obs.copy(), reward.astype(np.float64), terminated, truncated, info
