@@ -61,11 +61,12 @@ from odorloc.models.lattice import (
 )
 from odorloc.models.poisson import censored_poisson
 from odorloc.models.vergassola import vergassola_rate
-from odorloc.planning.lattice_step import LatticeKernels, log_belief
-from odorloc.planning.lattice_step import _observe as _observe_kernel
+from odorloc.planning.lattice_step import LatticeKernels
 from odorloc.scenarios import Scenario
 
 __all__ = ["LatticeVectorEnv"]
+
+_LOG_FLOOR = -1e300  # log of an empty cell (finite: 0 * floor adds nothing to an entropy)
 
 
 # ---------------------------------------------------------------------- compiled batch step
@@ -82,6 +83,70 @@ def _poisson_mult(st: np.ndarray, enlam: float) -> int:
             return x
 
 
+def _scale(tot: float) -> float:
+    """The factor that turns a stored belief of mass ``tot`` into the belief: ``1 / tot``,
+    or 1 when the mass is at or below ``1e-10`` (the reference's normalisation rule)."""
+    return 1.0 / tot if tot > 1e-10 else 1.0
+
+
+def _update(
+    u: np.ndarray,
+    lu: np.ndarray,
+    tot: float,
+    ag: np.ndarray,
+    prob: np.ndarray,
+    logp: np.ndarray,
+    half: np.ndarray,
+    hit: int,
+    mom: np.ndarray,
+) -> tuple[float, float]:
+    """Bayes update after ``hit`` at ``ag`` in one pass over the grid.
+
+    ``u`` holds the belief times its mass ``tot`` (normalised lazily: the division by the mass
+    is folded into the next update), ``lu`` its logarithm floored at ``-1e300`` (so that an
+    empty cell adds ``0 * -1e300 = 0`` to the entropy's sum, never a NaN). Returns the new
+    mass and the belief's entropy (bits, every non-empty cell); the belief's first moments
+    (cells) go to ``mom`` ``(3,)``.
+    """
+    n0, n1, n2 = u.shape
+    c = _scale(tot)
+    shift = math.log(c)
+    u[ag[0], ag[1], ag[2]] = 0.0
+    new = 0.0
+    e = 0.0
+    m0 = 0.0
+    m1 = 0.0
+    m2 = 0.0
+    o2 = half[2] - ag[2]
+    for i0 in range(n0):
+        r0 = i0 - ag[0] + half[0]
+        for i1 in range(n1):
+            r1 = i1 - ag[1] + half[1]
+            p = prob[hit, r0, r1, o2 : o2 + n2]
+            lp = logp[hit, r0, r1, o2 : o2 + n2]
+            row = u[i0, i1]
+            lrow = lu[i0, i1]
+            srow = 0.0
+            for i2 in range(n2):
+                v = row[i2] * c * p[i2]
+                row[i2] = v
+                lv = max(lrow[i2] + shift + lp[i2], _LOG_FLOOR)
+                lrow[i2] = lv
+                srow += v
+                m2 += v * i2
+                e += v * lv
+            new += srow
+            m0 += srow * i0
+            m1 += srow * i1
+    lu[ag[0], ag[1], ag[2]] = _LOG_FLOOR
+    c = _scale(new)
+    mom[0] = m0 * c
+    mom[1] = m1 * c
+    mom[2] = m2 * c
+    # S = -sum (c u)(lu + log c), u summing to `new`
+    return new, -(c * e + c * new * math.log(c)) / math.log(2.0)
+
+
 def _start(
     i: int,
     episode: int,
@@ -93,6 +158,7 @@ def _start(
     logb0: np.ndarray,
     ent0: np.ndarray,
     mom0: np.ndarray,
+    tot0: np.ndarray,
     start: np.ndarray,
     dim: int,
     ag: np.ndarray,
@@ -104,6 +170,7 @@ def _start(
     logb: np.ndarray,
     ent: np.ndarray,
     mom: np.ndarray,
+    tot: np.ndarray,
     last: np.ndarray,
     sense: np.ndarray,
     epi: np.ndarray,
@@ -151,6 +218,7 @@ def _start(
     b[i] = b0[h0]
     logb[i] = logb0[h0]
     ent[i] = ent0[h0]
+    tot[i] = tot0[h0]
     epi[i] = episode
 
 
@@ -160,6 +228,7 @@ def _feature_row(
     b: np.ndarray,
     ent: np.ndarray,
     mom: np.ndarray,
+    tot: np.ndarray,
     last: np.ndarray,
     dim: int,
     z: int,
@@ -169,6 +238,7 @@ def _feature_row(
     """Sub-environment ``i``'s observation (module docstring) into ``out`` ``(F,)``."""
     shape = b.shape[1:]
     lead = 3 - dim
+    c = _scale(tot[i])
     k = 0
     for a in range(dim):
         n = shape[lead + a]
@@ -192,7 +262,7 @@ def _feature_row(
         else:
             c2 += step
         inside = 0 <= c0 < shape[0] and 0 <= c1 < shape[1] and 0 <= c2 < shape[2]
-        out[k] = b[i, c0, c1, c2] if inside else 0.0
+        out[k] = c * b[i, c0, c1, c2] if inside else 0.0
         k += 1
     for a in range(dim):
         out[k] = (mom[i, lead + a] - ag[i, lead + a]) / shape[lead + a]
@@ -209,6 +279,7 @@ def _reset_all(
     logb0: np.ndarray,
     ent0: np.ndarray,
     mom0: np.ndarray,
+    tot0: np.ndarray,
     start: np.ndarray,
     dim: int,
     z: int,
@@ -222,6 +293,7 @@ def _reset_all(
     logb: np.ndarray,
     ent: np.ndarray,
     mom: np.ndarray,
+    tot: np.ndarray,
     last: np.ndarray,
     sense: np.ndarray,
     epi: np.ndarray,
@@ -231,10 +303,10 @@ def _reset_all(
     observations."""
     for i in range(ag.shape[0]):
         _start(
-            i, first + i, words, n_root, cdf_h0, cdf_b0, b0, logb0, ent0, mom0, start, dim,
-            ag, src, prev, back, steps, b, logb, ent, mom, last, sense, epi,
+            i, first + i, words, n_root, cdf_h0, cdf_b0, b0, logb0, ent0, mom0, tot0, start, dim,
+            ag, src, prev, back, steps, b, logb, ent, mom, tot, last, sense, epi,
         )  # fmt: skip
-        _feature_row(i, ag, b, ent, mom, last, dim, z, ent_max, obs[i])
+        _feature_row(i, ag, b, ent, mom, tot, last, dim, z, ent_max, obs[i])
 
 
 def _batch_step(
@@ -248,10 +320,11 @@ def _batch_step(
     logb0: np.ndarray,
     ent0: np.ndarray,
     mom0: np.ndarray,
+    tot0: np.ndarray,
     start: np.ndarray,
     enlam: np.ndarray,
     prob: np.ndarray,
-    ch: np.ndarray,
+    logp: np.ndarray,
     half: np.ndarray,
     dim: int,
     z: int,
@@ -267,6 +340,7 @@ def _batch_step(
     logb: np.ndarray,
     ent: np.ndarray,
     mom: np.ndarray,
+    tot: np.ndarray,
     last: np.ndarray,
     sense: np.ndarray,
     epi: np.ndarray,
@@ -315,24 +389,26 @@ def _batch_step(
             if reached:
                 status[i] = 1
             else:
-                ent[i] = _observe_kernel(b[i], logb[i], ag[i], prob, ch, half, h, mom[i])
+                tot[i], ent[i] = _update(b[i], logb[i], tot[i], ag[i], prob, logp, half, h, mom[i])
                 if stuck >= 0 and back[i] > stuck and steps[i] < n_steps:
                     status[i] = 3
                 else:
                     status[i] = 0
         final_epi[i] = epi[i]
         if status[i] != 0:
-            _feature_row(i, ag, b, ent, mom, last, dim, z, ent_max, final[i])
+            _feature_row(i, ag, b, ent, mom, tot, last, dim, z, ent_max, final[i])
             _start(
-                i, nxt, words, n_root, cdf_h0, cdf_b0, b0, logb0, ent0, mom0, start, dim,
-                ag, src, prev, back, steps, b, logb, ent, mom, last, sense, epi,
+                i, nxt, words, n_root, cdf_h0, cdf_b0, b0, logb0, ent0, mom0, tot0, start, dim,
+                ag, src, prev, back, steps, b, logb, ent, mom, tot, last, sense, epi,
             )  # fmt: skip
             nxt += 1
-        _feature_row(i, ag, b, ent, mom, last, dim, z, ent_max, obs[i])
+        _feature_row(i, ag, b, ent, mom, tot, last, dim, z, ent_max, obs[i])
     return nxt
 
 
 _poisson_mult = jit(_poisson_mult)
+_scale = jit(_scale)
+_update = jit(_update, fastmath={"reassoc", "contract", "arcp", "nsz"})
 _start = jit(_start)
 _feature_row = jit(_feature_row)
 _reset_all = jit(_reset_all)
@@ -494,6 +570,7 @@ class LatticeVectorEnv(VectorEnv):
         self._logb = np.zeros((nb, *k.shape))
         self._ent = np.zeros(nb)
         self._mom = np.zeros((nb, 3))
+        self._tot = np.ones(nb)
         self._ag = np.zeros((nb, 3), np.int64)
         self._src = np.zeros((nb, 3), np.int64)
         self._prev = np.zeros((nb, 3), np.int64)
@@ -512,21 +589,27 @@ class LatticeVectorEnv(VectorEnv):
         # the source is drawn from (zero rows for classes that cannot come first)
         n = math.prod(k.shape)
         self._b0 = np.zeros((z, *k.shape))
-        self._logb0 = np.full((z, *k.shape), -np.inf)
+        self._logb0 = np.full((z, *k.shape), _LOG_FLOOR)
         self._ent0 = np.zeros(z)
         self._mom0 = np.zeros((z, 3))
+        self._tot0 = np.ones(z)
         self._cdf_b0 = np.zeros((z, n))
         grids = np.meshgrid(*[np.arange(m) for m in k.shape], indexing="ij")
         for h, b0 in enumerate(pr.b0):
             if b0 is None:
                 continue
             bk = k.as_kernel(b0.copy())
-            logb, ent = log_belief(k, bk)
-            self._b0[h], self._logb0[h], self._ent0[h] = bk, logb, ent
-            self._mom0[h] = [float((bk * g).sum()) for g in grids]
+            pos = bk > 0
+            self._b0[h] = bk
+            self._logb0[h][pos] = np.log(bk[pos])
+            self._ent0[h] = -float((bk[pos] * self._logb0[h][pos]).sum()) / math.log(2.0)
+            self._tot0[h] = float(bk.sum())
+            self._mom0[h] = [float((bk * g).sum()) / self._tot0[h] for g in grids]
             cdf = pr.cdf_b0[h]
             assert cdf is not None
             self._cdf_b0[h] = cdf
+        with np.errstate(divide="ignore"):
+            self._logp = np.ascontiguousarray(np.maximum(np.log(k.prob), _LOG_FLOOR))
         start = np.zeros(3, np.int64)
         start[3 - d :] = pr.start
         self._start_cell = start
@@ -539,7 +622,9 @@ class LatticeVectorEnv(VectorEnv):
     @property
     def belief(self) -> np.ndarray:
         """Every sub-environment's belief, ``(B, *grid shape)`` (a copy)."""
-        return self._b.reshape(self.num_envs, *self.problem.shape).copy()
+        scale = np.where(self._tot > 1e-10, 1.0 / np.maximum(self._tot, 1e-300), 1.0)
+        b = self._b.reshape(self.num_envs, -1) * scale[:, None]
+        return b.reshape(self.num_envs, *self.problem.shape)
 
     @property
     def episodes(self) -> np.ndarray:
@@ -567,6 +652,7 @@ class LatticeVectorEnv(VectorEnv):
             self._logb0,
             self._ent0,
             self._mom0,
+            self._tot0,
             self._start_cell,
         )
 
@@ -582,6 +668,7 @@ class LatticeVectorEnv(VectorEnv):
             self._logb,
             self._ent,
             self._mom,
+            self._tot,
             self._last,
             self._sense,
             self._episode,
@@ -626,7 +713,7 @@ class LatticeVectorEnv(VectorEnv):
             *self._common(),
             pr.enlam,
             k.prob,
-            k.channels,
+            self._logp,
             k.half,
             pr.dim,
             pr.z,
