@@ -4,8 +4,8 @@
 lattice scenarios of OTTO's problem (``lattice-isotropic-*``, 2-D or 3-D: a
 ``lattice-isotropic`` plume with ``start: initial-hit``, a ``lattice`` platform, an
 ``encounter`` hit counter). One :meth:`~LatticeVectorEnv.step` moves every agent, draws every
-hit and updates every belief in compiled loops (:mod:`odorloc.planning.lattice_step`), with no
-Python object per episode.
+hit, updates every belief, writes every observation and restarts every ended episode in one
+compiled call, with no Python object per episode.
 
 Episodes are those of the engine. ``reset(seed=R)`` starts episode ``i`` of root ``R`` in
 sub-environment ``i``; when a sub-environment's episode ends it starts the next episode not yet
@@ -16,8 +16,16 @@ engine gives it (:func:`~odorloc.core.seeds.world_generators`, those of
 :func:`~odorloc.core.seeds.episode_generators`): the first hit and the source
 from the world stream as the plume does, each hit count from the sensor stream as NumPy's
 Poisson sampler does (the multiplication method below a mean of 10 hits, which every hit of the
-lattice problem lies under: larger means are refused), the stream read in blocks of uniform
-numbers in the same order.
+lattice problem lies under: larger means are refused). Starting an episode costs about a
+microsecond: the seed derivation and both PCG64 streams are computed in compiled code, bit for
+bit as NumPy computes them (:mod:`odorloc.core.pcg`), and what depends only on the scenario
+(the start belief of each first hit, its logarithm, entropy and moments) is computed once.
+
+Belief update (the Bayes rule of :mod:`odorloc.planning.lattice_step`, the agent's cell
+emptied): one pass over the grid per step. The stored belief is normalised lazily, its mass
+kept beside it and divided out in the next pass (and in every observation); as in the reference,
+a belief of mass at or below ``1e-10`` is not normalised. The episode's dynamics (cells, hits,
+rewards, ends) do not depend on the belief; only the observation does.
 
 Actions: ``Discrete(2 d)`` per sub-environment, the lattice moves ``-x, +x, -y, +y[, -z, +z]``
 (a move off the grid leaves the agent where it is). Rewards, termination and truncation are
@@ -28,16 +36,20 @@ move). Auto-reset: ``SAME_STEP`` (the observation returned for an ended episode 
 the next; the last one is in ``info["final_obs"]``, with ``info["_final_obs"]`` marking which).
 
 Observation (``float32``, :attr:`LatticeVectorEnv.feature_names`): the agent's cell scaled to
-``[0, 1]`` per axis, the last hit class one-hot (``Z`` classes), the belief's entropy over its
-largest value ``log2(n cells)``, the belief in the ``2 d`` neighbouring cells (0 off the grid),
+``[0, 1]`` per axis, the last hit class one-hot (``Z`` classes), the belief's Shannon entropy
+(bits, over every non-empty cell) over its largest value ``log2(n cells)``, the belief in the ``2 d`` neighbouring cells (0 off the grid),
 and the belief's mean offset from the agent per axis over the grid size. ``belief`` (a property)
 holds every sub-environment's full belief.
+
+With ``threads > 1`` the sub-environments are stepped on numba's threads and restarted in
+order afterwards: the same episodes, the same numbers.
 """
 
 from __future__ import annotations
 
 import math
 from pathlib import Path
+from types import FunctionType
 from typing import Any, ClassVar
 
 import gymnasium as gym
@@ -46,7 +58,8 @@ from gymnasium import spaces
 from gymnasium.vector import AutoresetMode, VectorEnv
 
 from odorloc.core.errors import ConfigError
-from odorloc.core.jit import jit
+from odorloc.core.jit import jit, prange, set_threads
+from odorloc.core.jit import threads as jit_threads
 from odorloc.core.pcg import pcg_double, pcg_seed, seed_words
 from odorloc.core.seeds import check_seed, stream_words
 from odorloc.envs.core import RewardParams, load_scenario, validated
@@ -309,6 +322,15 @@ def _reset_all(
         _feature_row(i, ag, b, ent, mom, tot, last, dim, z, ent_max, obs[i])
 
 
+def _renamed(fn: Any, name: str) -> Any:
+    """A copy of the function ``fn`` under another name (its own compiled kernel and cache
+    entry)."""
+    out = FunctionType(fn.__code__, fn.__globals__, name, fn.__defaults__)
+    out.__qualname__ = name
+    out.__module__ = fn.__module__
+    return out
+
+
 def _batch_step(
     actions: np.ndarray,
     nxt: int,
@@ -354,47 +376,17 @@ def _batch_step(
     episode ``nxt``, ``nxt + 1``, ... in order. ``status``: 0 running, 1 reached, 2 time
     limit, 3 stuck. Returns the next unused episode."""
     nb = actions.shape[0]
-    shape = b.shape[1:]
-    for i in range(nb):
-        if steps[i] >= n_steps:
-            status[i] = 2
-        else:
-            a = actions[i]
-            axis = a // 2 + (3 - dim)
-            old0 = ag[i, 0]
-            old1 = ag[i, 1]
-            old2 = ag[i, 2]
-            v = ag[i, axis] + (1 if a % 2 == 1 else -1)
-            if 0 <= v < shape[axis]:
-                ag[i, axis] = v
-            steps[i] += 1
-            # the hit count is drawn at every step, on the source cell too (as the engine does)
-            r0 = src[i, 0] - ag[i, 0] + half[0]
-            r1 = src[i, 1] - ag[i, 1] + half[1]
-            r2 = src[i, 2] - ag[i, 2] + half[2]
-            el = enlam[r0, r1, r2]
-            count = _poisson_mult(sense[i], el) if el < 1.0 else 0
-            h = count if count < z - 1 else z - 1
-            last[i] = h
-            reached = ag[i, 0] == src[i, 0] and ag[i, 1] == src[i, 1] and ag[i, 2] == src[i, 2]
-            # the stuck counter: back to the cell of two steps ago
-            if steps[i] >= 2:
-                if ag[i, 0] == prev[i, 0] and ag[i, 1] == prev[i, 1] and ag[i, 2] == prev[i, 2]:
-                    back[i] += 1
-                else:
-                    back[i] = 0
-            prev[i, 0] = old0
-            prev[i, 1] = old1
-            prev[i, 2] = old2
-            if reached:
-                status[i] = 1
-            else:
-                tot[i], ent[i] = _update(b[i], logb[i], tot[i], ag[i], prob, logp, half, h, mom[i])
-                if stuck >= 0 and back[i] > stuck and steps[i] < n_steps:
-                    status[i] = 3
-                else:
-                    status[i] = 0
+    # the episodes are independent: step them on every thread numba was given (the kernel
+    # compiled with parallel=True; one thread otherwise), restart them in order afterwards
+    for i in prange(nb):
+        status[i] = _step_one(
+            i, actions[i], enlam, prob, logp, half, dim, z, n_steps, stuck,
+            ag, src, prev, back, steps, b, logb, ent, mom, tot, last, sense,
+        )  # fmt: skip
         final_epi[i] = epi[i]
+        if status[i] == 0:
+            _feature_row(i, ag, b, ent, mom, tot, last, dim, z, ent_max, obs[i])
+    for i in range(nb):
         if status[i] != 0:
             _feature_row(i, ag, b, ent, mom, tot, last, dim, z, ent_max, final[i])
             _start(
@@ -402,8 +394,71 @@ def _batch_step(
                 ag, src, prev, back, steps, b, logb, ent, mom, tot, last, sense, epi,
             )  # fmt: skip
             nxt += 1
-        _feature_row(i, ag, b, ent, mom, tot, last, dim, z, ent_max, obs[i])
+            _feature_row(i, ag, b, ent, mom, tot, last, dim, z, ent_max, obs[i])
     return nxt
+
+
+def _step_one(
+    i: int,
+    a: int,
+    enlam: np.ndarray,
+    prob: np.ndarray,
+    logp: np.ndarray,
+    half: np.ndarray,
+    dim: int,
+    z: int,
+    n_steps: int,
+    stuck: int,
+    ag: np.ndarray,
+    src: np.ndarray,
+    prev: np.ndarray,
+    back: np.ndarray,
+    steps: np.ndarray,
+    b: np.ndarray,
+    logb: np.ndarray,
+    ent: np.ndarray,
+    mom: np.ndarray,
+    tot: np.ndarray,
+    last: np.ndarray,
+    sense: np.ndarray,
+) -> int:
+    """Move, hit and belief update of sub-environment ``i`` after action ``a``; returns its
+    status (:func:`_batch_step`)."""
+    if steps[i] >= n_steps:
+        return 2
+    shape = b.shape[1:]
+    axis = a // 2 + (3 - dim)
+    old0 = ag[i, 0]
+    old1 = ag[i, 1]
+    old2 = ag[i, 2]
+    v = ag[i, axis] + (1 if a % 2 == 1 else -1)
+    if 0 <= v < shape[axis]:
+        ag[i, axis] = v
+    steps[i] += 1
+    # the hit count is drawn at every step, on the source cell too (as the engine does)
+    r0 = src[i, 0] - ag[i, 0] + half[0]
+    r1 = src[i, 1] - ag[i, 1] + half[1]
+    r2 = src[i, 2] - ag[i, 2] + half[2]
+    el = enlam[r0, r1, r2]
+    count = _poisson_mult(sense[i], el) if el < 1.0 else 0
+    h = count if count < z - 1 else z - 1
+    last[i] = h
+    reached = ag[i, 0] == src[i, 0] and ag[i, 1] == src[i, 1] and ag[i, 2] == src[i, 2]
+    # the stuck counter: back to the cell of two steps ago
+    if steps[i] >= 2:
+        if ag[i, 0] == prev[i, 0] and ag[i, 1] == prev[i, 1] and ag[i, 2] == prev[i, 2]:
+            back[i] += 1
+        else:
+            back[i] = 0
+    prev[i, 0] = old0
+    prev[i, 1] = old1
+    prev[i, 2] = old2
+    if reached:
+        return 1
+    tot[i], ent[i] = _update(b[i], logb[i], tot[i], ag[i], prob, logp, half, h, mom[i])
+    if stuck >= 0 and back[i] > stuck and steps[i] < n_steps:
+        return 3
+    return 0
 
 
 _poisson_mult = jit(_poisson_mult)
@@ -412,6 +467,9 @@ _update = jit(_update, fastmath={"reassoc", "contract", "arcp", "nsz"})
 _start = jit(_start)
 _feature_row = jit(_feature_row)
 _reset_all = jit(_reset_all)
+_step_one = jit(_step_one)
+# the same kernel twice: on one thread, and over numba's threads (the ``threads`` option)
+_batch_step_threads = jit(_renamed(_batch_step, "_batch_step_threads"), parallel=True)
 _batch_step = jit(_batch_step)
 
 
@@ -527,6 +585,10 @@ class LatticeVectorEnv(VectorEnv):
         :class:`~odorloc.envs.core.RewardParams` (``step`` and ``reach`` apply).
     world_key : str, optional
         World key of the seed derivation (default: the scenario's name as given).
+    threads : int, optional
+        Threads that step the sub-environments (default 1; ``None``: every thread numba was
+        given, :func:`odorloc.core.jit.threads`). Episodes, seeds and observations do not
+        depend on it.
     """
 
     metadata: ClassVar[dict[str, Any]] = {"autoreset_mode": AutoresetMode.SAME_STEP}
@@ -537,9 +599,16 @@ class LatticeVectorEnv(VectorEnv):
         num_envs: int = 64,
         reward: dict[str, Any] | None = None,
         world_key: str | None = None,
+        threads: int | None = 1,
     ) -> None:
         if isinstance(num_envs, bool) or not isinstance(num_envs, int) or num_envs < 1:
             raise ConfigError("num_envs", f"must be an integer >= 1, got {num_envs!r}")
+        most = jit_threads()
+        if threads is None:
+            threads = most
+        if isinstance(threads, bool) or not isinstance(threads, int) or not 1 <= threads <= most:
+            raise ConfigError("threads", f"must be an integer in [1, {most}], got {threads!r}")
+        self.threads = threads
         sc, key = load_scenario(scenario)
         self.scenario = sc
         self.world_key = world_key or key
@@ -707,7 +776,11 @@ class LatticeVectorEnv(VectorEnv):
         if act.min() < 0 or act.max() >= 2 * self.problem.dim:
             raise ValueError(f"actions must lie in [0, {2 * self.problem.dim})")
         pr, k = self.problem, self.problem.kernels
-        self._next = _batch_step(
+        kernel = _batch_step
+        if self.threads > 1:
+            kernel = _batch_step_threads
+            set_threads(self.threads)
+        self._next = kernel(
             act.astype(np.int64),
             self._next,
             *self._common(),
