@@ -12,12 +12,14 @@ Batched environments: agent-steps per second of :class:`~odorloc.envs.vector.Lat
 on ``lattice-isotropic-2d`` at B = 1, 64, 1 024 and 4 096 sub-environments, beside Gymnasium's
 ``SyncVectorEnv`` (B = 64) and ``AsyncVectorEnv`` (B = 2, one process per sub-environment) of
 the single environment ``SearchEnv`` with discrete lattice moves, uniform random moves, in
-alternating rounds (best of each).
+alternating rounds (best of each). The batched env runs on one thread (``threads=1``, like
+for like with the synchronous vector); ``lattice_steps_per_s_4096_threads`` is B = 4 096 on
+every thread numba was given (``threads=None``).
 
 The last line is ``RESULT env_overhead=<x> env_steps_per_s=<y> env_overhead_farrell=<z>
 pz_overhead=<w> pz_bare_ms=<v> lattice_steps_per_s_1=... lattice_steps_per_s_64=...
-lattice_steps_per_s_1024=... lattice_steps_per_s_4096=... sync_steps_per_s=...
-async_steps_per_s=... batched_vs_sync=<batched at 4096 / sync>`` (the first two of
+lattice_steps_per_s_1024=... lattice_steps_per_s_4096=... lattice_steps_per_s_4096_threads=...
+sync_steps_per_s=... async_steps_per_s=... batched_vs_sync=<batched at 4096 / sync>`` (the first two of
 ``indoor-ventilated``, the Gymnasium headline; the PettingZoo overhead and bare step time of the
 three-UAV ``muc-osl-3d``). ``--no-adapters`` / ``--no-batched`` leave one part out. Without the
 ``rl`` extra it stops with a one-line message.
@@ -37,6 +39,7 @@ from typing import Any
 
 import numpy as np
 
+from odorloc.core.jit import threads as jit_threads
 from odorloc.core.seeds import episode_seeds
 from odorloc.core.types import Action, Command
 from odorloc.engine.episode import Episode
@@ -111,12 +114,13 @@ def _single(scenario: str) -> Any:
     return SearchEnv(scenario, action={"kind": "discrete", "declare": "none"})
 
 
-def batched_rate(b: int, steps: int, seed: int) -> float:
+def batched_rate(b: int, steps: int, seed: int, threads: int | None = 1) -> float:
     """Agent-steps per second of :class:`~odorloc.envs.vector.LatticeVectorEnv` with ``b``
-    sub-environments (uniform random moves; reset and one warm-up step untimed)."""
+    sub-environments on ``threads`` threads (``None``: all; uniform random moves; reset and one
+    warm-up step untimed)."""
     from odorloc.envs.vector import LatticeVectorEnv
 
-    env = LatticeVectorEnv(LATTICE, num_envs=b)
+    env = LatticeVectorEnv(LATTICE, num_envs=b, threads=threads)
     env.reset(seed=seed)
     acts = np.random.default_rng(seed).integers(0, 4, size=(steps + 1, b))
     env.step(acts[0])
@@ -154,33 +158,39 @@ def batched(rounds: int, quick: bool) -> dict[str, float]:
     cases: list[tuple[str, int, int]] = [
         ("batched", b, max(5, min(2000, work // b))) for b in BATCHES
     ]
+    top = BATCHES[-1]
+    cases.append(("threads", top, max(5, min(2000, work // top))))
     cases.append(("sync", SYNC_B, 3 if quick else 30))
     cases.append(("async", ASYNC_B, 20 if quick else 300))
     best: dict[tuple[str, int], float] = {}
     for r in range(rounds):
         for kind, b, steps in cases:
-            rate = (
-                batched_rate(b, steps, r)
-                if kind == "batched"
-                else gym_vector_rate(kind, b, steps, r)
-            )
+            if kind == "batched":
+                rate = batched_rate(b, steps, r)
+            elif kind == "threads":
+                rate = batched_rate(b, steps, r, threads=None)
+            else:
+                rate = gym_vector_rate(kind, b, steps, r)
             best[(kind, b)] = max(best.get((kind, b), 0.0), rate)
     print(f"\nAgent-steps per second on {LATTICE} (uniform random moves; best of {rounds} rounds)")
     print(f"{'environment':<34} {'B':>6} {'agent-steps/s':>14}")
     names = {
         "batched": "LatticeVectorEnv (odorloc)",
+        "threads": f"LatticeVectorEnv, {jit_threads()} threads",
         "sync": "SyncVectorEnv of SearchEnv",
         "async": "AsyncVectorEnv of SearchEnv",
     }
     for (kind, b), rate in best.items():
         print(f"{names[kind]:<34} {b:>6} {rate:>14,.0f}")
     out = {f"lattice_steps_per_s_{b}": best[("batched", b)] for b in BATCHES}
+    out[f"lattice_steps_per_s_{top}_threads"] = best[("threads", top)]
     out["sync_steps_per_s"] = best[("sync", SYNC_B)]
     out["async_steps_per_s"] = best[("async", ASYNC_B)]
     out["batched_vs_sync"] = out[f"lattice_steps_per_s_{BATCHES[-1]}"] / out["sync_steps_per_s"]
     print(
         f"(the synchronous vector runs B = {SYNC_B}, the asynchronous one B = {ASYNC_B}: one "
-        "process per sub-environment; their throughput per agent does not grow with B)"
+        "process per sub-environment; their throughput per agent does not grow with B; "
+        "batched_vs_sync compares one thread with one thread)"
     )
     return out
 
