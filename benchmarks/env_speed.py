@@ -17,12 +17,14 @@ for like with the synchronous vector); ``lattice_steps_per_s_4096_threads`` is B
 every thread numba was given (``threads=None``).
 
 The last line is ``RESULT env_overhead=<x> env_steps_per_s=<y> env_overhead_farrell=<z>
-pz_overhead=<w> pz_bare_ms=<v> lattice_steps_per_s_1=... lattice_steps_per_s_64=...
-lattice_steps_per_s_1024=... lattice_steps_per_s_4096=... lattice_steps_per_s_4096_threads=...
-sync_steps_per_s=... async_steps_per_s=... batched_vs_sync=<batched at 4096 / sync>`` (the first two of
-``indoor-ventilated``, the Gymnasium headline; the PettingZoo overhead and bare step time of the
-three-UAV ``muc-osl-3d``). ``--no-adapters`` / ``--no-batched`` leave one part out. Without the
-``rl`` extra it stops with a one-line message.
+pz_overhead=<w> pz_bare_ms=<v> pz_adapter_overhead=<u> lattice_steps_per_s_1=...
+lattice_steps_per_s_64=... lattice_steps_per_s_1024=... lattice_steps_per_s_4096=...
+lattice_steps_per_s_4096_threads=... sync_steps_per_s=... async_steps_per_s=...
+batched_vs_sync=<batched at 4096 / sync>`` (the first two of ``indoor-ventilated``, the
+Gymnasium headline; the PettingZoo overhead and bare step time of the three-UAV ``muc-osl-3d``;
+``pz_adapter_overhead`` the same with a bare team that broadcasts the same readings, i.e. the
+adapter alone, without the radio's delivery and energy accounting). ``--no-adapters`` /
+``--no-batched`` leave one part out. Without the ``rl`` extra it stops with a one-line message.
 
     .venv/bin/python benchmarks/env_speed.py [--rounds 5] [--quick]
 """
@@ -57,9 +59,13 @@ def actions(n: int, dim: int, seed: int) -> np.ndarray:
     return out
 
 
-def lockstep(name: str, acts: np.ndarray, root: int, n: int) -> tuple[float, float, int]:
+def lockstep(
+    name: str, acts: np.ndarray, root: int, n: int, radio: bool = False
+) -> tuple[float, float, int]:
     """Seconds of bare episode steps and of environment steps, taken alternately step by step
-    on the same seeds and actions (so load on a shared machine hits both alike)."""
+    on the same seeds and actions (so load on a shared machine hits both alike). With
+    ``radio`` the bare step also broadcasts what the environment's agents broadcast (built
+    and delivered inside the timed step)."""
     from odorloc.envs import SearchEnv, parallel_env
 
     ep = Episode(get_scenario(name), record=False)
@@ -74,9 +80,13 @@ def lockstep(name: str, acts: np.ndarray, root: int, n: int) -> tuple[float, flo
     steps = 0
     clock = time.perf_counter
 
+    io = e.unwrapped.core.io if n == 1 else e.core.io
+
     def bare_step(v: np.ndarray) -> float:
         t0 = clock()
-        ep.step(Action([Command.velocity(v.astype(float) * vmax[k]) for k in range(n)]))
+        msgs = io.broadcasts(ep.observations) if radio else {}
+        cmds = [Command.velocity(v.astype(float) * vmax[k]) for k in range(n)]
+        ep.step(Action(cmds, messages=msgs))
         return clock() - t0
 
     def env_step(v: np.ndarray) -> float:
@@ -232,34 +242,38 @@ def main(argv: list[str] | None = None) -> None:
 def adapters(rounds: int) -> str:
     """The adapters' overhead over the bare step (module docstring); the RESULT keys."""
     cases = [
-        ("indoor-ventilated", 2, 1),  # the headline: filament plume, one robot
-        ("two-sources-farrell", 2, 1),
-        ("muc-osl-3d", 3, 3),  # PettingZoo, three UAVs exchanging messages
+        ("indoor-ventilated", 2, 1, False),  # the headline: filament plume, one robot
+        ("two-sources-farrell", 2, 1, False),
+        ("muc-osl-3d", 3, 3, False),  # PettingZoo, three UAVs exchanging messages
+        ("muc-osl-3d", 3, 3, True),  # the same, the bare team broadcasting the same messages
     ]
     print(f"{STEPS} control steps per run, {rounds} rounds, medians")
     print(
         f"{'scenario':<22} {'adapter':<12} {'bare ms/step':>13} {'env ms/step':>12} {'overhead':>9}"
     )
-    results: dict[str, tuple[float, float, float]] = {}
-    for name, dim, n in cases:
+    results: dict[tuple[str, bool], tuple[float, float, float]] = {}
+    for name, dim, n, radio in cases:
         acts = actions(STEPS, dim, 1)
         b_times, e_times = [], []
         for r in range(rounds + 1):
-            tb, te, steps = lockstep(name, acts, r, n)
+            tb, te, steps = lockstep(name, acts, r, n, radio)
             if r > 0:  # the first round warms caches
                 b_times.append(tb / steps)
                 e_times.append(te / steps)
         ratios = [e / b - 1.0 for e, b in zip(e_times, b_times, strict=True)]
         b, e, ov = statistics.median(b_times), statistics.median(e_times), statistics.median(ratios)
-        adapter = "Gymnasium" if n == 1 else "PettingZoo"
+        adapter = "Gymnasium" if n == 1 else "PettingZoo" + (" *" if radio else "")
         print(f"{name:<22} {adapter:<12} {1e3 * b:>13.3f} {1e3 * e:>12.3f} {100 * ov:>8.1f}%")
-        results[name] = (ov, b, e)
-    print("(timings on a shared machine; the ratio is what to compare)")
-    head, farrell, team = (results[name] for name, _, _ in cases)
+        results[(name, radio)] = (ov, b, e)
+    print(
+        "(* the bare team broadcasts the same messages: the adapter alone;\n"
+        " timings on a shared machine; the ratio is what to compare)"
+    )
+    head, farrell, team, adapter_only = (results[(c[0], c[3])] for c in cases)
     return (
         f"env_overhead={head[0]:.3f} env_steps_per_s={1.0 / head[2]:.0f} "
         f"env_overhead_farrell={farrell[0]:.3f} pz_overhead={team[0]:.3f} "
-        f"pz_bare_ms={1e3 * team[1]:.3f}"
+        f"pz_bare_ms={1e3 * team[1]:.3f} pz_adapter_overhead={adapter_only[0]:.3f}"
     )
 
 

@@ -323,6 +323,34 @@ def test_messages_only_from_neighbours() -> None:
     assert obs["agent_0"][rel] == pytest.approx(20.0)  # agent 1 seen from agent 0
 
 
+def test_broadcast_readings_are_charged_as_their_numbers() -> None:
+    """Each agent's broadcast is d + 2 float64 numbers (what a dict of its position, reading and
+    detection would count), read-only, and what neighbours decode is what was sent."""
+    from odorloc.platforms.team import CommGraph, message_nbytes
+    from odorloc.searchers.policy_io import ReadingMessage
+
+    env = parallel_env(scenario="muc-osl-3d", action={"declare": "none"})
+    env.reset(seed=1)
+    obs = env.episode.observations
+    msgs = env.core.io.broadcasts(obs)
+    for o in obs:
+        m = msgs[o.agent]
+        assert isinstance(m, ReadingMessage)
+        as_dict = {
+            "position": np.asarray(o.position, float),
+            "gas": np.array([float(o.gas)]),
+            "detection": np.array([1.0 if o.detection else 0.0]),
+        }
+        assert m.nbytes == message_nbytes(as_dict) == 8 * (len(o.position) + 2)
+        assert not m.position.flags.writeable
+        np.testing.assert_array_equal(m.position, o.position)
+    # the radio counts them once per recipient: links 0-1 and 1-2 (radius 30 m), both ways
+    graph = CommGraph(30.0)
+    inbox, nbytes = graph.deliver(np.array([o.position for o in obs]), msgs)
+    assert nbytes == 4 * 8 * 5
+    assert [m.sender for m in inbox[1]] == [0, 2]
+
+
 def test_team_reward_and_declaring_agent_credit() -> None:
     sc = checks.small_scenario({"type": "zigzag"}, 2, 3, 20.0)
     sc = sc.with_overrides({"task.end": "limits"})
