@@ -89,6 +89,9 @@ class EnvCore:
         Keep the episode's recording (``episode.result().recording`` after the end).
     world_key : str, optional
         The world key of the seed derivation (default: the scenario's own name).
+    trails : bool
+        Keep every agent's path for :meth:`render` (an environment without a render mode
+        need not store a position per agent and step).
     """
 
     def __init__(
@@ -100,7 +103,9 @@ class EnvCore:
         *,
         record: bool = False,
         world_key: str | None = None,
+        trails: bool = True,
     ) -> None:
+        self.keep_trails = bool(trails)
         self.scenario, key = load_scenario(scenario)
         if world_key is not None and not isinstance(world_key, str):
             raise ConfigError("world_key", f"must be a string, got {type(world_key).__name__}")
@@ -219,8 +224,9 @@ class EnvCore:
         obs = res.observations if res.observations else self.episode.observations
         if not res.done:
             self.io.update_beliefs(obs)
-        for k, o in enumerate(obs):
-            self._trails[k].append(o.position[:2].copy())
+        if self.keep_trails:
+            for k, o in enumerate(obs):
+                self._trails[k].append(o.position[:2].copy())
         return self.io.encode(obs), self.rewards(res.events), res
 
     def rewards(self, events: list[Event]) -> np.ndarray:

@@ -37,9 +37,9 @@ the next; the last one is in ``info["final_obs"]``, with ``info["_final_obs"]`` 
 
 Observation (``float32``, :attr:`LatticeVectorEnv.feature_names`): the agent's cell scaled to
 ``[0, 1]`` per axis, the last hit class one-hot (``Z`` classes), the belief's Shannon entropy
-(bits, over every non-empty cell) over its largest value ``log2(n cells)``, the belief in the ``2 d`` neighbouring cells (0 off the grid),
-and the belief's mean offset from the agent per axis over the grid size. ``belief`` (a property)
-holds every sub-environment's full belief.
+(bits, over every non-empty cell) over its largest value ``log2(n cells)``, the belief in the
+``2 d`` neighbouring cells (0 off the grid), and the belief's mean offset from the agent per
+axis over the grid size. ``belief`` (a property) holds every sub-environment's full belief.
 
 With ``threads > 1`` the sub-environments are stepped on numba's threads and restarted in
 order afterwards: the same episodes, the same numbers.
