@@ -351,6 +351,30 @@ def test_broadcast_readings_are_charged_as_their_numbers() -> None:
     assert [m.sender for m in inbox[1]] == [0, 2]
 
 
+@pytest.mark.parametrize("declare", ["none", "position"])
+def test_actions_decoded_together_as_one_by_one(declare: str) -> None:
+    """The team's velocity actions decoded as one array give each agent's command and
+    declaration exactly as decoding them one by one; a bad action is named as before."""
+    env = parallel_env(scenario="muc-osl-3d", action={"declare": declare})
+    env.reset(seed=3)
+    io, obs = env.core.io, env.episode.observations
+    rng = np.random.default_rng(0)
+    for _ in range(5):
+        acts = {k: rng.uniform(-2, 2, io.action_size).astype(np.float32) for k in range(3)}
+        cmds, decls = io.decode_many(acts, obs)
+        singles = [io.decode(k, acts[k], obs[k]) for k in range(3)]
+        for k, (cmd, _) in enumerate(singles):
+            assert cmds[k].kind == cmd.kind
+            np.testing.assert_array_equal(cmds[k].value, cmd.value)
+        expected = [d for _, d in singles if d is not None]
+        assert [d.agent for d in decls] == [d.agent for d in expected]
+        for d, e in zip(decls, expected, strict=True):
+            np.testing.assert_array_equal(d.positions, e.positions)
+    bad = {0: np.zeros(io.action_size), 1: np.full(io.action_size, np.nan), 2: np.zeros(1)}
+    with pytest.raises(ValueError, match="finite numbers"):
+        io.decode_many(bad, obs)
+
+
 def test_team_reward_and_declaring_agent_credit() -> None:
     sc = checks.small_scenario({"type": "zigzag"}, 2, 3, 20.0)
     sc = sc.with_overrides({"task.end": "limits"})

@@ -196,12 +196,9 @@ class EnvCore:
         """The episode action of the given agents' policy actions (others keep their command)."""
         obs = self.episode.observations
         cmds: list[Any] = [None] * self.n_agents
-        decls = []
-        for k, a in per_agent.items():
-            cmd, decl = self.io.decode(k, a, obs[k])
+        decoded, decls = self.io.decode_many(per_agent, obs)
+        for k, cmd in decoded.items():
             cmds[k] = cmd
-            if decl is not None:
-                decls.append(decl)
         return Action(cmds, messages=self.io.broadcasts(obs), declarations=decls)
 
     def require_reset(self) -> None:

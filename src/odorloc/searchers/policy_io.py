@@ -370,6 +370,42 @@ class PolicyIO:
         }
 
     # ------------------------------------------------------------------ decoding
+    def decode_many(
+        self, actions: dict[int, Any], observations: Sequence[Observation]
+    ) -> tuple[dict[int, Command], list[Declaration]]:
+        """:meth:`decode` for several agents (agent index -> action): the commands by agent and
+        the declarations in agent order. Velocity actions of one shape are checked, clipped and
+        scaled as one array (the same numbers as one by one)."""
+        keys = list(actions)
+        if self.act_params.kind != "discrete" and len(keys) > 1:
+            try:
+                a = np.asarray([actions[k] for k in keys], float)
+            except (TypeError, ValueError):
+                a = None
+            if a is not None and a.shape == (len(keys), self.action_size) and np.isfinite(a).all():
+                v = np.minimum(np.maximum(a[:, : self.dim], -1.0), 1.0)
+                v *= np.asarray(self.ctx.speed_limits, float)[keys, None]
+                cmds = {k: Command("velocity", v[j]) for j, k in enumerate(keys)}
+                decls = []
+                if self.can_declare:
+                    for j, k in enumerate(keys):
+                        if a[j, -1] > 0.0:
+                            decls.append(self._declaration(k, observations[k]))
+                return cmds, decls
+        cmds = {}
+        decls = []
+        for k in keys:
+            cmd, decl = self.decode(k, actions[k], observations[k])
+            cmds[k] = cmd
+            if decl is not None:
+                decls.append(decl)
+        return cmds, decls
+
+    def _declaration(self, i: int, o: Observation) -> Declaration:
+        """Agent ``i``'s declaration: its own position or its belief mean (``declare``)."""
+        where = o.position if self.act_params.declare == "position" else self.last_belief_means[i]
+        return Declaration(np.asarray(where, float)[None, :], agent=o.agent)
+
     def decode(self, i: int, action: Any, o: Observation) -> tuple[Command, Declaration | None]:
         """The command (and declaration) of controlled agent ``i`` for a policy's ``action``.
 
@@ -406,11 +442,7 @@ class PolicyIO:
             v *= vmax
             cmd = Command("velocity", v)
             declare = self.can_declare and a[-1] > 0.0
-        decl = None
-        if declare:
-            where = o.position if p.declare == "position" else self.last_belief_means[i]
-            decl = Declaration(np.asarray(where, float)[None, :], agent=o.agent)
-        return cmd, decl
+        return cmd, self._declaration(i, o) if declare else None
 
 
 def _all_directions(dim: int) -> np.ndarray:
