@@ -370,12 +370,21 @@ def _batch_step(
     obs: np.ndarray,
     final: np.ndarray,
     final_epi: np.ndarray,
+    r_step: float,
+    r_reach: float,
+    reward: np.ndarray,
+    term: np.ndarray,
+    trunc: np.ndarray,
 ) -> int:
-    """One step of every sub-environment (module docstring), their observations into ``obs``;
-    an ended episode's last observation goes to ``final`` and the sub-environment starts
-    episode ``nxt``, ``nxt + 1``, ... in order. ``status``: 0 running, 1 reached, 2 time
-    limit, 3 stuck. Returns the next unused episode."""
+    """One step of every sub-environment (module docstring), their observations into ``obs``,
+    rewards into ``reward``, ends into ``term`` / ``trunc``; an ended episode's last
+    observation goes to ``final`` and the sub-environment starts episode ``nxt``, ``nxt + 1``,
+    ... in order. ``status``: 0 running, 1 reached, 2 time limit, 3 stuck. Returns the next
+    unused episode, or -1 (nothing changed) when an action is not a move."""
     nb = actions.shape[0]
+    for i in range(nb):
+        if actions[i] < 0 or actions[i] >= 2 * dim:
+            return -1
     # the episodes are independent: step them on every thread numba was given (the kernel
     # compiled with parallel=True; one thread otherwise), restart them in order afterwards
     for i in prange(nb):
@@ -384,6 +393,9 @@ def _batch_step(
             ag, src, prev, back, steps, b, logb, ent, mom, tot, last, sense,
         )  # fmt: skip
         final_epi[i] = epi[i]
+        reward[i] = r_step + r_reach if status[i] == 1 else r_step
+        term[i] = status[i] == 1
+        trunc[i] = status[i] == 2 or status[i] == 3
         if status[i] == 0:
             _feature_row(i, ag, b, ent, mom, tot, last, dim, z, ent_max, obs[i])
     for i in range(nb):
@@ -652,6 +664,10 @@ class LatticeVectorEnv(VectorEnv):
         self._final_episode = np.full(nb, -1, np.int64)
         self._obs = np.zeros((nb, f), np.float32)
         self._final = np.zeros((nb, f), np.float32)
+        self._reward = np.zeros(nb)
+        self._term = np.zeros(nb, bool)
+        self._trunc = np.zeros(nb, bool)
+        self._step_args: tuple[Any, ...] = ()
         self._ent_max = math.log2(math.prod(pr.shape))
         # what depends only on the scenario, once: per first hit class, the start belief (as
         # the kernels hold it), its logarithm, entropy, first moments and the cumulative sum
@@ -762,27 +778,9 @@ class LatticeVectorEnv(VectorEnv):
         pr = self.problem
         _reset_all(0, *self._common(), pr.dim, pr.z, self._ent_max, *self._state(), self._obs)
         self._next = self.num_envs
-        return self._obs.copy(), {"episode": self._episode.copy()}
-
-    def step(
-        self, actions: Any
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
-        """Step every sub-environment; ended episodes restart at once (``SAME_STEP``)."""
-        if self.root is None:
-            raise RuntimeError("call reset() before step()")
-        act = np.asarray(actions)
-        if act.shape != (self.num_envs,) or not np.issubdtype(act.dtype, np.integer):
-            raise ValueError(f"actions must be {self.num_envs} integers, got {act!r}")
-        if act.min() < 0 or act.max() >= 2 * self.problem.dim:
-            raise ValueError(f"actions must lie in [0, {2 * self.problem.dim})")
-        pr, k = self.problem, self.problem.kernels
-        kernel = _batch_step
-        if self.threads > 1:
-            kernel = _batch_step_threads
-            set_threads(self.threads)
-        self._next = kernel(
-            act.astype(np.int64),
-            self._next,
+        k, rp = pr.kernels, self.reward_params
+        # every argument of the step kernel after the actions and the next episode
+        self._step_args = (
             *self._common(),
             pr.enlam,
             k.prob,
@@ -798,18 +796,45 @@ class LatticeVectorEnv(VectorEnv):
             self._obs,
             self._final,
             self._final_episode,
+            float(rp.step),
+            float(rp.reach),
+            self._reward,
+            self._term,
+            self._trunc,
         )
-        st = self._status
-        rp = self.reward_params
-        reward = np.where(st == 1, rp.step + rp.reach, rp.step)
-        terminated = st == 1
-        truncated = (st == 2) | (st == 3)
+        return self._obs.copy(), {"episode": self._episode.copy()}
+
+    def step(
+        self, actions: Any
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+        """Step every sub-environment; ended episodes restart at once (``SAME_STEP``)."""
+        if self.root is None:
+            raise RuntimeError("call reset() before step()")
+        act = np.asarray(actions)
+        if act.shape != (self.num_envs,) or act.dtype.kind not in "iu":
+            raise ValueError(f"actions must be {self.num_envs} integers, got {act!r}")
+        if act.dtype != np.int64:
+            act = act.astype(np.int64)
+        kernel = _batch_step
+        if self.threads > 1:
+            kernel = _batch_step_threads
+            set_threads(self.threads)
+        nxt = kernel(act, self._next, *self._step_args)
+        if nxt < 0:
+            raise ValueError(f"actions must lie in [0, {2 * self.problem.dim})")
         info: dict[str, Any] = {}
-        ended = terminated | truncated
-        if ended.any():
+        if nxt > self._next:  # some episodes ended (and the next ones started)
+            ended = self._term | self._trunc
             final = np.zeros_like(self._obs)
             final[ended] = self._final[ended]
             info["final_obs"] = final
             info["_final_obs"] = ended
             info["final_episode"] = self._final_episode.copy()
-        return self._obs.copy(), reward.astype(np.float64), terminated, truncated, info
+        self._next = nxt
+        return (
+            self._obs.copy(),
+            self._reward.copy(),
+            self._term.copy(),
+            self._trunc.copy(),
+            info,
+        )
