@@ -12,15 +12,19 @@ Batched environments: agent-steps per second of :class:`~odorloc.envs.vector.Lat
 on ``lattice-isotropic-2d`` at B = 1, 64, 1 024 and 4 096 sub-environments, beside Gymnasium's
 ``SyncVectorEnv`` (B = 64) and ``AsyncVectorEnv`` (B = 2, one process per sub-environment) of
 the single environment ``SearchEnv`` with discrete lattice moves, uniform random moves, in
-alternating rounds (best of each).
+alternating rounds (best of each). The batched env runs on one thread (``threads=1``, like
+for like with the synchronous vector); ``lattice_steps_per_s_4096_threads`` is B = 4 096 on
+every thread numba was given (``threads=None``).
 
 The last line is ``RESULT env_overhead=<x> env_steps_per_s=<y> env_overhead_farrell=<z>
-pz_overhead=<w> pz_bare_ms=<v> lattice_steps_per_s_1=... lattice_steps_per_s_64=...
-lattice_steps_per_s_1024=... lattice_steps_per_s_4096=... sync_steps_per_s=...
-async_steps_per_s=... batched_vs_sync=<batched at 4096 / sync>`` (the first two of
-``indoor-ventilated``, the Gymnasium headline; the PettingZoo overhead and bare step time of the
-three-UAV ``muc-osl-3d``). ``--no-adapters`` / ``--no-batched`` leave one part out. Without the
-``rl`` extra it stops with a one-line message.
+pz_overhead=<w> pz_bare_ms=<v> pz_adapter_overhead=<u> lattice_steps_per_s_1=...
+lattice_steps_per_s_64=... lattice_steps_per_s_1024=... lattice_steps_per_s_4096=...
+lattice_steps_per_s_4096_threads=... sync_steps_per_s=... async_steps_per_s=...
+batched_vs_sync=<batched at 4096 / sync>`` (the first two of ``indoor-ventilated``, the
+Gymnasium headline; the PettingZoo overhead and bare step time of the three-UAV ``muc-osl-3d``;
+``pz_adapter_overhead`` the same with a bare team that broadcasts the same readings, i.e. the
+adapter alone, without the radio's delivery and energy accounting). ``--no-adapters`` /
+``--no-batched`` leave one part out. Without the ``rl`` extra it stops with a one-line message.
 
     .venv/bin/python benchmarks/env_speed.py [--rounds 5] [--quick]
 """
@@ -37,6 +41,7 @@ from typing import Any
 
 import numpy as np
 
+from odorloc.core.jit import threads as jit_threads
 from odorloc.core.seeds import episode_seeds
 from odorloc.core.types import Action, Command
 from odorloc.engine.episode import Episode
@@ -54,9 +59,13 @@ def actions(n: int, dim: int, seed: int) -> np.ndarray:
     return out
 
 
-def lockstep(name: str, acts: np.ndarray, root: int, n: int) -> tuple[float, float, int]:
+def lockstep(
+    name: str, acts: np.ndarray, root: int, n: int, radio: bool = False
+) -> tuple[float, float, int]:
     """Seconds of bare episode steps and of environment steps, taken alternately step by step
-    on the same seeds and actions (so load on a shared machine hits both alike)."""
+    on the same seeds and actions (so load on a shared machine hits both alike). With
+    ``radio`` the bare step also broadcasts what the environment's agents broadcast (built
+    and delivered inside the timed step)."""
     from odorloc.envs import SearchEnv, parallel_env
 
     ep = Episode(get_scenario(name), record=False)
@@ -71,9 +80,13 @@ def lockstep(name: str, acts: np.ndarray, root: int, n: int) -> tuple[float, flo
     steps = 0
     clock = time.perf_counter
 
+    io = e.unwrapped.core.io if n == 1 else e.core.io
+
     def bare_step(v: np.ndarray) -> float:
         t0 = clock()
-        ep.step(Action([Command.velocity(v.astype(float) * vmax[k]) for k in range(n)]))
+        msgs = io.broadcasts(ep.observations) if radio else {}
+        cmds = [Command.velocity(v.astype(float) * vmax[k]) for k in range(n)]
+        ep.step(Action(cmds, messages=msgs))
         return clock() - t0
 
     def env_step(v: np.ndarray) -> float:
@@ -111,12 +124,13 @@ def _single(scenario: str) -> Any:
     return SearchEnv(scenario, action={"kind": "discrete", "declare": "none"})
 
 
-def batched_rate(b: int, steps: int, seed: int) -> float:
+def batched_rate(b: int, steps: int, seed: int, threads: int | None = 1) -> float:
     """Agent-steps per second of :class:`~odorloc.envs.vector.LatticeVectorEnv` with ``b``
-    sub-environments (uniform random moves; reset and one warm-up step untimed)."""
+    sub-environments on ``threads`` threads (``None``: all; uniform random moves; reset and one
+    warm-up step untimed)."""
     from odorloc.envs.vector import LatticeVectorEnv
 
-    env = LatticeVectorEnv(LATTICE, num_envs=b)
+    env = LatticeVectorEnv(LATTICE, num_envs=b, threads=threads)
     env.reset(seed=seed)
     acts = np.random.default_rng(seed).integers(0, 4, size=(steps + 1, b))
     env.step(acts[0])
@@ -154,33 +168,39 @@ def batched(rounds: int, quick: bool) -> dict[str, float]:
     cases: list[tuple[str, int, int]] = [
         ("batched", b, max(5, min(2000, work // b))) for b in BATCHES
     ]
+    top = BATCHES[-1]
+    cases.append(("threads", top, max(5, min(2000, work // top))))
     cases.append(("sync", SYNC_B, 3 if quick else 30))
     cases.append(("async", ASYNC_B, 20 if quick else 300))
     best: dict[tuple[str, int], float] = {}
     for r in range(rounds):
         for kind, b, steps in cases:
-            rate = (
-                batched_rate(b, steps, r)
-                if kind == "batched"
-                else gym_vector_rate(kind, b, steps, r)
-            )
+            if kind == "batched":
+                rate = batched_rate(b, steps, r)
+            elif kind == "threads":
+                rate = batched_rate(b, steps, r, threads=None)
+            else:
+                rate = gym_vector_rate(kind, b, steps, r)
             best[(kind, b)] = max(best.get((kind, b), 0.0), rate)
     print(f"\nAgent-steps per second on {LATTICE} (uniform random moves; best of {rounds} rounds)")
     print(f"{'environment':<34} {'B':>6} {'agent-steps/s':>14}")
     names = {
         "batched": "LatticeVectorEnv (odorloc)",
+        "threads": f"LatticeVectorEnv, {jit_threads()} threads",
         "sync": "SyncVectorEnv of SearchEnv",
         "async": "AsyncVectorEnv of SearchEnv",
     }
     for (kind, b), rate in best.items():
         print(f"{names[kind]:<34} {b:>6} {rate:>14,.0f}")
     out = {f"lattice_steps_per_s_{b}": best[("batched", b)] for b in BATCHES}
+    out[f"lattice_steps_per_s_{top}_threads"] = best[("threads", top)]
     out["sync_steps_per_s"] = best[("sync", SYNC_B)]
     out["async_steps_per_s"] = best[("async", ASYNC_B)]
     out["batched_vs_sync"] = out[f"lattice_steps_per_s_{BATCHES[-1]}"] / out["sync_steps_per_s"]
     print(
         f"(the synchronous vector runs B = {SYNC_B}, the asynchronous one B = {ASYNC_B}: one "
-        "process per sub-environment; their throughput per agent does not grow with B)"
+        "process per sub-environment; their throughput per agent does not grow with B; "
+        "batched_vs_sync compares one thread with one thread)"
     )
     return out
 
@@ -222,34 +242,38 @@ def main(argv: list[str] | None = None) -> None:
 def adapters(rounds: int) -> str:
     """The adapters' overhead over the bare step (module docstring); the RESULT keys."""
     cases = [
-        ("indoor-ventilated", 2, 1),  # the headline: filament plume, one robot
-        ("two-sources-farrell", 2, 1),
-        ("muc-osl-3d", 3, 3),  # PettingZoo, three UAVs exchanging messages
+        ("indoor-ventilated", 2, 1, False),  # the headline: filament plume, one robot
+        ("two-sources-farrell", 2, 1, False),
+        ("muc-osl-3d", 3, 3, False),  # PettingZoo, three UAVs exchanging messages
+        ("muc-osl-3d", 3, 3, True),  # the same, the bare team broadcasting the same messages
     ]
     print(f"{STEPS} control steps per run, {rounds} rounds, medians")
     print(
         f"{'scenario':<22} {'adapter':<12} {'bare ms/step':>13} {'env ms/step':>12} {'overhead':>9}"
     )
-    results: dict[str, tuple[float, float, float]] = {}
-    for name, dim, n in cases:
+    results: dict[tuple[str, bool], tuple[float, float, float]] = {}
+    for name, dim, n, radio in cases:
         acts = actions(STEPS, dim, 1)
         b_times, e_times = [], []
         for r in range(rounds + 1):
-            tb, te, steps = lockstep(name, acts, r, n)
+            tb, te, steps = lockstep(name, acts, r, n, radio)
             if r > 0:  # the first round warms caches
                 b_times.append(tb / steps)
                 e_times.append(te / steps)
         ratios = [e / b - 1.0 for e, b in zip(e_times, b_times, strict=True)]
         b, e, ov = statistics.median(b_times), statistics.median(e_times), statistics.median(ratios)
-        adapter = "Gymnasium" if n == 1 else "PettingZoo"
+        adapter = "Gymnasium" if n == 1 else "PettingZoo" + (" *" if radio else "")
         print(f"{name:<22} {adapter:<12} {1e3 * b:>13.3f} {1e3 * e:>12.3f} {100 * ov:>8.1f}%")
-        results[name] = (ov, b, e)
-    print("(timings on a shared machine; the ratio is what to compare)")
-    head, farrell, team = (results[name] for name, _, _ in cases)
+        results[(name, radio)] = (ov, b, e)
+    print(
+        "(* the bare team broadcasts the same messages: the adapter alone;\n"
+        " timings on a shared machine; the ratio is what to compare)"
+    )
+    head, farrell, team, adapter_only = (results[(c[0], c[3])] for c in cases)
     return (
         f"env_overhead={head[0]:.3f} env_steps_per_s={1.0 / head[2]:.0f} "
         f"env_overhead_farrell={farrell[0]:.3f} pz_overhead={team[0]:.3f} "
-        f"pz_bare_ms={1e3 * team[1]:.3f}"
+        f"pz_bare_ms={1e3 * team[1]:.3f} pz_adapter_overhead={adapter_only[0]:.3f}"
     )
 
 

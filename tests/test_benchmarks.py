@@ -212,7 +212,9 @@ def test_env_speed_result_carries_every_case(
     es = load("env_speed")
     # bare, environment seconds and steps: 10 % over the bare step alone, 80 % for the team
     fake = {"indoor-ventilated": 1.1, "two-sources-farrell": 1.2, "muc-osl-3d": 1.8}
-    monkeypatch.setattr(es, "lockstep", lambda name, acts, r, n: (1.0, fake[name], 100))
+    monkeypatch.setattr(
+        es, "lockstep", lambda name, acts, r, n, radio: (1.0, fake[name] - 0.5 * radio, 100)
+    )
     monkeypatch.setattr(es, "batched", lambda rounds, quick: {"batched_vs_sync": 2.0})
     es.main(["--rounds", "1"])
     result = capsys.readouterr().out.strip().splitlines()[-1]
@@ -221,6 +223,7 @@ def test_env_speed_result_carries_every_case(
     assert keys["env_overhead_farrell"] == "0.200"
     assert keys["pz_overhead"] == "0.800"
     assert keys["pz_bare_ms"] == "10.000"
+    assert keys["pz_adapter_overhead"] == "0.300"
     assert keys["batched_vs_sync"] == "2.00"
 
 

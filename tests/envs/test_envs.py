@@ -323,6 +323,58 @@ def test_messages_only_from_neighbours() -> None:
     assert obs["agent_0"][rel] == pytest.approx(20.0)  # agent 1 seen from agent 0
 
 
+def test_broadcast_readings_are_charged_as_their_numbers() -> None:
+    """Each agent's broadcast is d + 2 float64 numbers (what a dict of its position, reading and
+    detection would count), read-only, and what neighbours decode is what was sent."""
+    from odorloc.platforms.team import CommGraph, message_nbytes
+    from odorloc.searchers.policy_io import ReadingMessage
+
+    env = parallel_env(scenario="muc-osl-3d", action={"declare": "none"})
+    env.reset(seed=1)
+    obs = env.episode.observations
+    msgs = env.core.io.broadcasts(obs)
+    for o in obs:
+        m = msgs[o.agent]
+        assert isinstance(m, ReadingMessage)
+        as_dict = {
+            "position": np.asarray(o.position, float),
+            "gas": np.array([float(o.gas)]),
+            "detection": np.array([1.0 if o.detection else 0.0]),
+        }
+        assert m.nbytes == message_nbytes(as_dict) == 8 * (len(o.position) + 2)
+        assert not m.position.flags.writeable
+        np.testing.assert_array_equal(m.position, o.position)
+    # the radio counts them once per recipient: links 0-1 and 1-2 (radius 30 m), both ways
+    graph = CommGraph(30.0)
+    inbox, nbytes = graph.deliver(np.array([o.position for o in obs]), msgs)
+    assert nbytes == 4 * 8 * 5
+    assert [m.sender for m in inbox[1]] == [0, 2]
+
+
+@pytest.mark.parametrize("declare", ["none", "position"])
+def test_actions_decoded_together_as_one_by_one(declare: str) -> None:
+    """The team's velocity actions decoded as one array give each agent's command and
+    declaration exactly as decoding them one by one; a bad action is named as before."""
+    env = parallel_env(scenario="muc-osl-3d", action={"declare": declare})
+    env.reset(seed=3)
+    io, obs = env.core.io, env.episode.observations
+    rng = np.random.default_rng(0)
+    for _ in range(5):
+        acts = {k: rng.uniform(-2, 2, io.action_size).astype(np.float32) for k in range(3)}
+        cmds, decls = io.decode_many(acts, obs)
+        singles = [io.decode(k, acts[k], obs[k]) for k in range(3)]
+        for k, (cmd, _) in enumerate(singles):
+            assert cmds[k].kind == cmd.kind
+            np.testing.assert_array_equal(cmds[k].value, cmd.value)
+        expected = [d for _, d in singles if d is not None]
+        assert [d.agent for d in decls] == [d.agent for d in expected]
+        for d, e in zip(decls, expected, strict=True):
+            np.testing.assert_array_equal(d.positions, e.positions)
+    bad = {0: np.zeros(io.action_size), 1: np.full(io.action_size, np.nan), 2: np.zeros(1)}
+    with pytest.raises(ValueError, match="finite numbers"):
+        io.decode_many(bad, obs)
+
+
 def test_team_reward_and_declaring_agent_credit() -> None:
     sc = checks.small_scenario({"type": "zigzag"}, 2, 3, 20.0)
     sc = sc.with_overrides({"task.end": "limits"})

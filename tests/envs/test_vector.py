@@ -120,3 +120,56 @@ def test_bad_input() -> None:
         v.step(np.array([0, 4]))
     with pytest.raises(ValueError, match="actions"):
         v.step(np.zeros(3, np.int64))
+
+
+def test_threads_give_the_same_numbers() -> None:
+    """Stepping on every thread gives the single thread's observations, rewards and episodes
+    (seeded alike), through several restarts."""
+    one = LatticeVectorEnv("lattice-isotropic-2d", num_envs=7)
+    many = LatticeVectorEnv("lattice-isotropic-2d", num_envs=7, threads=None)
+    o1, _ = one.reset(seed=5)
+    o2, _ = many.reset(seed=5)
+    np.testing.assert_array_equal(o1, o2)
+    acts = np.random.default_rng(1).integers(0, 4, size=(300, 7))
+    for a in acts:
+        s1, s2 = one.step(a), many.step(a)
+        for x, y in zip(s1[:4], s2[:4], strict=True):
+            np.testing.assert_array_equal(x, y)
+        assert s1[4].keys() == s2[4].keys()
+    np.testing.assert_array_equal(one.episodes, many.episodes)
+    assert one.episodes.max() >= 7  # some sub-environments restarted
+    np.testing.assert_array_equal(one.belief, many.belief)
+
+
+def test_restarted_episodes_start_as_the_single_env() -> None:
+    """Episodes played after an auto-reset start as the single environment's episode of that
+    index: the same source cell, the same start cell and the same first hit class."""
+    v = LatticeVectorEnv("lattice-isotropic-2d", num_envs=2)
+    v.reset(seed=9)
+    z, d = v.problem.z, v.problem.dim
+    acts = np.random.default_rng(2).integers(0, 4, size=(3000, 2))
+    seen: set[int] = set()
+    for a in acts:
+        obs, _, te, tr, _ = v.step(a)
+        for i in np.flatnonzero(te | tr):
+            ep = int(v.episodes[i])
+            seen.add(ep)
+            single = SearchEnv(
+                "lattice-isotropic-2d", action={"kind": "discrete", "declare": "none"}
+            )
+            single.reset(seed=9, options={"episode": ep})
+            core = single.unwrapped.core.episode
+            plume = core.world.plume
+            src = plume.arena.grid.index(plume.sources[0].position)[0]
+            assert tuple(v.sources[i]) == tuple(int(c) for c in src)
+            o = core.observations[0]
+            assert tuple(v.positions[i]) == tuple(int(c) for c in np.floor(o.position))
+            assert int(np.argmax(obs[i, d : d + z])) == min(int(o.gas), z - 1)
+        if len(seen) >= 4:
+            break
+    assert len(seen) >= 4
+
+
+def test_bad_threads() -> None:
+    with pytest.raises(ConfigError, match="threads"):
+        LatticeVectorEnv("lattice-isotropic-2d", num_envs=2, threads=0)

@@ -21,15 +21,29 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-__all__ = ["HAVE_NUMBA", "cache_dir", "jit", "kernels", "start", "warm"]
+__all__ = [
+    "HAVE_NUMBA",
+    "cache_dir",
+    "jit",
+    "kernels",
+    "prange",
+    "set_threads",
+    "start",
+    "threads",
+    "warm",
+]
 
 try:
     import numba as _numba
 
     HAVE_NUMBA = True
+    #: A loop whose iterations a kernel compiled with ``parallel=True`` shares among numba's
+    #: threads (``range`` in any other kernel, and without numba).
+    prange = _numba.prange
 except ImportError:  # pragma: no cover - exercised only without the extra
     _numba = None
     HAVE_NUMBA = False
+    prange = range
 
 
 def _writable(p: Path) -> bool:
@@ -162,3 +176,16 @@ def start() -> float:
         _RUNTIME.append(kernel)
         _KERNELS["runtime"] = kernel
     return time.perf_counter() - t0
+
+
+def threads() -> int:
+    """How many threads a ``parallel=True`` kernel may use in this process (1 without
+    numba)."""
+    return 1 if _numba is None else int(_numba.config.NUMBA_NUM_THREADS)
+
+
+def set_threads(n: int) -> None:
+    """Let the ``parallel=True`` kernels called from this thread use ``n`` threads (at most
+    :func:`threads`; nothing without numba)."""
+    if _numba is not None:
+        _numba.set_num_threads(n)

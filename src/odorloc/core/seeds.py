@@ -17,7 +17,14 @@ import numpy as np
 
 from odorloc.core.errors import ConfigError
 
-__all__ = ["MAX_SEED", "check_seed", "episode_generators", "episode_seeds", "world_generators"]
+__all__ = [
+    "MAX_SEED",
+    "check_seed",
+    "episode_generators",
+    "episode_seeds",
+    "stream_words",
+    "world_generators",
+]
 
 MAX_SEED = 2**63
 """Seeds are integers in ``[0, MAX_SEED)``."""
@@ -37,6 +44,20 @@ def _key_words(key: str) -> tuple[int, ...]:
     """A string as eight 32-bit words (a SeedSequence spawn key must be integers)."""
     digest = hashlib.sha256(key.encode()).digest()
     return tuple(int.from_bytes(digest[i : i + 4], "little") for i in range(0, 32, 4))
+
+
+def stream_words(root: int, world_key: str, stream: int) -> tuple[list[int], int]:
+    """The 32-bit words :func:`episode_seeds` feeds ``SeedSequence`` for ``stream`` (0 world,
+    1 agent), the episode index left out, and how many of them are the root's.
+
+    For a caller that derives many episodes' seeds in compiled code
+    (:mod:`odorloc.core.pcg`): the root's little-endian words, then the spawn key
+    ``(stream, *words(world_key))``; the episode index's words come last.
+    """
+    check_seed(root, "seed")
+    r = int(root)
+    run = [r & 0xFFFFFFFF] + ([r >> 32] if r >> 32 else [])
+    return [*run, int(stream), *_key_words(world_key)], len(run)
 
 
 def episode_seeds(root: int, world_key: str, episode: int) -> tuple[int, int]:

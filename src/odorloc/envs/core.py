@@ -89,6 +89,9 @@ class EnvCore:
         Keep the episode's recording (``episode.result().recording`` after the end).
     world_key : str, optional
         The world key of the seed derivation (default: the scenario's own name).
+    trails : bool
+        Keep every agent's path for :meth:`render` (an environment without a render mode
+        need not store a position per agent and step).
     """
 
     def __init__(
@@ -100,7 +103,9 @@ class EnvCore:
         *,
         record: bool = False,
         world_key: str | None = None,
+        trails: bool = True,
     ) -> None:
+        self.keep_trails = bool(trails)
         self.scenario, key = load_scenario(scenario)
         if world_key is not None and not isinstance(world_key, str):
             raise ConfigError("world_key", f"must be a string, got {type(world_key).__name__}")
@@ -191,12 +196,9 @@ class EnvCore:
         """The episode action of the given agents' policy actions (others keep their command)."""
         obs = self.episode.observations
         cmds: list[Any] = [None] * self.n_agents
-        decls = []
-        for k, a in per_agent.items():
-            cmd, decl = self.io.decode(k, a, obs[k])
+        decoded, decls = self.io.decode_many(per_agent, obs)
+        for k, cmd in decoded.items():
             cmds[k] = cmd
-            if decl is not None:
-                decls.append(decl)
         return Action(cmds, messages=self.io.broadcasts(obs), declarations=decls)
 
     def require_reset(self) -> None:
@@ -219,8 +221,9 @@ class EnvCore:
         obs = res.observations if res.observations else self.episode.observations
         if not res.done:
             self.io.update_beliefs(obs)
-        for k, o in enumerate(obs):
-            self._trails[k].append(o.position[:2].copy())
+        if self.keep_trails:
+            for k, o in enumerate(obs):
+                self._trails[k].append(o.position[:2].copy())
         return self.io.encode(obs), self.rewards(res.events), res
 
     def rewards(self, events: list[Event]) -> np.ndarray:

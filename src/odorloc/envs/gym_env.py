@@ -71,7 +71,13 @@ class SearchEnv(gym.Env):
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ConfigError("render_mode", f"must be one of {self.metadata['render_modes']}")
         self.core = EnvCore(
-            scenario, observation, action, reward, record=record, world_key=world_key
+            scenario,
+            observation,
+            action,
+            reward,
+            record=record,
+            world_key=world_key,
+            trails=render_mode is not None,
         )
         if self.core.n_agents != 1:
             raise ConfigError(

@@ -73,7 +73,13 @@ class ParallelSearchEnv(ParallelEnv):
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ConfigError("render_mode", f"must be one of {self.metadata['render_modes']}")
         self.core = EnvCore(
-            scenario, observation, action, reward, record=record, world_key=world_key
+            scenario,
+            observation,
+            action,
+            reward,
+            record=record,
+            world_key=world_key,
+            trails=render_mode is not None,
         )
         if not isinstance(team_reward, bool):
             raise ConfigError("team_reward", f"must be true or false, got {team_reward!r}")

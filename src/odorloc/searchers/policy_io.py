@@ -40,6 +40,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import Any, Literal
 
 import numpy as np
@@ -48,14 +49,39 @@ from pydantic import Field, model_validator
 from odorloc.core.errors import ConfigError
 from odorloc.core.params import Params, Positive
 from odorloc.core.registry import ComponentRef, Ref
-from odorloc.core.types import Command, Declaration, Observation, SearchContext
+from odorloc.core.types import (
+    Command,
+    Declaration,
+    Observation,
+    Payload,
+    SearchContext,
+    frozen_array,
+)
 from odorloc.geometry.vectors import directions_26, lattice_moves
 from odorloc.inference.belief import GridBelief, ParticleBelief
 from odorloc.inference.estimator import Estimator
 
-__all__ = ["ActionParams", "ObservationParams", "PolicyIO", "belief_summary"]
+__all__ = ["ActionParams", "ObservationParams", "PolicyIO", "ReadingMessage", "belief_summary"]
 
 BASE_FEATURES = ("gas", "detection", "wind", "position", "heading", "time")
+
+
+@dataclass(frozen=True, eq=False)
+class ReadingMessage(Payload):
+    """What every agent of a policy-driven team broadcasts each step: its ``position``
+    (``(d,)``, metres, a read-only copy), its ``gas`` reading and its ``detection`` (1.0 or
+    0.0). A radio sends them as ``d + 2`` float64 numbers: ``8 (d + 2)`` bytes."""
+
+    position: np.ndarray
+    gas: float
+    detection: float
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "position", frozen_array(self.position))
+
+    @property
+    def nbytes(self) -> int:
+        return 8 * (self.position.size + 2)
 
 
 class ObservationParams(Params):
@@ -325,24 +351,61 @@ class PolicyIO:
             p = m.payload
             row = block[j * w : (j + 1) * w]
             row[0] = 1.0
-            row[1 : 1 + d] = np.asarray(p["position"], float)[:d] - o.position[:d]
-            row[1 + d] = float(np.asarray(p["gas"]).reshape(-1)[0])
-            row[2 + d] = float(np.asarray(p["detection"]).reshape(-1)[0])
+            if isinstance(p, ReadingMessage):
+                row[1 : 1 + d] = p.position[:d] - o.position[:d]
+                row[1 + d] = p.gas
+                row[2 + d] = p.detection
+            else:  # a dict-like payload with the same names
+                row[1 : 1 + d] = np.asarray(p["position"], float)[:d] - o.position[:d]
+                row[1 + d] = float(np.asarray(p["gas"]).reshape(-1)[0])
+                row[2 + d] = float(np.asarray(p["detection"]).reshape(-1)[0])
 
-    def broadcasts(self, observations: Sequence[Observation]) -> dict[int, dict[str, np.ndarray]]:
+    def broadcasts(self, observations: Sequence[Observation]) -> dict[int, ReadingMessage]:
         """The message every agent sends this step (position and reading), by agent id."""
         if self.others == 0:
             return {}
         return {
-            o.agent: {
-                "position": np.asarray(o.position, float),
-                "gas": np.array([o.gas]),
-                "detection": np.array([1.0 if o.detection else 0.0]),
-            }
+            o.agent: ReadingMessage(o.position, float(o.gas), 1.0 if o.detection else 0.0)
             for o in observations
         }
 
     # ------------------------------------------------------------------ decoding
+    def decode_many(
+        self, actions: dict[int, Any], observations: Sequence[Observation]
+    ) -> tuple[dict[int, Command], list[Declaration]]:
+        """:meth:`decode` for several agents (agent index -> action): the commands by agent and
+        the declarations in agent order. Velocity actions of one shape are checked, clipped and
+        scaled as one array (the same numbers as one by one)."""
+        keys = list(actions)
+        if self.act_params.kind != "discrete" and len(keys) > 1:
+            try:
+                a = np.asarray([actions[k] for k in keys], float)
+            except (TypeError, ValueError):
+                a = None
+            if a is not None and a.shape == (len(keys), self.action_size) and np.isfinite(a).all():
+                v = np.minimum(np.maximum(a[:, : self.dim], -1.0), 1.0)
+                v *= np.asarray(self.ctx.speed_limits, float)[keys, None]
+                cmds = {k: Command("velocity", v[j]) for j, k in enumerate(keys)}
+                decls = []
+                if self.can_declare:
+                    for j, k in enumerate(keys):
+                        if a[j, -1] > 0.0:
+                            decls.append(self._declaration(k, observations[k]))
+                return cmds, decls
+        cmds = {}
+        decls = []
+        for k in keys:
+            cmd, decl = self.decode(k, actions[k], observations[k])
+            cmds[k] = cmd
+            if decl is not None:
+                decls.append(decl)
+        return cmds, decls
+
+    def _declaration(self, i: int, o: Observation) -> Declaration:
+        """Agent ``i``'s declaration: its own position or its belief mean (``declare``)."""
+        where = o.position if self.act_params.declare == "position" else self.last_belief_means[i]
+        return Declaration(np.asarray(where, float)[None, :], agent=o.agent)
+
     def decode(self, i: int, action: Any, o: Observation) -> tuple[Command, Declaration | None]:
         """The command (and declaration) of controlled agent ``i`` for a policy's ``action``.
 
@@ -370,18 +433,16 @@ class PolicyIO:
                 cmd = Command.hold() if not mv.any() else Command.move(mv * step)
         else:
             a = np.asarray(action, float).reshape(-1)
-            if a.shape != (self.action_size,) or not np.all(np.isfinite(a)):
+            if a.shape != (self.action_size,) or not np.isfinite(a).all():
                 raise ValueError(
                     f"a velocity action must be {self.action_size} finite numbers, got {action!r}"
                 )
-            v = np.clip(a[: self.dim], -1.0, 1.0) * vmax
-            cmd = Command.velocity(v)
+            # np.clip's dispatch costs more than the arithmetic on d numbers
+            v = np.minimum(np.maximum(a[: self.dim], -1.0), 1.0)
+            v *= vmax
+            cmd = Command("velocity", v)
             declare = self.can_declare and a[-1] > 0.0
-        decl = None
-        if declare:
-            where = o.position if p.declare == "position" else self.last_belief_means[i]
-            decl = Declaration(np.asarray(where, float)[None, :], agent=o.agent)
-        return cmd, decl
+        return cmd, self._declaration(i, o) if declare else None
 
 
 def _all_directions(dim: int) -> np.ndarray:
