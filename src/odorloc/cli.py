@@ -1233,6 +1233,9 @@ def bench_run(
         str | None, typer.Option(help="Join a running Dask scheduler (tcp://host:port).")
     ] = None,
     html: Annotated[bool, typer.Option(help="Write the HTML leaderboard and figures.")] = True,
+    episodes: Annotated[
+        int | None, typer.Option(help="Episodes per method instead of the tier's (a trial run).")
+    ] = None,
     progress: Annotated[bool, typer.Option(help="Live progress bars.")] = True,
 ) -> None:
     """Run (or resume) the suite: every method that can run each task, on the sweep harness.
@@ -1258,6 +1261,7 @@ def bench_run(
             scheduler=scheduler,
             progress=progress,
             html=html,
+            episodes=episodes,
         )
     except OdorlocError as exc:
         _fail(str(_renamed(exc, "scheduler", "--scheduler")))

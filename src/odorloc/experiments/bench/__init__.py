@@ -75,6 +75,7 @@ def run_bench(
     scheduler: str | None = None,
     progress: bool = True,
     html: bool = True,
+    episodes: int | None = None,
 ) -> dict[str, Any]:
     """Run (or resume) the suite's tasks and write ``results.json`` and ``leaderboard.html``.
 
@@ -98,6 +99,9 @@ def run_bench(
         Progress bars.
     html : bool
         Write the leaderboard and its figures.
+    episodes : int, optional
+        Episodes per method for every task instead of the tier's (a trial run; the results
+        say so under ``episodes_override``, and compare only with runs of the same count).
 
     Returns
     -------
@@ -114,6 +118,11 @@ def run_bench(
         raise ConfigError("--tier", f"must be one of {', '.join(TIERS)}, got {tier!r}")
     s = load_suite(suite)
     chosen = s.select(tasks)
+    if episodes is not None:
+        if isinstance(episodes, bool) or not 1 <= int(episodes) <= 100_000:
+            raise ConfigError("--episodes", f"must be in [1, 100000], got {episodes!r}")
+        counts = {t: int(episodes) for t in TIERS}
+        chosen = [t.model_copy(update={"episodes": counts}) for t in chosen]
     only = _methods(methods)
     more = [method_from_option(m) for m in extra]
     out = Path(out)
@@ -131,6 +140,7 @@ def run_bench(
         "started": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime(started)),
         "backend": "dask" if scheduler else backend,
         "workers": workers,
+        "episodes_override": episodes,
         "tasks": [],
         "rows": [],
     }

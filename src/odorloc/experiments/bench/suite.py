@@ -3,7 +3,8 @@ can run each of them.
 
 A suite file (``suite-<version>.yaml`` beside this module) names its version, a root seed, its
 tiers, the registered searchers that are not methods on their own (``exclude``, with a reason
-each) and its tasks. A task is a built-in scenario with a fixed episode count per tier, a rank
+each), what some methods need of a task (``requires``: the platform a method is built for) and
+its tasks. A task is a built-in scenario with a fixed episode count per tier, a rank
 criterion, the metrics it adds, the settings it tells every method (``knowledge``), the methods
 it cannot judge (its own ``exclude``) and scenario overrides per tier (``params``).
 
@@ -121,6 +122,7 @@ class Suite(Params):
     seed: Seed
     tiers: dict[Tier, TierSpec]
     exclude: dict[str, str] = Field(default_factory=dict)
+    requires: dict[str, dict[Literal["platform"], str]] = Field(default_factory=dict)
     tasks: list[Task] = Field(min_length=1)
 
     @model_validator(mode="after")
@@ -292,7 +294,9 @@ def task_methods(
     from odorloc.scenarios import get_scenario
     from odorloc.scenarios.loading import check_scenario
 
-    own = get_scenario(task.scenario).searcher.type
+    base = get_scenario(task.scenario)
+    own = base.searcher.type
+    platform = base.platform.type
     if methods is None:
         methods = [Method(n, n) for n in registry.names("searcher")]
     chosen: list[Method] = []
@@ -304,6 +308,10 @@ def task_methods(
             if why:
                 skipped[m.name] = why
                 continue
+        need = suite.requires.get(m.searcher, {}).get("platform")
+        if need is not None and need != platform:
+            skipped[m.name] = f"needs a {need} platform (the task's is {platform})"
+            continue
         entry = method_cell(task, m, own)
         cell = {
             "scenario": task.scenario,
