@@ -1313,6 +1313,38 @@ def bench_compare(
         raise typer.Exit(code=1)
 
 
+@bench_app.command("board")
+def bench_board(
+    results: Annotated[Path, typer.Argument(help="Results JSON of `odorloc bench run`.")],
+    out: Annotated[
+        Path | None, typer.Option(help="Folder for leaderboard.html and its figures.")
+    ] = None,
+    markdown: Annotated[
+        Path | None, typer.Option(help="Write the board as Markdown tables to this file.")
+    ] = None,
+) -> None:
+    """Draw the board of a results file again: the HTML leaderboard, or Markdown tables."""
+    from odorloc.experiments.bench import load_results
+    from odorloc.experiments.bench.board import markdown_board, text_board, write_leaderboard
+
+    try:
+        doc = load_results(results, "results")
+        if out is not None:
+            check_output_dir(out, "--out")
+        if markdown is not None:
+            check_output_file(markdown, "--markdown")
+    except OdorlocError as exc:
+        _fail(str(exc))
+        return
+    console.print(escape(text_board(doc, width=console.width or 80)), highlight=False)
+    if out is not None:
+        out.mkdir(parents=True, exist_ok=True)
+        console.print(f"wrote {escape(str(write_leaderboard(doc, out)))}", highlight=False)
+    if markdown is not None:
+        markdown.write_text(markdown_board(doc), encoding="utf-8")
+        console.print(f"wrote {escape(str(markdown))}", highlight=False)
+
+
 @bench_app.command("tasks")
 def bench_tasks(
     suite: Annotated[str, typer.Option(help="Suite version or file.")] = "2027.1",

@@ -214,3 +214,17 @@ def test_cli_bad_tier_is_one_line(tmp_path: Path) -> None:
     res = CliRunner().invoke(app, ["bench", "run", "--tier", "fast", "--out", str(tmp_path / "o")])
     assert res.exit_code == 2
     assert "--tier" in res.output and "Traceback" not in res.output
+
+
+def test_cli_board_redraws_a_results_file(runs: dict[str, Any], tmp_path: Path) -> None:
+    src = runs["base"] / "board" / "results.json"
+    md = tmp_path / "board.md"
+    res = CliRunner().invoke(
+        app, ["bench", "board", str(src), "--out", str(tmp_path / "html"), "--markdown", str(md)]
+    )
+    assert res.exit_code == 0, res.output
+    text = md.read_text()
+    assert "| rank | method |" in text and "BlunderInfotaxis" in text and "agrees" in text
+    page = (tmp_path / "html" / "leaderboard.html").read_text()
+    assert "otto-19x19-success.png" in page
+    assert (tmp_path / "html" / "figures" / "otto-19x19-success.png").exists()

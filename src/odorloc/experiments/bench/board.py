@@ -268,11 +268,24 @@ def markdown_board(doc: Mapping[str, Any]) -> str:
             f"{task['rank_by'].replace('_', ' ')}.\n"
         )
         heads = [COLUMNS[c][0] + (f" ({COLUMNS[c][1]})" if COLUMNS[c][1] else "") for c in cols]
-        out.append("| rank | method | " + " | ".join(heads) + " | failures |")
-        out.append("|---|---|" + "---|" * len(cols) + "---|")
+        ref = bool(task.get("reference"))
+        published = " published mean (s) |" if ref else ""
+        out.append("| rank | method | " + " | ".join(heads) + " | failures |" + published)
+        out.append("|---|---|" + "---|" * len(cols) + "---|" + ("---|" if ref else ""))
         for r in rows:
             cells = " | ".join(_fmt(r, c) for c in cols)
-            out.append(f"| {r['rank']} | {r['method']} | {cells} | {_failures(r)} |")
+            chk = r.get("reference")
+            note = ""
+            if ref:
+                note = (
+                    " - |"
+                    if not chk
+                    else (
+                        f" {chk['mean']:.2f} ± {chk['sem']:.2f}: "
+                        f"{'agrees' if chk['agrees'] else 'differs'} |"
+                    )
+                )
+            out.append(f"| {r['rank']} | {r['method']} | {cells} | {_failures(r)} |{note}")
         out.append("")
     out.append("### Overall\n")
     out.append("| method | mean normalised rank | tasks | ranked first |")
