@@ -85,6 +85,21 @@ def draw_figures(doc: Mapping[str, Any], folder: Path) -> dict[tuple[str, str], 
                 horizontal=True,
                 color="#4c78a8",
             )
+            ref = (task.get("reference") or {}).get(metric) or {}
+            marks = [(i, ref[r["method"]]) for i, r in enumerate(rows) if r["method"] in ref]
+            if marks:
+                ax.errorbar(
+                    [m[0] * scale for _, m in marks],
+                    [i for i, _ in marks],
+                    xerr=[1.96 * m[1] * scale for _, m in marks],
+                    fmt="o",
+                    color="#d62728",
+                    ms=4,
+                    capsize=2,
+                    lw=1.0,
+                    label="published",
+                )
+                ax.legend(fontsize=7, loc="upper right")
             ax.set_yticks(y, [r["method"] for r in rows], fontsize=8)
             ax.invert_yaxis()
             ax.set_xlabel(f"{head} ({unit})" if unit else head)
