@@ -154,6 +154,8 @@ def task_rows(task: Any, df: Any, methods: Sequence[Any], seed: int) -> list[dic
             )
         failed = sub[~sub["success"].fillna(0).astype(bool)]
         causes = failed["termination"].fillna("error").where(failed["status"] == "ok", "error")
+        # an unsuccessful episode that ended on its declaration declared the wrong place
+        causes = causes.replace({"declared": "wrong declaration"})
         row["failures"] = {str(c): int(n) for c, n in causes.value_counts().sort_index().items()}
         rows.append(row)
     return rank_rows(rows, task.rank_by)
