@@ -22,18 +22,15 @@ grid filters and lattice planners read it through offset tables
 from __future__ import annotations
 
 import math
-from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from pydantic import Field
-from scipy.special import gammaln, xlogy
 
 from odorloc.core.errors import ConfigError
 from odorloc.core.params import NonNegative, Params, Positive
 from odorloc.core.registry import register
-from odorloc.models.base import MeasurementModel
-from odorloc.models.poisson import censored_poisson
+from odorloc.models.lattice import IsotropicHitModel
 
 __all__ = ["WindyHitModel", "WindyHitParams", "windy_length", "windy_mean_hits"]
 
@@ -85,6 +82,8 @@ class WindyHitParams(Params):
         Lattice step.
     n_hits : int
         Hit classes (the last holds ``n_hits - 1`` or more).
+    background : float
+        Mean hits per step without the source (false alarms; 0 in otto-benchmark).
     """
 
     rate: Positive = 2.5
@@ -96,16 +95,27 @@ class WindyHitParams(Params):
 
 
 @register("model", "lattice-windy", WindyHitParams, "censored Poisson hits, mean wind (OTTO)")
-class WindyHitModel(MeasurementModel):
-    """Censored Poisson hits of the windy lattice problem (module docstring)."""
+class WindyHitModel(IsotropicHitModel):
+    """Censored Poisson hits of the windy lattice problem (module docstring): the isotropic
+    model's censored classes and likelihoods over the windy mean.
+
+    Conditions: ``release`` (``R`` per hypothesis, default the parameter ``rate``).
+    """
 
     Params = WindyHitParams
+    params: WindyHitParams  # type: ignore[assignment]
 
     def __init__(self, params: WindyHitParams | None = None) -> None:
-        self.params = params or WindyHitParams()
+        self.params = params or WindyHitParams()  # type: ignore[assignment]
         windy_length(self.params.wind, self.params.tau)
 
-    def mean_hits(self, sensor_positions: ArrayLike, hypotheses: ArrayLike) -> FloatArray:
+    def n_classes(self, dim: int) -> int:
+        """``Z``: the parameter ``n_hits``."""
+        return self.params.n_hits
+
+    def mean_hits(
+        self, sensor_positions: ArrayLike, hypotheses: ArrayLike, release: ArrayLike | None = None
+    ) -> FloatArray:
         """``mu`` for every (sensor, hypothesis) pair, ``(M, N)``."""
         s = np.atleast_2d(np.asarray(sensor_positions, float))
         h = np.atleast_2d(np.asarray(hypotheses, float))
@@ -114,36 +124,8 @@ class WindyHitModel(MeasurementModel):
         if not np.all(np.isfinite(s)):
             raise ConfigError("sensor_positions", "must be finite")
         p = self.params
-        mu = windy_mean_hits(s[:, None, :] - h[None, :, :], p.rate, p.wind, p.tau, p.cell)
+        q = p.rate if release is None else np.broadcast_to(release, (len(h),))
+        if release is not None and not (np.all(np.isfinite(q)) and np.all(q >= 0)):
+            raise ConfigError("release", "must be finite and >= 0")
+        mu = windy_mean_hits(s[:, None, :] - h[None, :, :], q, p.wind, p.tau, p.cell)
         return mu + p.background
-
-    def log_likelihood(
-        self, z: Any, sensor_position: np.ndarray, hypotheses: np.ndarray, **conditions: Any
-    ) -> np.ndarray:
-        """``log P(class of z | hypothesis)`` for one count ``z`` at one position, ``(N,)``."""
-        try:
-            k = float(z)
-        except (TypeError, ValueError):
-            k = math.nan
-        if not (math.isfinite(k) and k >= 0 and k == math.floor(k)):
-            raise ConfigError("hits", f"must be a non-negative integer, got {z!r}")
-        zc = self.params.n_hits
-        mu = self.mean_hits(np.atleast_2d(sensor_position), hypotheses)[0]
-        c = min(int(k), zc - 1)
-        if c < zc - 1:
-            return xlogy(c, mu) - mu - gammaln(c + 1.0)
-        with np.errstate(divide="ignore"):
-            return np.log(censored_poisson(mu, zc)[:, -1])
-
-    def outcome_probabilities(
-        self, sensor_positions: np.ndarray, hypotheses: np.ndarray, **conditions: Any
-    ) -> np.ndarray:
-        """Probabilities of the hit classes, ``(M, Z, N)``."""
-        mu = self.mean_hits(sensor_positions, hypotheses)
-        return np.moveaxis(censored_poisson(mu, self.params.n_hits), -1, 1)
-
-    def outcome_values(
-        self, sensor_positions: np.ndarray, hypotheses: np.ndarray, **conditions: Any
-    ) -> np.ndarray:
-        """Hit count of each class, ``(Z,)`` (the last stands for its lower bound)."""
-        return np.arange(self.params.n_hits)

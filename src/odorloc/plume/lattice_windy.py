@@ -24,10 +24,10 @@ from odorloc.core.errors import ConfigError
 from odorloc.core.params import Params, Positive, Vector
 from odorloc.core.registry import register
 from odorloc.geometry.arena import Arena
-from odorloc.models.lattice import initial_belief
 from odorloc.models.lattice_windy import windy_length, windy_mean_hits
 from odorloc.models.poisson import censored_poisson
 from odorloc.plume.base import PlumeModel
+from odorloc.plume.lattice import draw_source_after, hits_at_origin, lattice_origin
 from odorloc.plume.sources import Source
 from odorloc.wind.base import WindModel
 
@@ -87,14 +87,7 @@ class LatticeWindyPlume(PlumeModel):
         windy_length(params.wind, params.tau)
         if params.initial_hit > params.n_hits - 1:
             raise ConfigError("plume.initial_hit", f"must be below n_hits ({params.n_hits})")
-        grid = arena.grid
-        if params.origin is None:
-            self.origin = grid.center(np.asarray(grid.shape) // 2)[0]
-        else:
-            o = np.asarray(params.origin, float)
-            if o.shape != (self.dim,) or not arena.is_free(o)[0]:
-                raise ConfigError("plume.origin", f"needs {self.dim} components in free space")
-            self.origin = grid.center(grid.index(o))[0]
+        self.origin = lattice_origin(arena, params.origin)
         if params.start == "initial-hit" and len(sources) != 1:
             raise ConfigError("plume.start", "initial-hit draws one source; configure exactly one")
         self._initial: int | None = None
@@ -117,27 +110,18 @@ class LatticeWindyPlume(PlumeModel):
     def _draw_start(self, rng: np.random.Generator) -> None:
         p = self.params
         src = self.sources[0]
-        grid = self.arena.grid
-        centres = grid.flat_centers()
+        centres = self.arena.grid.flat_centers()
         mu = windy_mean_hits(
             self.origin - centres, src.rate_at(0.0) * p.exposure, p.wind, p.tau, self.cell
         )
-        like = censored_poisson(mu, p.n_hits)[:, p.initial_hit].reshape(grid.shape)
-        free = self.arena.is_free(centres).reshape(grid.shape)
-        start = tuple(int(v) for v in grid.index(self.origin)[0])
-        b0 = initial_belief(like, start, free).reshape(-1)
-        k = int(rng.choice(b0.size, p=b0))
-        pos = tuple(float(v) for v in centres[k])
+        like = censored_poisson(mu, p.n_hits)[:, p.initial_hit]
+        pos = draw_source_after(self.arena, self.origin, like, rng)
         self.set_sources([src.model_copy(update={"position": pos})])
         self._initial = p.initial_hit
 
     def initial_hits(self, position: np.ndarray) -> int | None:
         """The first reading at the start (``initial-hit``), ``None`` elsewhere."""
-        if self._initial is None:
-            return None
-        if np.max(np.abs(np.asarray(position, float) - self.origin)) > 1e-9 * max(self.cell, 1):
-            return None
-        return self._initial
+        return hits_at_origin(self._initial, self.origin, position, self.cell)
 
     def _encounter_rate(self, points: np.ndarray) -> np.ndarray:
         return self.frame_concentration(self.frame(), points)
