@@ -113,19 +113,11 @@ class WindyHitModel(IsotropicHitModel):
         """``Z``: the parameter ``n_hits``."""
         return self.params.n_hits
 
-    def mean_hits(
-        self, sensor_positions: ArrayLike, hypotheses: ArrayLike, release: ArrayLike | None = None
-    ) -> FloatArray:
-        """``mu`` for every (sensor, hypothesis) pair, ``(M, N)``."""
-        s = np.atleast_2d(np.asarray(sensor_positions, float))
-        h = np.atleast_2d(np.asarray(hypotheses, float))
-        if s.shape[1] != h.shape[1] or s.shape[1] not in (2, 3):
-            raise ConfigError("hypotheses", f"sensor {s.shape} and hypotheses {h.shape} need d")
-        if not np.all(np.isfinite(s)):
-            raise ConfigError("sensor_positions", "must be finite")
+    def default_release(self) -> float:
+        """``R`` of a hypothesis without its own ``release``: the parameter ``rate``."""
+        return self.params.rate
+
+    def offset_mean_hits(self, offsets: np.ndarray, release: np.ndarray) -> FloatArray:
+        """``mu`` at sensor-minus-source ``offsets`` ``(M, N, d)``, ``(M, N)``."""
         p = self.params
-        q = p.rate if release is None else np.broadcast_to(release, (len(h),))
-        if release is not None and not (np.all(np.isfinite(q)) and np.all(q >= 0)):
-            raise ConfigError("release", "must be finite and >= 0")
-        mu = windy_mean_hits(s[:, None, :] - h[None, :, :], q, p.wind, p.tau, p.cell)
-        return mu + p.background
+        return windy_mean_hits(offsets, release, p.wind, p.tau, p.cell) + p.background
