@@ -1307,8 +1307,12 @@ def bench_compare(
             )
         console.print(t)
     for what in ("added", "removed"):
-        if diff[what]:
-            console.print(f"{what}: {', '.join(diff[what])}", highlight=False)
+        rows = diff[what]
+        if len(rows) > 8:
+            tasks = sorted({r.split("/", 1)[0] for r in rows})
+            console.print(f"{what}: {len(rows)} rows of {', '.join(tasks)}", highlight=False)
+        elif rows:
+            console.print(f"{what}: {', '.join(rows)}", highlight=False)
     if fail_on_worse and any(c["verdict"] == "worse" for c in changes):
         raise typer.Exit(code=1)
 
