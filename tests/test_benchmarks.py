@@ -601,3 +601,22 @@ def test_otto_benchmark_compiled_steps_replay_recorded_states() -> None:
             expected = np.zeros(2, int)
             expected[a // 2] = 1 if a % 2 else -1
             np.testing.assert_array_equal(step, expected)
+
+
+# ---------------------------------------------------------------------- bench_budget
+def test_bench_budget_quick_mode(capsys: pytest.CaptureFixture[str]) -> None:
+    """The quick mode runs one task and ends with a RESULT line of what it measured; the
+    standard tier's estimate scales each task by its episode counts and shortened limits."""
+    mod = load("bench_budget")
+    result = mod.main(["--quick"])
+    out = capsys.readouterr().out
+    assert out.strip().splitlines()[-1].startswith("RESULT tier=quick ")
+    assert result["tasks"] == 1 and result["rows"] == 1
+    from odorloc.experiments.bench import load_suite
+
+    suite = load_suite()
+    farrell = suite.task("two-sources-farrell")
+    n = farrell.episodes["standard"] / farrell.episodes["quick"]
+    assert mod.scale(farrell, "quick", "standard") == pytest.approx(n * 5000.0 / 600.0)
+    lattice = suite.task("otto-19x19")
+    assert mod.scale(lattice, "quick", "standard") == pytest.approx(1000 / 20)

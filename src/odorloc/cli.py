@@ -1195,6 +1195,187 @@ def components(
         _fail(str(exc))
 
 
+bench_app = typer.Typer(
+    cls=_OneLineErrors,
+    help="The benchmark: a versioned suite of tasks, every method that can run them, a board.",
+    no_args_is_help=True,
+    rich_markup_mode="markdown",
+)
+app.add_typer(bench_app, name="bench")
+
+
+def _names(values: list[str] | None) -> list[str]:
+    """Repeated or comma-separated option values, in order, without repeats."""
+    out: list[str] = []
+    for v in values or []:
+        for part in v.split(","):
+            part = part.strip()
+            if part and part not in out:
+                out.append(part)
+    return out
+
+
+@bench_app.command("run")
+def bench_run(
+    tier: Annotated[
+        str, typer.Option(help="quick (minutes) or standard (the published board).")
+    ] = ("quick"),
+    tasks: Annotated[
+        list[str] | None, typer.Option("--tasks", help="Task names (repeat or comma-separate).")
+    ] = None,
+    methods: Annotated[
+        list[str] | None,
+        typer.Option("--methods", help="Only these methods (registered names)."),
+    ] = None,
+    method: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--method", help="Add a method: `package.module:Searcher` or a YAML preset file."
+        ),
+    ] = None,
+    suite: Annotated[str, typer.Option(help="Suite version or file.")] = "2027.1",
+    out: Annotated[Path, typer.Option(help="Output folder.")] = Path("odorloc-bench"),
+    backend: Annotated[str, typer.Option(help="local (process pool) or dask.")] = "local",
+    workers: Annotated[int, typer.Option(help="Worker processes.")] = 2,
+    scheduler: Annotated[
+        str | None, typer.Option(help="Join a running Dask scheduler (tcp://host:port).")
+    ] = None,
+    html: Annotated[bool, typer.Option(help="Write the HTML leaderboard and figures.")] = True,
+    episodes: Annotated[
+        int | None, typer.Option(help="Episodes per method instead of the tier's (a trial run).")
+    ] = None,
+    progress: Annotated[bool, typer.Option(help="Live progress bars.")] = True,
+) -> None:
+    """Run (or resume) the suite: every method that can run each task, on the sweep harness.
+
+    Writes `results.json` (the board, documented schema), `leaderboard.html` and `figures/`
+    into `--out`, and one resumable store per task under `stores/`.
+    """
+    from odorloc.experiments.bench import run_bench
+    from odorloc.experiments.bench.board import text_board
+
+    try:
+        _check_count(workers, "--workers", 1, 1024)
+        backend = _check_backend(backend, scheduler)
+        doc = run_bench(
+            out,
+            suite=suite,
+            tier=tier,
+            tasks=_names(tasks),
+            methods=_names(methods),
+            extra=_names(method),
+            backend=backend,
+            workers=workers,
+            scheduler=scheduler,
+            progress=progress,
+            html=html,
+            episodes=episodes,
+        )
+    except OdorlocError as exc:
+        _fail(str(_renamed(exc, "scheduler", "--scheduler")))
+        return
+    console.print(escape(text_board(doc, width=console.width or 80)), highlight=False)
+    console.print(f"wall time {doc['wall_time_s']:.0f} s", highlight=False)
+    console.print(f"wrote {escape(str(out / 'results.json'))}", highlight=False)
+    if html:
+        console.print(f"wrote {escape(str(out / 'leaderboard.html'))}", highlight=False)
+
+
+@bench_app.command("compare")
+def bench_compare(
+    a: Annotated[Path, typer.Argument(help="Results JSON (the baseline).")],
+    b: Annotated[Path, typer.Argument(help="Results JSON (the new run).")],
+    fail_on_worse: Annotated[
+        bool, typer.Option(help="Exit with status 1 when anything got worse.")
+    ] = False,
+) -> None:
+    """What got better or worse from A to B: a value of B outside A's 95 % interval."""
+    from odorloc.experiments.bench import compare_results, load_results
+
+    try:
+        diff = compare_results(load_results(a, "A"), load_results(b, "B"))
+    except OdorlocError as exc:
+        _fail(str(exc))
+        return
+    changes = diff["changes"]
+    if not changes:
+        console.print("no change beyond the intervals", highlight=False)
+    else:
+        t = Table(title="changes beyond A's 95 % interval", title_justify="left")
+        for col in ("task", "method", "metric", "A [interval]", "B", "verdict"):
+            t.add_column(col)
+        for c in changes:
+            t.add_row(
+                c["task"],
+                c["method"],
+                c["metric"],
+                f"{c['a']:.3g} [{c['a_lo']:.3g}, {c['a_hi']:.3g}]",
+                f"{c['b']:.3g}",
+                c["verdict"],
+            )
+        console.print(t)
+    for what in ("added", "removed"):
+        rows = diff[what]
+        if len(rows) > 8:
+            tasks = sorted({r.split("/", 1)[0] for r in rows})
+            console.print(f"{what}: {len(rows)} rows of {', '.join(tasks)}", highlight=False)
+        elif rows:
+            console.print(f"{what}: {', '.join(rows)}", highlight=False)
+    if fail_on_worse and any(c["verdict"] == "worse" for c in changes):
+        raise typer.Exit(code=1)
+
+
+@bench_app.command("board")
+def bench_board(
+    results: Annotated[Path, typer.Argument(help="Results JSON of `odorloc bench run`.")],
+    out: Annotated[
+        Path | None, typer.Option(help="Folder for leaderboard.html and its figures.")
+    ] = None,
+    markdown: Annotated[
+        Path | None, typer.Option(help="Write the board as Markdown tables to this file.")
+    ] = None,
+) -> None:
+    """Draw the board of a results file again: the HTML leaderboard, or Markdown tables."""
+    from odorloc.experiments.bench import load_results
+    from odorloc.experiments.bench.board import markdown_board, text_board, write_leaderboard
+
+    try:
+        doc = load_results(results, "results")
+        if out is not None:
+            check_output_dir(out, "--out")
+        if markdown is not None:
+            check_output_file(markdown, "--markdown")
+    except OdorlocError as exc:
+        _fail(str(exc))
+        return
+    console.print(escape(text_board(doc, width=console.width or 80)), highlight=False)
+    if out is not None:
+        out.mkdir(parents=True, exist_ok=True)
+        console.print(f"wrote {escape(str(write_leaderboard(doc, out)))}", highlight=False)
+    if markdown is not None:
+        markdown.write_text(markdown_board(doc), encoding="utf-8")
+        console.print(f"wrote {escape(str(markdown))}", highlight=False)
+
+
+@bench_app.command("tasks")
+def bench_tasks(
+    suite: Annotated[str, typer.Option(help="Suite version or file.")] = "2027.1",
+) -> None:
+    """List the suite's tasks: scenario, success rule, episodes per tier."""
+    from odorloc.experiments.bench import load_suite
+
+    try:
+        s = load_suite(suite)
+    except OdorlocError as exc:
+        _fail(str(exc))
+        return
+    console.print(f"suite {s.suite} (root seed {s.seed})", highlight=False)
+    for t in s.tasks:
+        eps = ", ".join(f"{k} {v}" for k, v in t.episodes.items())
+        console.print(f"\n[bold]{escape(t.name)}[/] ({escape(t.scenario)}; {eps} episodes)")
+        console.print(f"    {escape(t.rule)}", highlight=False)
+
+
 def main() -> None:
     """Entry point of the ``odorloc`` script."""
     app()

@@ -247,6 +247,7 @@ def _outcome_cases() -> dict[str, list[tuple[object, np.ndarray, np.ndarray, dic
     from odorloc.models.gaussian import GaussianPlumeModel
     from odorloc.models.kernels import HAVE_NUMBA
     from odorloc.models.lattice import IsotropicHitModel, IsotropicHitParams
+    from odorloc.models.lattice_windy import WindyHitModel, WindyHitParams
     from odorloc.models.vergassola import VergassolaModel, VergassolaModelParams
 
     rng = np.random.default_rng(11)
@@ -267,6 +268,7 @@ def _outcome_cases() -> dict[str, list[tuple[object, np.ndarray, np.ndarray, dic
             for fixed in ({}, {"n_classes": 7})
         ],
         "lattice-isotropic": [(lattice, s2, h2, {}), (lattice, s3, h3, {})],
+        "lattice-windy": [(WindyHitModel(WindyHitParams(n_hits=n)), s2, h2, {}) for n in (2, 4)],
         **_source_term_cases(s2, h2, s3, h3),
     }
 

@@ -110,7 +110,9 @@ def result_row(res: EpisodeResult) -> dict[str, Any]:
     return row
 
 
-def _error_row(cell: dict[str, Any], exc: Exception, t0: float) -> dict[str, Any]:
+def error_row(cell: dict[str, Any], exc: Exception, t0: float) -> dict[str, Any]:
+    """The row of an episode that raised ``exc`` (started at ``perf_counter() == t0``): the
+    defaults, ``status="error"``, the error text and its traceback (also logged)."""
     tb = traceback.format_exc()
     log.error("episode failed (cell %s): %s\n%s", cell, exc, tb)
     row = dict(ROW_DEFAULTS)
@@ -138,7 +140,7 @@ def run_cell_episode(
         if keep_arrays and res.recording is not None:
             row["arrays"] = res.recording.to_arrays()
     except Exception as exc:  # one bad episode must not stop a batch
-        return _error_row(cell, exc, t0)
+        return error_row(cell, exc, t0)
     return row
 
 
@@ -193,7 +195,7 @@ def run_replay_group(
         first = cell_scenario(tasks[0].cell)
         movie = record_flow(first, tasks[0].world_seed)
     except Exception as exc:
-        return [_error_row(t.cell, exc, t0) for t in tasks]
+        return [error_row(t.cell, exc, t0) for t in tasks]
     movie_wall = time.perf_counter() - t0
     movie_cpu = time.process_time() - c0
     for task in tasks:
@@ -229,7 +231,7 @@ def run_replay_group(
             if task.keep_arrays and res.recording is not None:
                 row["arrays"] = res.recording.to_arrays()
         except Exception as exc:  # one bad episode must not stop the group
-            row = _error_row(task.cell, exc, t1)
+            row = error_row(task.cell, exc, t1)
         by_cell[task.cell_id] = row
         rows.append(row)
     return rows
@@ -254,7 +256,7 @@ def run_live_group(
             if task.keep_arrays and res.recording is not None:
                 row["arrays"] = res.recording.to_arrays()
         except Exception as exc:  # one bad episode must not stop the group
-            row = _error_row(task.cell, exc, t0)
+            row = error_row(task.cell, exc, t0)
         rows.append(row)
     return rows
 

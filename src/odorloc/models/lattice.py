@@ -265,12 +265,21 @@ class IsotropicHitModel(MeasurementModel):
             raise ConfigError("hypotheses", f"sensor {s.shape} and hypotheses {h.shape} need d")
         if not np.all(np.isfinite(s)):
             raise ConfigError("sensor_positions", "must be finite")
-        p = self.params
-        q = p.intensity if release is None else np.broadcast_to(release, (len(h),))
+        q = self.default_release() if release is None else np.broadcast_to(release, (len(h),))
         if release is not None and not (np.all(np.isfinite(q)) and np.all(q >= 0)):
             raise ConfigError("release", "must be finite and >= 0")
-        d = np.sqrt(((s[:, None, :] - h[None, :, :]) ** 2).sum(axis=2))
-        return isotropic_mean_hits(d, p.length, np.asarray(q, float), p.cell, s.shape[1])
+        return self.offset_mean_hits(s[:, None, :] - h[None, :, :], np.asarray(q, float))
+
+    def default_release(self) -> float:
+        """The intensity of a hypothesis without its own ``release``: ``I``."""
+        return self.params.intensity
+
+    def offset_mean_hits(self, offsets: np.ndarray, release: np.ndarray) -> FloatArray:
+        """``mu`` at sensor-minus-source ``offsets`` ``(M, N, d)`` (metres) for intensities
+        ``release`` (scalar or ``(N,)``), ``(M, N)``: the law's one model-specific part."""
+        p = self.params
+        d = np.sqrt((offsets**2).sum(axis=2))
+        return isotropic_mean_hits(d, p.length, release, p.cell, offsets.shape[2])
 
     def log_likelihood(
         self, z: Any, sensor_position: np.ndarray, hypotheses: np.ndarray, **conditions: Any

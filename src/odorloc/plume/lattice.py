@@ -44,7 +44,54 @@ from odorloc.plume.sources import Source
 from odorloc.plume.vergassola import VergassolaPlume
 from odorloc.wind.base import WindModel
 
-__all__ = ["LatticeIsotropicPlume", "LatticePlumeParams"]
+__all__ = [
+    "LatticeIsotropicPlume",
+    "LatticePlumeParams",
+    "draw_source_after",
+    "hits_at_origin",
+    "lattice_origin",
+]
+
+
+def lattice_origin(arena: Arena, origin: Sequence[float] | None) -> np.ndarray:
+    """The centre of the cell a lattice search starts from, ``(d,)`` metres: ``origin``'s cell,
+    or the arena's central cell (OTTO's start); :class:`ConfigError` naming ``plume.origin``
+    outside free space."""
+    grid = arena.grid
+    if origin is None:
+        return grid.center(np.asarray(grid.shape) // 2)[0]
+    o = np.asarray(origin, float)
+    if o.shape != (arena.dim,) or not arena.is_free(o)[0]:
+        raise ConfigError("plume.origin", f"needs {arena.dim} components in free space")
+    return grid.center(grid.index(o))[0]
+
+
+def draw_source_after(
+    arena: Arena, origin: np.ndarray, likelihood: np.ndarray, rng: np.random.Generator
+) -> tuple[float, ...]:
+    """A source cell centre drawn from the posterior of a uniform prior after the first reading
+    at ``origin``: ``b0 ∝ P(h0 | cell)`` (``likelihood``, one value per cell in the grid's flat
+    order) over the free cells other than the start cell (:func:`~odorloc.models.lattice.
+    initial_belief`)."""
+    grid = arena.grid
+    centres = grid.flat_centers()
+    like = np.asarray(likelihood, float).reshape(grid.shape)
+    free = arena.is_free(centres).reshape(grid.shape)
+    start = tuple(int(v) for v in grid.index(origin)[0])
+    b0 = initial_belief(like, start, free).reshape(-1)
+    k = int(rng.choice(b0.size, p=b0))
+    return tuple(float(v) for v in centres[k])
+
+
+def hits_at_origin(
+    initial: int | None, origin: np.ndarray, position: np.ndarray, cell: float
+) -> int | None:
+    """The first reading ``initial`` at the start cell's centre, ``None`` elsewhere."""
+    if initial is None:
+        return None
+    if np.max(np.abs(np.asarray(position, float) - origin)) > 1e-9 * max(cell, 1):
+        return None
+    return initial
 
 
 class LatticePlumeParams(Params):
@@ -92,14 +139,7 @@ class LatticeIsotropicPlume(PlumeModel):
             raise ConfigError(
                 "plume.length", f"must be at least one cell ({self.cell:g} m), got {params.length}"
             )
-        grid = arena.grid
-        if params.origin is None:
-            self.origin = grid.center(np.asarray(grid.shape) // 2)[0]
-        else:
-            o = np.asarray(params.origin, float)
-            if o.shape != (self.dim,) or not arena.is_free(o)[0]:
-                raise ConfigError("plume.origin", f"needs {self.dim} components in free space")
-            self.origin = grid.center(grid.index(o))[0]
+        self.origin = lattice_origin(arena, params.origin)
         if params.start == "initial-hit" and len(sources) != 1:
             raise ConfigError("plume.start", "initial-hit draws one source; configure exactly one")
         if params.start == "initial-hit":
@@ -154,26 +194,16 @@ class LatticeIsotropicPlume(PlumeModel):
         intensity, z = self._first_hit_law()
         ph = initial_hit_probabilities(p.length, intensity, cell, dim, z)
         h0 = int(rng.choice(z, p=ph))
-        grid = self.arena.grid
-        centres = grid.flat_centers()
+        centres = self.arena.grid.flat_centers()
         d = np.linalg.norm(centres - self.origin, axis=1)
         mu = isotropic_mean_hits(d, p.length, intensity, cell, dim)
-        like = censored_poisson(mu, z)[:, h0].reshape(grid.shape)
-        free = self.arena.is_free(centres).reshape(grid.shape)
-        start = tuple(int(v) for v in grid.index(self.origin)[0])
-        b0 = initial_belief(like, start, free).reshape(-1)
-        k = int(rng.choice(b0.size, p=b0))
-        pos = tuple(float(v) for v in centres[k])
+        pos = draw_source_after(self.arena, self.origin, censored_poisson(mu, z)[:, h0], rng)
         self.set_sources([src.model_copy(update={"position": pos})])
         self._initial = h0
 
     def initial_hits(self, position: np.ndarray) -> int | None:
         """The first hit at the start (``initial-hit``), ``None`` elsewhere or with ``fixed``."""
-        if self._initial is None:
-            return None
-        if np.max(np.abs(np.asarray(position, float) - self.origin)) > 1e-9 * max(self.cell, 1):
-            return None
-        return self._initial
+        return hits_at_origin(self._initial, self.origin, position, self.cell)
 
     # ------------------------------------------------------------------ fields
     def _encounter_rate(self, points: np.ndarray) -> np.ndarray:
