@@ -57,3 +57,58 @@ def test_parts_that_are_not_source_term_parts_are_refused() -> None:
     with pytest.raises(ConfigError) as ei:
         Scenario.from_dict(data)
     assert ei.value.field.startswith("searcher.estimator.n_particles")
+
+
+def test_default_law_stays_honest_when_readings_fluctuate_and_drop_out() -> None:
+    """Readings of a turbulent plume: clean air 60 % of the time, else the Gaussian plume's
+    mean times an exponential fluctuation. The strict law (Gaussian noise of the sensor only)
+    ends confidently wrong, the source many posterior spreads from its estimate; the searcher's
+    default law (relative noise 1, miss 0.5) keeps the source within 1.5 spreads."""
+    import numpy as np
+
+    from odorloc.core.types import Observation, SearchContext, SensorInfo
+    from odorloc.geometry.arena import Arena
+    from odorloc.inference.source_terms import SourceTermEstimator, SourceTermParams
+    from odorloc.models.source_term import (
+        GaussianSourceTermModel,
+        GaussianSourceTermParams,
+        SourceTerms,
+    )
+    from odorloc.searchers.source_term import SourceTermSearchParams
+
+    ctx = SearchContext(
+        arena=Arena.box([0.0, 0.0], [30.0, 30.0], 0.5),
+        dt=1.0,
+        agent_ids=(0,),
+        start=np.ones((1, 2)),
+        speed_limits=np.array([1.0]),
+        sensor=SensorInfo(threshold=0.2),
+    )
+    src, wind = np.array([[8.0, 15.0]]), np.array([1.0, 0.0])
+    strict = GaussianSourceTermModel(GaussianSourceTermParams(threshold=0.2))
+    default = SourceTermSearchParams().model.build("model")
+    for seed in range(4):
+        rng = np.random.default_rng(seed)
+        pts = np.column_stack([rng.uniform(10, 28, 60), rng.uniform(10, 20, 60)])
+        mean = strict.signal(pts, SourceTerms.single(src, 10.0), np.tile(wind, (60, 1)))[:, 0]
+        z = np.where(rng.random(60) < 0.6, 0.0, mean * rng.exponential(1.0, 60))
+        ratio = {}
+        for name, model in (("strict", strict), ("default", default)):
+            est = SourceTermEstimator(SourceTermParams(n_particles=300, wind_average=1))
+            est.reset(ctx, model, np.random.default_rng(seed))
+            for t in range(60):
+                est.update(
+                    Observation(
+                        agent=0,
+                        t=float(t),
+                        position=pts[t],
+                        heading=0.0,
+                        gas=float(z[t]),
+                        detection=bool(z[t] > 0.2),
+                        wind=wind,
+                    )
+                )
+            error = float(np.hypot(*(est.estimate()[0] - src[0])))
+            ratio[name] = error / est.spread()
+        assert ratio["strict"] > 5.0, (seed, ratio)
+        assert ratio["default"] < 1.5, (seed, ratio)

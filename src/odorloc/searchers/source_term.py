@@ -48,6 +48,11 @@ class SourceTermSearchParams(Params):
     ----------
     model : dict
         The measurement model, ``{type: ste-gaussian | ste-vergassola | ste-adapter, ...}``.
+        Default: ``ste-gaussian`` with a reading law for a plume that is not the model's own,
+        ``relative_noise: 1.0`` and ``miss: 0.5`` (:mod:`odorloc.models.source_term`): an
+        instantaneous reading of a turbulent plume fluctuates about its mean by about the
+        mean itself and is clean air for much of the time. A scenario that knows its plume
+        (the source-term papers' worlds) gives its own law.
     estimator : dict
         The source-term estimator, ``{type: ste-pf, ...}``.
     planner : dict
@@ -61,7 +66,11 @@ class SourceTermSearchParams(Params):
         Readings before any declaration.
     """
 
-    model: Ref("model") = ComponentRef(type="ste-gaussian")
+    # Without the fluctuation and the intermittency in the law, one reading of a filament
+    # plume separates hypotheses by thousands of nats: every reading then collapses the
+    # particle set and costs the maximum of tempered steps, each moving every particle
+    # against the whole history.
+    model: Ref("model") = ComponentRef(type="ste-gaussian", relative_noise=1.0, miss=0.5)
     estimator: Ref("estimator") = ComponentRef(type="ste-pf", n_particles=2000)
     planner: Ref("planner") = ComponentRef(type="ste-entrotaxis")
     declare: Literal["credible-region", "converged", "never"] = "credible-region"
