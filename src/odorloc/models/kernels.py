@@ -411,7 +411,7 @@ def history_term(
             d1 = s[j, 1] - p1
             d2 = s[j, 2] - p2
             r2 = d0 * d0 + d1 * d1 + d2 * d2
-            along = d0 * e[j, 0] + d1 * e[j, 1] + d2 * e[j, 2]
+            along = ((0.0 + d0 * e[j, 0]) + d1 * e[j, 1]) + d2 * e[j, 2]
             r = math.sqrt(a2 if r2 < a2 else r2)
             dist[j] = r
             expo[j] = along * adv - r * inv_lam
@@ -488,20 +488,39 @@ def rate_means_direct(
     n = s.shape[0]
     d = x.shape[1]
     mu = np.empty((m, n))
+    expo = np.empty(n)
     top = -np.inf
     for i in range(m):
+        # the geometry of every hypothesis first, in a loop without branches (vectorised), then
+        # the exponentials: the same arithmetic as one loop, bit for bit
+        row = mu[i]
+        if d == 3:
+            x0 = x[i, 0]
+            x1 = x[i, 1]
+            x2 = x[i, 2]
+            for j in range(n):
+                d0 = x0 - s[j, 0]
+                d1 = x1 - s[j, 1]
+                d2 = x2 - s[j, 2]
+                r2 = d0 * d0 + d1 * d1 + d2 * d2
+                along = ((0.0 + d0 * e[0]) + d1 * e[1]) + d2 * e[2]
+                r = math.sqrt(a2 if r2 < a2 else r2)
+                row[j] = r
+                expo[j] = along * adv - r * inv_lam
+        else:
+            for j in range(n):
+                r2 = 0.0
+                along = 0.0
+                for k in range(d):
+                    diff = x[i, k] - s[j, k]
+                    r2 += diff * diff
+                    along += diff * e[k]
+                r = math.sqrt(a2 if r2 < a2 else r2)
+                row[j] = r
+                expo[j] = along * adv - r * inv_lam
         for j in range(n):
-            r2 = 0.0
-            along = 0.0
-            for k in range(d):
-                diff = x[i, k] - s[j, k]
-                r2 += diff * diff
-                along += diff * e[k]
-            if r2 < a2:
-                r2 = a2
-            r = math.sqrt(r2)
-            v = dt * (aq[j] * math.exp(along * adv - r * inv_lam) / r)
-            mu[i, j] = v
+            v = dt * (aq[j] * math.exp(expo[j]) / row[j])
+            row[j] = v
             if v > top:
                 top = v
     return mu, top
