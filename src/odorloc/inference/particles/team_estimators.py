@@ -593,18 +593,31 @@ class ColPFEstimator(TeamEstimator):
         pf.replace(x, np.full(target, -math.log(target)), resampled=True)
 
     def _compiled_log_likelihood(self, readings: list[Reading], x: np.ndarray) -> np.ndarray:
-        """:func:`_readings_log_likelihood` in one compiled pass (readings already checked)."""
+        """:func:`_readings_log_likelihood` in one compiled pass of ``readings``, the history's
+        latest (appended and checked just before)."""
         aq, adv, inv_lam, a2, default = self._compiled[:5]
-        d = x.shape[1]
-        nan = np.full(d, np.nan)
+        k = len(readings)
+        if k <= len(self.history):
+            # the history holds them as the arrays below would (numbers made float, no
+            # direction a NaN row): read them there
+            counts, where, dts, dirs, exps = self.history.latest(k)
+        else:
+            # a history bounded below one iteration's readings
+            d = x.shape[1]
+            nan = np.full(d, np.nan)
+            where = np.array([r[1] for r in readings], float).reshape(k, d)
+            dirs = np.array([nan if r[3] is None else r[3] for r in readings], float)
+            counts = np.array([r[0] for r in readings], float)
+            dts = np.array([r[2] for r in readings], float)
+            exps = np.array([r[4] for r in readings], float)
         return colpf_kernels.readings_log_likelihood(
             # a writable copy: the kernel is compiled for one array type (the moves pass theirs)
             np.array(x, float, order="C"),
-            np.array([r[1] for r in readings], float).reshape(len(readings), d),
-            np.array([nan if r[3] is None else r[3] for r in readings], float),
-            np.array([r[0] for r in readings], float),
-            np.array([r[2] for r in readings], float),
-            np.array([r[4] for r in readings], float),
+            where,
+            dirs,
+            counts,
+            dts,
+            exps,
             default,
             aq,
             adv,
