@@ -611,6 +611,7 @@ def _poisson_direction_rewards(
     # sum_n w_n p_n (log w_n + c log mu_n - mu_n - log c!) needs no array of its own
     wb = np.empty(n)
     wl = np.empty(n)
+    lnl = np.empty(n)
     p = np.empty(n)
     wq = np.empty(n)
     ma = np.empty(d)
@@ -619,6 +620,7 @@ def _poisson_direction_rewards(
         for j in range(n):
             # a zero mean gives classes c > 0 probability 0: any finite log does for them
             ll = math.log(lam[j]) if lam[j] > 0.0 else -1e300
+            lnl[j] = ll
             wb[j] = w[j] * (log_w[j] - lam[j])
             wl[j] = w[j] * ll
         expected = 0.0
@@ -626,14 +628,34 @@ def _poisson_direction_rewards(
             if (c == keep and keep < z) or c == k:
                 # the merged tail (or the last class): its probability, and w times log (w p)
                 # where p is not 0
+                head = probs[i, c]
                 for j in range(n):
-                    p[j] = probs[i, c, j]
+                    p[j] = head[j]
                 for cc in range(c + 1, z):
                     row = probs[i, cc]
                     for j in range(n):
                         p[j] += row[j]
+                merged = c < k
                 for j in range(n):
-                    wq[j] = w[j] * (log_w[j] + (math.log(p[j]) if p[j] > 0.0 else 0.0))
+                    pj = p[j]
+                    if pj > 0.0:
+                        q = head[j]
+                        r = pj / q - 1.0 if merged and q > 0.0 else 1.0
+                        if r < 1e-4:
+                            # P(d >= c) = p(c) (1 + r), r small where the mean is: the log of
+                            # p(c) from log mu (as the count classes') and log(1 + r) by its
+                            # series (to r^5 / 5 < 2e-21), no logarithm per particle
+                            lp = (
+                                c * lnl[j]
+                                - lam[j]
+                                - lf[c]
+                                + r * (1.0 - r * (0.5 - r * (1.0 / 3.0 - 0.25 * r)))
+                            )
+                        else:
+                            lp = math.log(pj)
+                        wq[j] = w[j] * (log_w[j] + lp)
+                    else:
+                        wq[j] = w[j] * log_w[j]
                 pc, xc, _ = _class_sums(p, w, wq, wq, wx, ma)
             else:
                 pc, sb, sl = _class_sums(probs[i, c], w, wb, wl, wx, ma)
