@@ -451,7 +451,7 @@ class ColPFEstimator(TeamEstimator):
                 known is not None
                 and known[2] == before
                 and not self.history.dropped
-                and np.array_equal(known[0], pf.positions)
+                and _same(known[0], pf.positions)
             ):
                 # the history's log-likelihood grows by this iteration's readings (eq. 13)
                 self._known = (known[0], known[1] + ll, self.history.version)
@@ -643,9 +643,11 @@ class ColPFEstimator(TeamEstimator):
         pf = self.pf
         aq, adv, inv_lam, a2, default, lo, hi = self._compiled[:7]
         n_s = len(sel)
-        d = pf.positions.shape[1]
+        x = pf.positions.copy()
+        d = x.shape[1]
         up = np.zeros(d)
-        env_draws = np.zeros((0, 3))
+        # the kernel's arguments of a move not proposed (read, never written)
+        env_draws, centre, chol, normals, uniforms = _NO_MOVE
         env_on = False
         if env:
             self.moves["env"][0] += n_s
@@ -656,8 +658,6 @@ class ColPFEstimator(TeamEstimator):
                 up /= norm
                 env_on = True
                 env_draws = rng.random((n_s, 3))
-        centre, chol = np.zeros(d), np.eye(d)
-        normals, uniforms = np.zeros((0, d)), np.zeros(0)
         if proposal is not None:
             self.moves["col"][0] += n_s
             centre = np.asarray(proposal[0], float)
@@ -670,10 +670,9 @@ class ColPFEstimator(TeamEstimator):
             normals = rng.standard_normal((n_s, d))
             uniforms = rng.random(n_s)
         counts, where, dts, dirs, exps = self.history.held()
-        x = pf.positions.copy()
         hist = (where, dirs, counts, dts, exps, default, aq, adv, inv_lam, a2)
         known = self._known
-        if known is not None and known[2] == self.history.version and np.array_equal(known[0], x):
+        if known is not None and known[2] == self.history.version and _same(known[0], x):
             ll = known[1]
         else:
             # every particle's, once: kept for the next iterations while they stay put
@@ -796,6 +795,16 @@ class StandardPFEstimator(TeamEstimator):
                 last.count, last.position, self.cue_captured, last.dt, last.direction
             )
         return None
+
+
+#: the compiled moves' arguments of a move not proposed (3-D): env-pu draws, the col-pu centre,
+#: Cholesky factor, normals and uniforms
+_NO_MOVE = (np.zeros((0, 3)), np.zeros(3), np.eye(3), np.zeros((0, 3)), np.zeros(0))
+
+
+def _same(a: np.ndarray, b: np.ndarray) -> bool:
+    """``numpy.array_equal`` of two finite arrays, without its conversions."""
+    return a.shape == b.shape and bool((a == b).all())
 
 
 Reading = tuple[float, np.ndarray, float, "np.ndarray | None", float]
