@@ -235,7 +235,7 @@ def test_planners_compiled_equal_numpy(trial: int) -> None:
 def test_poisson_direction_kernel_equals_numpy_on_extreme_means() -> None:
     """Adap-PP's fused kernel against :func:`merge_tail_classes` + :func:`direction_rewards` on
     the NumPy classes of the same means: means from 0 to beyond 600, every tail path, class
-    counts from 2 to 40, within 1e-9 relative."""
+    counts from 2 to 40, 3-D and 2-D positions, within 1e-9 relative."""
     rng = np.random.default_rng(11)
     for trial in range(40):
         m, n = int(rng.integers(1, 27)), int(rng.integers(1, 170))
@@ -249,6 +249,9 @@ def test_poisson_direction_kernel_equals_numpy_on_extreme_means() -> None:
         w = np.exp(lw)
         x = _cloud(rng, n, 10.0)
         targets = _cloud(rng, m, 10.0)
+        if trial % 5 == 4:
+            # the kernel's sums for any dimension, not only its 3-D loop
+            x, targets = x[:, :2].copy(), targets[:, :2].copy()
         h1 = float(rng.uniform(0.0, 3.0))
         tail = [1e-6, 1e-3, 1e-300][trial % 3]
         q = np.moveaxis(censored_poisson(mu, z), -1, 1)

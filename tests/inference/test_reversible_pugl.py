@@ -195,6 +195,26 @@ def test_history_keeps_the_latest_readings_when_bounded() -> None:
     assert len(h) == 0 and h.log_likelihood(VergassolaModel(), np.zeros((5, 3))).tolist() == [0] * 5
 
 
+@pytest.mark.parametrize("capacity", [None, 4, 5])
+def test_history_latest_are_the_readings_appended_last(capacity: int | None) -> None:
+    """``latest(k)``: the last ``k`` readings, oldest first, before and after a bounded ring
+    wraps (and exactly when it comes round); ``k`` beyond the readings held is refused."""
+    h = MeasurementHistory(3, capacity=capacity)
+    for n in range(1, 13):
+        h.append(float(n), [float(n), 1.0, 2.0], 0.5 * n, [0.0, 1.0, 0.0] if n % 3 else None, 1.0)
+        a = h.arrays()
+        for k in range(len(h) + 1):
+            counts, where, dts, dirs, exps = h.latest(k)
+            np.testing.assert_array_equal(counts, a["counts"][len(h) - k :])
+            np.testing.assert_array_equal(where, a["positions"][len(h) - k :])
+            np.testing.assert_array_equal(dts, a["dts"][len(h) - k :])
+            np.testing.assert_array_equal(dirs, a["directions"][len(h) - k :])
+            np.testing.assert_array_equal(exps, a["exponents"][len(h) - k :])
+        assert h.latest(1)[0].tolist() == [float(n)]
+        with pytest.raises(ConfigError, match=r"^k: "):
+            h.latest(len(h) + 1)
+
+
 def test_a_bounded_history_judges_by_the_latest_readings_only() -> None:
     model = VergassolaModel(VergassolaModelParams(backend="numpy"))
     x = np.array([[10.0, 30.0, 25.0], [50.0, 20.0, 10.0]])

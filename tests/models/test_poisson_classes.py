@@ -4,10 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from scipy.special import gammainc
 from scipy.stats import poisson
 
 from odorloc.models.poisson import censored_poisson
-from odorloc.models.vergassola import VergassolaModel
+from odorloc.models.vergassola import VergassolaModel, VergassolaModelParams
 
 
 def test_censored_classes_match_scipy_from_tiny_to_huge_means() -> None:
@@ -145,3 +146,17 @@ def test_release_arrays_kept_between_calls_stay_few(backend: str) -> None:
     assert first is not None
     again = m.log_likelihood_rows([1.0], x, first[0], dt=1.0, release=1.0)
     np.testing.assert_array_equal(again, first[1])
+
+
+@pytest.mark.parametrize(("tail", "top"), [(1e-3, 16), (1e-6, 40), (1e-2, 2), (1e-9, 3)])
+def test_class_count_is_the_first_small_tail(tail: float, top: int) -> None:
+    """The Vergassola model's class count (searched from its last answer) is the first ``n``
+    whose tail ``P(d >= n) = gammainc(n, mean)`` is below ``tail_mass``, plus one, as a scan
+    from 1 finds it, or ``max_classes``; for means in any order, from 0 to far beyond it."""
+    rng = np.random.default_rng(5)
+    means = np.concatenate([[0.0, 1e-300, 1e-20, 700.0, 1e4], 10 ** rng.uniform(-12, 3, 400)])
+    rng.shuffle(means)
+    model = VergassolaModel(VergassolaModelParams(tail_mass=tail, max_classes=top))
+    for m in means:
+        want = next((n + 1 for n in range(1, top) if gammainc(n, m) < tail), top)
+        assert model.n_classes(np.array([m])) == want, m

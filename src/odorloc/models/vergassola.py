@@ -297,6 +297,8 @@ class VergassolaModel(MeasurementModel):
         # ``a Q`` per hypothesis for the common case of one release rate for all (by count),
         # the most recently used first to go last
         self._aq: OrderedDict[tuple[int, float], np.ndarray] = OrderedDict()
+        # where the search for the class count starts (the last answer; see _classes_for)
+        self._class_guess = 1
 
     @property
     def length(self) -> float:
@@ -526,12 +528,22 @@ class VergassolaModel(MeasurementModel):
     def _classes_for(self, m: float) -> int:
         p = self.params
         # tail of class n - 1 is P(d >= n - 1) = gammainc(n - 1, m), decreasing in n: the first
-        # n with a small enough tail, tried in order (usually a few; one call each)
-        tail = p.tail_mass
-        for n in range(1, p.max_classes):
-            if gammainc(n, m) < tail:
-                return n + 1
-        return p.max_classes
+        # n in 1 .. max_classes - 1 with a small enough tail. Consecutive decisions ask about
+        # similar means, so the search starts at the last answer and walks to the first such
+        # n (the n a scan from 1 finds: the tails are monotone), one call per step.
+        tail, top = p.tail_mass, p.max_classes
+        n = min(self._class_guess, top - 1)
+        if gammainc(n, m) < tail:
+            while n > 1 and gammainc(n - 1, m) < tail:
+                n -= 1
+        else:
+            n += 1
+            while n < top and not gammainc(n, m) < tail:
+                n += 1
+            if n == top:
+                return top
+        self._class_guess = n
+        return n + 1
 
     def outcome_probabilities(
         self, sensor_positions: np.ndarray, hypotheses: np.ndarray, **conditions: Any

@@ -386,29 +386,82 @@ def step_rewards(
 
 
 @jit
-def _poisson_tail(lam: float, k: int, pk_1: float, head_sum: float) -> float:
+def _poisson_tail(lam: float, k: int, pk_1: float, head_sum: float, recip: np.ndarray) -> float:
     """``P(d >= k)`` of Poisson(``lam``) from ``p(k-1)`` and the head sum ``p(0) + .. + p(k-1)``.
 
     The series ``p(k) (1 + lam/(k+1) + lam^2/((k+1)(k+2)) + ...)`` where it converges fast
     (``lam < k / 4``) or where ``1 - head`` would lose digits (below 1e-4); ``1 - head``
     elsewhere. Relative error about 1e-15 (the NumPy classes use the incomplete gamma function
-    in the second case; the two agree within round-off).
+    in the second case; the two agree within round-off). ``recip[c] = 1 / c`` (``recip[0]``
+    unused): the series' ratios as products, not divisions, as far as the table goes.
     """
     if k == 0:
         return 1.0
     rest = 1.0 - head_sum
     if lam >= 0.25 * k and rest >= 1e-4:
         return rest
-    t = pk_1 * lam / k
+    size = recip.shape[0]
+    t = pk_1 * lam * recip[k] if k < size else pk_1 * lam / k
     total = t
     j = 1
     while j < 2000:
-        t *= lam / (k + j)
+        c = k + j
+        t *= lam * recip[c] if c < size else lam / c
         if not t > 1e-17 * total:
             break
         total += t
         j += 1
     return total
+
+
+#: Terms of the tail series :func:`_poisson_direction_rewards` sums for a small mean
+_TAIL_TERMS = 6
+
+#: numba's fast-math flags of the kernels whose sums may be reassociated (vectorised)
+_REASSOC = {"reassoc", "contract", "nsz"}
+
+
+def _class_sums(
+    p: np.ndarray, w: np.ndarray, u: np.ndarray, v: np.ndarray, wx: np.ndarray, ma: np.ndarray
+) -> tuple[float, float, float]:
+    """One class's sums over the particles in one pass: ``p(d) = sum_n w_n p_n``,
+    ``sum_n p_n u_n``, ``sum_n p_n v_n`` and, into ``ma`` ``(d,)``, ``sum_n p_n wx[:, n]`` (the
+    posterior mean times ``p(d)``)."""
+    n = p.shape[0]
+    pc = 0.0
+    su = 0.0
+    sv = 0.0
+    if wx.shape[0] == 3:
+        # the 3-D case in one loop (a loop over the axes would re-read ``p`` for each)
+        m0 = 0.0
+        m1 = 0.0
+        m2 = 0.0
+        for j in range(n):
+            pj = p[j]
+            pc += w[j] * pj
+            su += u[j] * pj
+            sv += v[j] * pj
+            m0 += wx[0, j] * pj
+            m1 += wx[1, j] * pj
+            m2 += wx[2, j] * pj
+        ma[0] = m0
+        ma[1] = m1
+        ma[2] = m2
+        return pc, su, sv
+    for j in range(n):
+        pj = p[j]
+        pc += w[j] * pj
+        su += u[j] * pj
+        sv += v[j] * pj
+    for a in range(wx.shape[0]):
+        acc = 0.0
+        for j in range(n):
+            acc += wx[a, j] * p[j]
+        ma[a] = acc
+    return pc, su, sv
+
+
+_class_sums = _cached_jit(_class_sums, nogil=True, fastmath=_REASSOC)
 
 
 def _poisson_direction_rewards(
@@ -464,26 +517,48 @@ def _poisson_direction_rewards(
     lf = np.empty(z)
     for c in range(z):
         lf[c] = math.lgamma(c + 1.0)
-    xt = np.ascontiguousarray(x.T)  # (d, N): the sums over particles run on contiguous rows
+    # 1 / c for the tail series: its terms fall by lam / c < 1/4, 64 of them reach 1e-17
+    recip = np.empty(z + 64)
+    recip[0] = 0.0
+    for c in range(1, recip.shape[0]):
+        recip[c] = 1.0 / c
+    # means this small take the tail's short series (see pass 1)
+    small = 1e-3 * (k + 1)
+    # the weighted positions, transposed: the mean sums of pass 2 run on contiguous rows
+    wx = np.empty((d, n))
+    for a in range(d):
+        for j in range(n):
+            wx[a, j] = w[j] * x[j, a]
     probs = np.empty((m, z, n))
-    pz = np.zeros((m, z))
+    pz = np.empty((m, z))
     head = np.empty(n)
-    # pass 1: the classes of every (candidate, particle) and the predicted distribution
+    # pass 1: the classes of every (candidate, particle) and the predicted distribution, each
+    # class's row summed as it is written
     for i in range(m):
         lam = mu[i]
+        row = probs[i, 0]
+        acc = 0.0
         for j in range(n):
-            probs[i, 0, j] = math.exp(-lam[j])
-            head[j] = probs[i, 0, j]
+            v = math.exp(-lam[j])
+            row[j] = v
+            head[j] = v
+            acc += w[j] * v
+        pz[i, 0] = acc
         for c in range(1, k):
             f = 1.0 / c
             row, prev = probs[i, c], probs[i, c - 1]
+            acc = 0.0
             for j in range(n):
                 v = prev[j] * lam[j] * f
                 row[j] = v
                 head[j] += v
+                acc += w[j] * v
+            pz[i, c] = acc
+        big = False
         for j in range(n):
             if lam[j] > 600.0:
                 # exp(-lam) underflows: the head in log space, the tail the rest
+                big = True
                 ll = math.log(lam[j])
                 acc = 0.0
                 for c in range(k):
@@ -492,15 +567,30 @@ def _poisson_direction_rewards(
                     acc += v
                 tail = 1.0 - acc
                 probs[i, k, j] = tail if tail > 0.0 else 0.0
+            elif k > 0 and lam[j] <= small:
+                # the series of _poisson_tail with its ratios lam / (k + t) <= 1e-3: its first
+                # _TAIL_TERMS terms in Horner form (the rest below 1e-20 relative), no branches
+                lj = lam[j]
+                acc = 1.0
+                for t in range(_TAIL_TERMS, 0, -1):
+                    acc = 1.0 + lj * recip[k + t] * acc
+                probs[i, k, j] = probs[i, k - 1, j] * lj * recip[k] * acc
             else:
                 pk_1 = probs[i, k - 1, j] if k > 0 else 1.0
-                probs[i, k, j] = _poisson_tail(lam[j], k, pk_1, head[j])
-        for c in range(z):
-            row = probs[i, c]
-            acc = 0.0
-            for j in range(n):
-                acc += w[j] * row[j]
-            pz[i, c] = acc
+                probs[i, k, j] = _poisson_tail(lam[j], k, pk_1, head[j], recip)
+        if big:
+            # rare: head classes rewritten above, their sums too
+            for c in range(k):
+                row = probs[i, c]
+                acc = 0.0
+                for j in range(n):
+                    acc += w[j] * row[j]
+                pz[i, c] = acc
+        row = probs[i, k]
+        acc = 0.0
+        for j in range(n):
+            acc += w[j] * row[j]
+        pz[i, k] = acc
     # d_max: the first class from which the predicted tail is below tail_mass at every candidate
     keep = z
     if z > 2:
@@ -517,47 +607,63 @@ def _poisson_direction_rewards(
                 break
     zz = keep + 1 if keep < z else z
     out = np.empty(m)
-    log_lam = np.empty(n)
+    # per candidate: w (log w - mu) and w log mu, so that a count class's entropy sum
+    # sum_n w_n p_n (log w_n + c log mu_n - mu_n - log c!) needs no array of its own
+    wb = np.empty(n)
+    wl = np.empty(n)
+    lnl = np.empty(n)
     p = np.empty(n)
-    lp = np.empty(n)
+    wq = np.empty(n)
+    ma = np.empty(d)
     for i in range(m):
         lam = mu[i]
         for j in range(n):
             # a zero mean gives classes c > 0 probability 0: any finite log does for them
-            log_lam[j] = math.log(lam[j]) if lam[j] > 0.0 else -1e300
+            ll = math.log(lam[j]) if lam[j] > 0.0 else -1e300
+            lnl[j] = ll
+            wb[j] = w[j] * (log_w[j] - lam[j])
+            wl[j] = w[j] * ll
         expected = 0.0
         for c in range(zz):
-            if c == keep and keep < z:
-                # the merged tail: its probability, and its logarithm where it is not 0
+            if (c == keep and keep < z) or c == k:
+                # the merged tail (or the last class): its probability, and w times log (w p)
+                # where p is not 0
+                head = probs[i, c]
                 for j in range(n):
-                    acc = 0.0
-                    for cc in range(keep, z):
-                        acc += probs[i, cc, j]
-                    p[j] = acc
-                    lp[j] = math.log(acc) if acc > 0.0 else 0.0
-            elif c == k:
+                    p[j] = head[j]
+                for cc in range(c + 1, z):
+                    row = probs[i, cc]
+                    for j in range(n):
+                        p[j] += row[j]
+                merged = c < k
                 for j in range(n):
-                    p[j] = probs[i, k, j]
-                    lp[j] = math.log(p[j]) if p[j] > 0.0 else 0.0
+                    pj = p[j]
+                    if pj > 0.0:
+                        q = head[j]
+                        r = pj / q - 1.0 if merged and q > 0.0 else 1.0
+                        if r < 1e-4:
+                            # P(d >= c) = p(c) (1 + r), r small where the mean is: the log of
+                            # p(c) from log mu (as the count classes') and log(1 + r) by its
+                            # series (to r^5 / 5 < 2e-21), no logarithm per particle
+                            lp = (
+                                c * lnl[j]
+                                - lam[j]
+                                - lf[c]
+                                + r * (1.0 - r * (0.5 - r * (1.0 / 3.0 - 0.25 * r)))
+                            )
+                        else:
+                            lp = math.log(pj)
+                        wq[j] = w[j] * (log_w[j] + lp)
+                    else:
+                        wq[j] = w[j] * log_w[j]
+                pc, xc, _ = _class_sums(p, w, wq, wq, wx, ma)
             else:
-                row = probs[i, c]
-                for j in range(n):
-                    p[j] = row[j]
-                    lp[j] = c * log_lam[j] - lam[j] - lf[c]
-            pc = 0.0
-            xc = 0.0
-            for j in range(n):
-                joint = w[j] * p[j]
-                pc += joint
-                xc += joint * (log_w[j] + lp[j])
+                pc, sb, sl = _class_sums(probs[i, c], w, wb, wl, wx, ma)
+                xc = sb + c * sl - lf[c] * pc
             if pc > 1e-300:
                 acc = 0.0
                 for a in range(d):
-                    xa = xt[a]
-                    ma = 0.0
-                    for j in range(n):
-                        ma += w[j] * p[j] * xa[j]
-                    diff = targets[i, a] - ma / pc
+                    diff = targets[i, a] - ma[a] / pc
                     acc += diff * diff
                 ent = math.log(pc) - xc / pc
                 expected += pc * (math.sqrt(acc) + h1 * ent)
@@ -567,9 +673,7 @@ def _poisson_direction_rewards(
 
 #: The Poisson rewards with sums reassociated (vectorised): round-off differs from the NumPy
 #: reference's order, within its 1e-9 relative tolerance.
-poisson_direction_rewards = _cached_jit(
-    _poisson_direction_rewards, nogil=True, fastmath={"reassoc", "contract", "nsz"}
-)
+poisson_direction_rewards = _cached_jit(_poisson_direction_rewards, nogil=True, fastmath=_REASSOC)
 
 
 @jit

@@ -46,7 +46,7 @@ import math
 import numpy as np
 
 from odorloc.core.jit import jit
-from odorloc.models.kernels import history_term, inside_box
+from odorloc.models.kernels import history_term, history_work, inside_box
 
 __all__ = [
     "kl_divergences",
@@ -121,8 +121,9 @@ def readings_log_likelihood(
     lf = _log_factorials(counts)
     n = x.shape[0]
     out = np.empty(n)
+    work = history_work(s.shape[0])
     for i in range(n):
-        out[i] = history_term(x[i], s, e, counts, lf, dts, exponents, aq, adv, inv_lam, a2)
+        out[i] = history_term(x[i], s, e, counts, lf, dts, exponents, aq, adv, inv_lam, a2, work)
     return out
 
 
@@ -196,6 +197,7 @@ def reversible_moves(
     m, d = xs.shape
     e = unit_rows(directions, default)
     lf = _log_factorials(counts)
+    work = history_work(s.shape[0])
     out = xs.copy()
     ll = ll_in.copy()
     evaluated = 0
@@ -211,7 +213,7 @@ def reversible_moves(
             if not inside_box(prop, lo, hi):
                 continue
             evaluated += 1
-            new = history_term(prop, s, e, counts, lf, dts, exponents, aq, adv, inv_lam, a2)
+            new = history_term(prop, s, e, counts, lf, dts, exponents, aq, adv, inv_lam, a2, work)
             u = env_draws[i, 2]
             log_u = math.log(u) if u > 0.0 else -math.inf
             if log_u < new - ll[i]:
@@ -240,7 +242,7 @@ def reversible_moves(
                 back[a] = v / chol[a, a]
                 bb += back[a] * back[a]
             evaluated += 1
-            new = history_term(prop, s, e, counts, lf, dts, exponents, aq, adv, inv_lam, a2)
+            new = history_term(prop, s, e, counts, lf, dts, exponents, aq, adv, inv_lam, a2, work)
             u = col_uniforms[i]
             log_u = math.log(u) if u > 0.0 else -math.inf
             if log_u < new - ll[i] + (-0.5 * bb + 0.5 * zz):

@@ -194,6 +194,33 @@ class MeasurementHistory:
             self._exponents[:n],
         )
 
+    def latest(self, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The ``k`` readings appended last, oldest first, as :meth:`held` gives them (views
+        while the ring has not wrapped, else copies): ``counts (k,)``, ``positions (k, d)``,
+        ``dts (k,)``, ``directions (k, d)`` and ``exponents (k,)``; read them, never write."""
+        n = self._n
+        if not 0 <= k <= n:
+            raise ConfigError("k", f"needs 0 <= k <= {n} (the readings held), got {k}")
+        if self._next == 0:
+            # the last written slot is n - 1 (an unbounded history, or a full ring that has
+            # just come round)
+            sl = slice(n - k, n)
+            return (
+                self._counts[sl],
+                self._positions[sl],
+                self._dts[sl],
+                self._directions[sl],
+                self._exponents[sl],
+            )
+        idx = (np.arange(n - k, n) + self._next) % n
+        return (
+            self._counts[idx],
+            self._positions[idx],
+            self._dts[idx],
+            self._directions[idx],
+            self._exponents[idx],
+        )
+
     def _order(self) -> np.ndarray:
         n = self._n
         return (np.arange(n) + self._next) % n if n else np.arange(0)

@@ -451,7 +451,7 @@ class ColPFEstimator(TeamEstimator):
                 known is not None
                 and known[2] == before
                 and not self.history.dropped
-                and np.array_equal(known[0], pf.positions)
+                and _same(known[0], pf.positions)
             ):
                 # the history's log-likelihood grows by this iteration's readings (eq. 13)
                 self._known = (known[0], known[1] + ll, self.history.version)
@@ -593,18 +593,31 @@ class ColPFEstimator(TeamEstimator):
         pf.replace(x, np.full(target, -math.log(target)), resampled=True)
 
     def _compiled_log_likelihood(self, readings: list[Reading], x: np.ndarray) -> np.ndarray:
-        """:func:`_readings_log_likelihood` in one compiled pass (readings already checked)."""
+        """:func:`_readings_log_likelihood` in one compiled pass of ``readings``, the history's
+        latest (appended and checked just before)."""
         aq, adv, inv_lam, a2, default = self._compiled[:5]
-        d = x.shape[1]
-        nan = np.full(d, np.nan)
+        k = len(readings)
+        if k <= len(self.history):
+            # the history holds them as the arrays below would (numbers made float, no
+            # direction a NaN row): read them there
+            counts, where, dts, dirs, exps = self.history.latest(k)
+        else:
+            # a history bounded below one iteration's readings
+            d = x.shape[1]
+            nan = np.full(d, np.nan)
+            where = np.array([r[1] for r in readings], float).reshape(k, d)
+            dirs = np.array([nan if r[3] is None else r[3] for r in readings], float)
+            counts = np.array([r[0] for r in readings], float)
+            dts = np.array([r[2] for r in readings], float)
+            exps = np.array([r[4] for r in readings], float)
         return colpf_kernels.readings_log_likelihood(
             # a writable copy: the kernel is compiled for one array type (the moves pass theirs)
             np.array(x, float, order="C"),
-            np.array([r[1] for r in readings], float).reshape(len(readings), d),
-            np.array([nan if r[3] is None else r[3] for r in readings], float),
-            np.array([r[0] for r in readings], float),
-            np.array([r[2] for r in readings], float),
-            np.array([r[4] for r in readings], float),
+            where,
+            dirs,
+            counts,
+            dts,
+            exps,
             default,
             aq,
             adv,
@@ -630,9 +643,11 @@ class ColPFEstimator(TeamEstimator):
         pf = self.pf
         aq, adv, inv_lam, a2, default, lo, hi = self._compiled[:7]
         n_s = len(sel)
-        d = pf.positions.shape[1]
+        x = pf.positions.copy()
+        d = x.shape[1]
         up = np.zeros(d)
-        env_draws = np.zeros((0, 3))
+        # the kernel's arguments of a move not proposed (read, never written)
+        env_draws, centre, chol, normals, uniforms = _NO_MOVE
         env_on = False
         if env:
             self.moves["env"][0] += n_s
@@ -643,8 +658,6 @@ class ColPFEstimator(TeamEstimator):
                 up /= norm
                 env_on = True
                 env_draws = rng.random((n_s, 3))
-        centre, chol = np.zeros(d), np.eye(d)
-        normals, uniforms = np.zeros((0, d)), np.zeros(0)
         if proposal is not None:
             self.moves["col"][0] += n_s
             centre = np.asarray(proposal[0], float)
@@ -657,10 +670,9 @@ class ColPFEstimator(TeamEstimator):
             normals = rng.standard_normal((n_s, d))
             uniforms = rng.random(n_s)
         counts, where, dts, dirs, exps = self.history.held()
-        x = pf.positions.copy()
         hist = (where, dirs, counts, dts, exps, default, aq, adv, inv_lam, a2)
         known = self._known
-        if known is not None and known[2] == self.history.version and np.array_equal(known[0], x):
+        if known is not None and known[2] == self.history.version and _same(known[0], x):
             ll = known[1]
         else:
             # every particle's, once: kept for the next iterations while they stay put
@@ -783,6 +795,16 @@ class StandardPFEstimator(TeamEstimator):
                 last.count, last.position, self.cue_captured, last.dt, last.direction
             )
         return None
+
+
+#: the compiled moves' arguments of a move not proposed (3-D): env-pu draws, the col-pu centre,
+#: Cholesky factor, normals and uniforms
+_NO_MOVE = (np.zeros((0, 3)), np.zeros(3), np.eye(3), np.zeros((0, 3)), np.zeros(0))
+
+
+def _same(a: np.ndarray, b: np.ndarray) -> bool:
+    """``numpy.array_equal`` of two finite arrays, without its conversions."""
+    return a.shape == b.shape and bool((a == b).all())
 
 
 Reading = tuple[float, np.ndarray, float, "np.ndarray | None", float]
