@@ -57,7 +57,12 @@ from scipy.special import ndtr
 from odorloc.core.errors import ConfigError
 from odorloc.core.params import NonNegative, Params, Positive
 from odorloc.geometry.grid import CellGrid
-from odorloc.inference.odor_path.kernel import HAVE_NUMBA, axis_kernel_fast, dw_kernel_fast
+from odorloc.inference.odor_path.kernel import (
+    HAVE_NUMBA,
+    axis_kernel_fast,
+    dw_kernel_fast,
+    window_kernel_fast,
+)
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.intp]
@@ -312,18 +317,20 @@ class OdorPathEstimator:
             raise ConfigError("t", f"must increase (got {t} after {self._tt[self._hi - 1]})")
         p = np.asarray(position, float).reshape(-1)
         u = np.asarray(wind, float).reshape(-1)
-        if p.shape != (2,) or not np.all(np.isfinite(p)):
+        # two scalar tests: this runs at every record, where np.all(np.isfinite(.)) would cost
+        # more than storing the record
+        if p.shape != (2,) or not (math.isfinite(p[0]) and math.isfinite(p[1])):
             raise ConfigError("position", f"needs 2 finite components, got {position!r}")
-        if u.shape != (2,) or not np.all(np.isfinite(u)):
+        if u.shape != (2,) or not (math.isfinite(u[0]) and math.isfinite(u[1])):
             raise ConfigError("wind", f"needs 2 finite components, got {wind!r}")
         s = float(signal)
         if not math.isfinite(s):
             raise ConfigError("signal", "must be finite")
         keep_from = t - self.params.t_thr - self.params.history - _TIME_TOL
-        n_drop = int(np.searchsorted(self._tt[self._lo : self._hi], keep_from, side="left"))
-        if n_drop:
+        if self._hi > self._lo and self._tt[self._lo] < keep_from:
+            n_drop = int(np.searchsorted(self._tt[self._lo : self._hi], keep_from, side="left"))
             self._dropped_t = float(self._tt[self._lo + n_drop - 1])
-        self._lo += n_drop
+            self._lo += n_drop
         if self._hi == len(self._tt):
             n = self._hi - self._lo
             cap = max(len(self._tt), 2 * (n + 1))
@@ -404,6 +411,29 @@ class OdorPathEstimator:
         p = self.params
         c = self._record_index(t_c)
         first = self._first_window(c)
+        if self._use_numba():
+            g = self.grid
+            t_r, center, var, k_arg, ref = window_kernel_fast(
+                self._tt,
+                self._ww,
+                self._pp,
+                first,
+                c,
+                self._lo,
+                float(p.dt),
+                p.advection == "interval",
+                p.snap_to_cell,
+                float(g.lower[0]),
+                float(g.lower[1]),
+                float(g.cell_size),
+                p.variance == "fixed",
+                np.asarray(p.fixed_variance, float),
+                float(p.min_variance),
+                float(p.noise_time_scale),
+                float(self.eta),
+            )
+            # NumPy's logarithm on both paths: the same k to the bit
+            return WindowArrays(float(self._tt[c]), t_r, center, var, np.log(k_arg), ref)
         times = self._tt[first : c + 1]
         wind = self._ww[first : c + 1]
         dts = np.empty(len(times))
