@@ -198,9 +198,9 @@ def test_python_window_kernel_matches_numpy():
     times = est.times  # the stored records: the last n of the 40 fed
     n = len(times)
     winds = noisy_winds(np.random.default_rng(14), n=40, sigma=0.1)[-n:]
-    first = int(np.flatnonzero(times == ref.t_r[0])[0])
+    limit = times[-1] - p.t_thr - 1e-9
     t_r, center, var, k_arg, cell = window_kernel(
-        times, winds, np.tile([6.0, 4.0], (n, 1)), first, n - 1, 0, p.dt, True, p.snap_to_cell,
+        times, winds, np.tile([6.0, 4.0], (n, 1)), limit, n - 1, 0, p.dt, True, p.snap_to_cell,
         g.lower[0], g.lower[1], g.cell_size, False, np.zeros(2), p.min_variance,
         p.noise_time_scale, est.eta,
     )  # fmt: skip

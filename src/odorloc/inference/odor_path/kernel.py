@@ -34,7 +34,7 @@ def window_kernel(
     tt: FloatArray,
     ww: FloatArray,
     pp: FloatArray,
-    first: int,
+    limit: float,
     c: int,
     oldest: int,
     dt0: float,
@@ -60,10 +60,13 @@ def window_kernel(
     ----------
     tt, ww, pp : (n,), (n, 2), (n, 2) ndarray
         Record buffer: times (s), winds (m/s), positions (m).
-    first, c : int
-        Buffer indices of the oldest record of the windows and of ``t_c``.
+    limit : float, s
+        The windows start at the oldest stored record at or after ``limit``
+        (``t_c - t_thr``, less a tolerance).
+    c : int
+        Buffer index of ``t_c``.
     oldest : int
-        Buffer index of the oldest stored record (``first == oldest``: its interval is ``dt0``).
+        Buffer index of the oldest stored record (the windows' first: its interval is ``dt0``).
     dt0 : float, s
         Interval of the oldest stored record.
     interval, snap : bool
@@ -86,6 +89,9 @@ def window_kernel(
         The argument of eq. (13)'s logarithm.
     ref_cell : (2,) int ndarray
     """
+    first = c
+    while first > oldest and tt[first - 1] >= limit:
+        first -= 1
     n = c + 1 - first
     dts = np.empty(n)
     if first > oldest:
@@ -360,7 +366,7 @@ def _warm_axes(kernel: Any) -> None:
 def _warm_window(kernel: Any) -> None:
     t = np.arange(3.0)
     w = np.ones((3, 2))
-    kernel(t, w, w, 0, 2, 0, 1.0, True, False, 0.0, 0.0, 0.5, False, np.ones(2), 1e-4, 1.0, 1e-3)
+    kernel(t, w, w, 0.0, 2, 0, 1.0, True, False, 0.0, 0.0, 0.5, False, np.ones(2), 1e-4, 1.0, 1e-3)
 
 
 # compiled and cached across processes (odorloc.core.jit); the functions themselves without numba
