@@ -57,7 +57,12 @@ from scipy.special import ndtr
 from odorloc.core.errors import ConfigError
 from odorloc.core.params import NonNegative, Params, Positive
 from odorloc.geometry.grid import CellGrid
-from odorloc.inference.odor_path.kernel import HAVE_NUMBA, axis_kernel_fast, dw_kernel_fast
+from odorloc.inference.odor_path.kernel import (
+    HAVE_NUMBA,
+    axis_kernel_fast,
+    dw_kernel_fast,
+    window_kernel_fast,
+)
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.intp]
@@ -312,18 +317,20 @@ class OdorPathEstimator:
             raise ConfigError("t", f"must increase (got {t} after {self._tt[self._hi - 1]})")
         p = np.asarray(position, float).reshape(-1)
         u = np.asarray(wind, float).reshape(-1)
-        if p.shape != (2,) or not np.all(np.isfinite(p)):
+        # two scalar tests: this runs at every record, where np.all(np.isfinite(.)) would cost
+        # more than storing the record
+        if p.shape != (2,) or not (math.isfinite(p[0]) and math.isfinite(p[1])):
             raise ConfigError("position", f"needs 2 finite components, got {position!r}")
-        if u.shape != (2,) or not np.all(np.isfinite(u)):
+        if u.shape != (2,) or not (math.isfinite(u[0]) and math.isfinite(u[1])):
             raise ConfigError("wind", f"needs 2 finite components, got {wind!r}")
         s = float(signal)
         if not math.isfinite(s):
             raise ConfigError("signal", "must be finite")
         keep_from = t - self.params.t_thr - self.params.history - _TIME_TOL
-        n_drop = int(np.searchsorted(self._tt[self._lo : self._hi], keep_from, side="left"))
-        if n_drop:
+        if self._hi > self._lo and self._tt[self._lo] < keep_from:
+            n_drop = int(np.searchsorted(self._tt[self._lo : self._hi], keep_from, side="left"))
             self._dropped_t = float(self._tt[self._lo + n_drop - 1])
-        self._lo += n_drop
+            self._lo += n_drop
         if self._hi == len(self._tt):
             n = self._hi - self._lo
             cap = max(len(self._tt), 2 * (n + 1))
@@ -403,6 +410,32 @@ class OdorPathEstimator:
         """The sub-windows at ``t_c`` as arrays (centres, variances, ``k``): the kernels' input."""
         p = self.params
         c = self._record_index(t_c)
+        if self._use_numba():
+            limit = self._tt[c] - p.t_thr - _TIME_TOL
+            if self._dropped_t >= limit:
+                self._first_window(c)  # its error: the records needed are gone
+            g = self.grid
+            t_r, center, var, k_arg, ref = window_kernel_fast(
+                self._tt,
+                self._ww,
+                self._pp,
+                limit,
+                c,
+                self._lo,
+                float(p.dt),
+                p.advection == "interval",
+                p.snap_to_cell,
+                float(g.lower[0]),
+                float(g.lower[1]),
+                float(g.cell_size),
+                p.variance == "fixed",
+                np.asarray(p.fixed_variance, float),
+                float(p.min_variance),
+                float(p.noise_time_scale),
+                float(self.eta),
+            )
+            # NumPy's logarithm on both paths: the same k to the bit
+            return WindowArrays(float(self._tt[c]), t_r, center, var, np.log(k_arg), ref)
         first = self._first_window(c)
         times = self._tt[first : c + 1]
         wind = self._ww[first : c + 1]
@@ -466,14 +499,12 @@ class OdorPathEstimator:
             boxes, qx, qy, arg_x, arg_y, coef = axis_kernel_fast(
                 w.center, w.var, w.k, g.lower[0], g.lower[1], g.cell_size, g.nx, g.ny
             )
-            return AxisTerms(
-                boxes=boxes,
-                qx=qx,
-                qy=qy,
-                fx=coef[:, 0, None] * np.exp(arg_x),
-                fy=coef[:, 1, None] * np.exp(arg_y),
-                lim=2.0 * w.k,
-            )
+            # in place: coef * exp(arg), the NumPy branch's product (one rounding either way)
+            fx = np.exp(arg_x, out=arg_x)
+            fx *= coef[:, 0:1]
+            fy = np.exp(arg_y, out=arg_y)
+            fy *= coef[:, 1:2]
+            return AxisTerms(boxes=boxes, qx=qx, qy=qy, fx=fx, fy=fy, lim=2.0 * w.k)
         a = self.grid.cell_size
         lo = np.asarray(self.grid.lower)
         shape = np.asarray(self.grid.shape)
@@ -612,19 +643,16 @@ class OdorPathEstimator:
             Cost is proportional to the number of cells in the windows, not to ``M``.
         """
         w = self.window_arrays(t_c)
-        c = self._record_index(t_c)
-        empty = PathPatch(0, 0, np.zeros((0, 0)), self.grid, w.ref_cell)
-        if require_detection and not self._ss[c] > 0.0:
-            return empty
+        if require_detection and not self._ss[self._record_index(t_c)] > 0.0:
+            return PathPatch(0, 0, np.zeros((0, 0)), self.grid, w.ref_cell)
         if self._use_numba():
-            boxes, n_cells, patch, ix0, iy0 = self._compiled(w)
-            if not np.any(n_cells > 0):
-                return empty
+            # no window with a cell: the kernel's patch is (0, 0) at (0, 0), the empty patch
+            _, _, patch, ix0, iy0 = self._compiled(w)
             return PathPatch(int(ix0), int(iy0), patch, self.grid, w.ref_cell)
         boxes, vals, n_cells = self._batch(w)
         used = np.flatnonzero(n_cells > 0)
         if used.size == 0:
-            return empty
+            return PathPatch(0, 0, np.zeros((0, 0)), self.grid, w.ref_cell)
         b = boxes[used]
         ix0, iy0 = int(b[:, 0].min()), int(b[:, 2].min())
         ix1, iy1 = int(b[:, 1].max()), int(b[:, 3].max())

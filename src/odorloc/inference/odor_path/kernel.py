@@ -16,10 +16,153 @@ from numpy.typing import NDArray
 
 from odorloc.core.jit import HAVE_NUMBA, jit
 
-__all__ = ["HAVE_NUMBA", "axis_kernel", "axis_kernel_fast", "dw_kernel", "dw_kernel_fast"]
+__all__ = [
+    "HAVE_NUMBA",
+    "axis_kernel",
+    "axis_kernel_fast",
+    "dw_kernel",
+    "dw_kernel_fast",
+    "window_kernel",
+    "window_kernel_fast",
+]
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.intp]
+
+
+def window_kernel(
+    tt: FloatArray,
+    ww: FloatArray,
+    pp: FloatArray,
+    limit: float,
+    c: int,
+    oldest: int,
+    dt0: float,
+    interval: bool,
+    snap: bool,
+    x0: float,
+    y0: float,
+    a: float,
+    fixed: bool,
+    fixed_var: FloatArray,
+    min_var: float,
+    tau: float,
+    eta: float,
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, IntArray]:
+    """The sub-windows at record ``c`` as the estimator's NumPy ``window_arrays`` computes
+    them, all but the logarithm of eq. (13).
+
+    Every sum runs in NumPy's order (``cumsum`` and a reduction over the records' axis are
+    sequential), so the results are the NumPy code's to the bit; ``log`` is left to NumPy
+    (``k = log(k_arg)``).
+
+    Parameters
+    ----------
+    tt, ww, pp : (n,), (n, 2), (n, 2) ndarray
+        Record buffer: times (s), winds (m/s), positions (m).
+    limit : float, s
+        The windows start at the oldest stored record at or after ``limit``
+        (``t_c - t_thr``, less a tolerance).
+    c : int
+        Buffer index of ``t_c``.
+    oldest : int
+        Buffer index of the oldest stored record (the windows' first: its interval is ``dt0``).
+    dt0 : float, s
+        Interval of the oldest stored record.
+    interval, snap : bool
+        ``advection == "interval"``; ``snap_to_cell``.
+    x0, y0, a : float, m
+        Grid origin and cell size.
+    fixed : bool
+        ``variance == "fixed"`` (``fixed_var``, m^2/s^2); else the sample variance floored
+        at ``min_var``.
+    tau : float, s
+        ``noise_time_scale``.
+    eta : float
+        Window threshold of eq. (13).
+
+    Returns
+    -------
+    t_r : (R,) ndarray, s
+    center, var : (R, 2) ndarray, m and m^2
+    k_arg : (R,) ndarray
+        The argument of eq. (13)'s logarithm.
+    ref_cell : (2,) int ndarray
+    """
+    first = c
+    while first > oldest and tt[first - 1] >= limit:
+        first -= 1
+    n = c + 1 - first
+    dts = np.empty(n)
+    if first > oldest:
+        for i in range(n):
+            dts[i] = tt[first + i] - tt[first + i - 1]
+    else:
+        dts[0] = dt0
+        for i in range(1, n):
+            dts[i] = tt[first + i] - tt[first + i - 1]
+    # suffix[i] = sum_{l >= i} U_l dt_l (eq. 10), accumulated from the newest record
+    suffix = np.empty((n, 2))
+    sx = 0.0
+    sy = 0.0
+    for i in range(n - 1, -1, -1):
+        if i == n - 1:
+            sx = ww[first + i, 0] * dts[i]
+            sy = ww[first + i, 1] * dts[i]
+        else:
+            sx = sx + ww[first + i, 0] * dts[i]
+            sy = sy + ww[first + i, 1] * dts[i]
+        suffix[i, 0] = sx
+        suffix[i, 1] = sy
+    n_win = n - 1
+    px = pp[c, 0]
+    py = pp[c, 1]
+    ix = int(np.floor((px - x0) / a))
+    iy = int(np.floor((py - y0) / a))
+    if snap:
+        px = x0 + (ix + 0.5) * a
+        py = y0 + (iy + 0.5) * a
+    sig = np.empty(2)
+    if fixed:
+        sig[0] = fixed_var[0]
+        sig[1] = fixed_var[1]
+    else:
+        lo = first + 1 if interval else first
+        m = c + 1 - lo
+        if m < 2:
+            sig[0] = min_var
+            sig[1] = min_var
+        else:
+            for ax in range(2):
+                mean = 0.0
+                for i in range(lo, c + 1):
+                    mean = mean + ww[i, ax]
+                mean = mean / m
+                ss = 0.0
+                for i in range(lo, c + 1):
+                    d = ww[i, ax] - mean
+                    ss = ss + d * d
+                sig[ax] = max(ss / (m - 1), min_var)
+    sig[0] = sig[0] * tau
+    sig[1] = sig[1] * tau
+    scale = (a * a) / (2.0 * np.pi * eta * np.sqrt(sig[0] * sig[1]))
+    t_r = np.empty(n_win)
+    center = np.empty((n_win, 2))
+    var = np.empty((n_win, 2))
+    k_arg = np.empty(n_win)
+    for r in range(n_win):
+        t_r[r] = tt[first + r]
+        age = tt[c] - tt[first + r]
+        var[r, 0] = age * sig[0]
+        var[r, 1] = age * sig[1]
+        k_arg[r] = scale / age
+        s = r + 1 if interval else r
+        center[r, 0] = px - suffix[s, 0]
+        center[r, 1] = py - suffix[s, 1]
+    ref = np.empty(2, np.intp)
+    ref[0] = ix
+    ref[1] = iy
+    return t_r, center, var, k_arg, ref
 
 
 def axis_kernel(
@@ -124,25 +267,59 @@ def dw_kernel(
 
     Notes
     -----
-    The estimator computes the axis terms with NumPy for both paths; the sums run cell by cell
-    in row order as the batch's running sum does, and the normalisation divides as it does, so
-    the patch is the batch's to the bit.
+    The estimator computes the axis terms with NumPy's exponentials for both paths; the sums
+    run cell by cell in row order as the batch's running sum does, and the normalisation
+    divides as it does, so the patch is the batch's to the bit. Along a row the window's cells
+    are one run: ``qy`` falls then rises along the box (``d^2 / v`` of a coordinate that grows
+    cell by cell, every step rounded monotonically) and a rounded sum grows with its terms, so
+    each row's run is found by moving the previous row's ends (the first from the lowest
+    ``qy``) and only its cells are summed and written.
     """
     n_r = lim.shape[0]
     n_cells = np.zeros(n_r, np.intp)
     totals = np.ones(n_r)
+    rows = max(qx.shape[1], 1)
+    run_lo = np.zeros((n_r, rows), np.intp)
+    run_hi = np.zeros((n_r, rows), np.intp)  # exclusive; run_hi <= run_lo: an empty row
     for r in range(n_r):
         sx = boxes[r, 1] - boxes[r, 0]
         sy = boxes[r, 3] - boxes[r, 2]
         if sx <= 0 or sy <= 0:
             continue
+        bottom = 0
+        for j in range(1, sy):
+            if qy[r, j] < qy[r, bottom]:
+                bottom = j
+        q_bottom = qy[r, bottom]
+        lr = lim[r]
+        # each row's run starts from the last row's ends: out while inside, in while outside
+        j0 = bottom
+        j1 = bottom + 1
+        for i in range(sx):
+            qi = qx[r, i]
+            if not qi + q_bottom <= lr:  # eq. (12): the row misses the ellipse
+                continue
+            if qi + qy[r, j0] <= lr:
+                while j0 > 0 and qi + qy[r, j0 - 1] <= lr:
+                    j0 -= 1
+            else:
+                while not qi + qy[r, j0] <= lr:
+                    j0 += 1
+            if qi + qy[r, j1 - 1] <= lr:
+                while j1 < sy and qi + qy[r, j1] <= lr:
+                    j1 += 1
+            else:
+                while not qi + qy[r, j1 - 1] <= lr:
+                    j1 -= 1
+            run_lo[r, i] = j0
+            run_hi[r, i] = j1
         total = 0.0
         count = 0
         for i in range(sx):
-            for j in range(sy):
-                if qx[r, i] + qy[r, j] <= lim[r]:  # eq. (12)
-                    total += fx[r, i] * fy[r, j]
-                    count += 1
+            f = fx[r, i]
+            for j in range(run_lo[r, i], run_hi[r, i]):
+                total += f * fy[r, j]
+            count += run_hi[r, i] - run_lo[r, i]
         if count > 0 and total > 0.0:
             n_cells[r] = count
             totals[r] = total
@@ -160,16 +337,17 @@ def dw_kernel(
         if n_cells[r] == 0:
             continue
         i0, j0 = boxes[r, 0], boxes[r, 2]
+        t = totals[r]
         for i in range(boxes[r, 1] - i0):
-            for j in range(boxes[r, 3] - j0):
-                if qx[r, i] + qy[r, j] <= lim[r]:
-                    v = fx[r, i] * fy[r, j]
-                    if normalise:
-                        v = v / totals[r]
-                    pi = i0 + i - ux0
-                    pj = j0 + j - uy0
-                    if v > patch[pi, pj]:  # eq. (17): max over t_r
-                        patch[pi, pj] = v
+            f = fx[r, i]
+            pi = i0 + i - ux0
+            for j in range(run_lo[r, i], run_hi[r, i]):
+                v = f * fy[r, j]
+                if normalise:
+                    v = v / t
+                pj = j0 + j - uy0
+                if v > patch[pi, pj]:  # eq. (17): max over t_r
+                    patch[pi, pj] = v
     return n_cells, patch, ux0, uy0
 
 
@@ -185,6 +363,13 @@ def _warm_axes(kernel: Any) -> None:
     kernel(np.ones((1, 2)), np.ones((1, 2)), one, 0.0, 0.0, 0.5, 4, 4)
 
 
+def _warm_window(kernel: Any) -> None:
+    t = np.arange(3.0)
+    w = np.ones((3, 2))
+    kernel(t, w, w, 0.0, 2, 0, 1.0, True, False, 0.0, 0.0, 0.5, False, np.ones(2), 1e-4, 1.0, 1e-3)
+
+
 # compiled and cached across processes (odorloc.core.jit); the functions themselves without numba
 dw_kernel_fast = jit(dw_kernel, warmup=_warm, nogil=True)
 axis_kernel_fast = jit(axis_kernel, warmup=_warm_axes, nogil=True)
+window_kernel_fast = jit(window_kernel, warmup=_warm_window, nogil=True)
