@@ -272,8 +272,8 @@ def dw_kernel(
     divides as it does, so the patch is the batch's to the bit. Along a row the window's cells
     are one run: ``qy`` falls then rises along the box (``d^2 / v`` of a coordinate that grows
     cell by cell, every step rounded monotonically) and a rounded sum grows with its terms, so
-    each row's run is found by moving the previous row's ends (the first from the lowest
-    ``qy``) and only its cells are summed and written.
+    each row's run is found by counting the cells inside before and after the lowest ``qy``,
+    and only its cells are summed and written.
     """
     n_r = lim.shape[0]
     n_cells = np.zeros(n_r, np.intp)
@@ -290,29 +290,19 @@ def dw_kernel(
         for j in range(1, sy):
             if qy[r, j] < qy[r, bottom]:
                 bottom = j
-        q_bottom = qy[r, bottom]
         lr = lim[r]
-        # each row's run starts from the last row's ends: out while inside, in while outside
-        j0 = bottom
-        j1 = bottom + 1
+        # the row's run from two counts of cells inside (compares without branches: which
+        # cells a row keeps changes from call to call and would defeat branch prediction)
         for i in range(sx):
             qi = qx[r, i]
-            if not qi + q_bottom <= lr:  # eq. (12): the row misses the ellipse
-                continue
-            if qi + qy[r, j0] <= lr:
-                while j0 > 0 and qi + qy[r, j0 - 1] <= lr:
-                    j0 -= 1
-            else:
-                while not qi + qy[r, j0] <= lr:
-                    j0 += 1
-            if qi + qy[r, j1 - 1] <= lr:
-                while j1 < sy and qi + qy[r, j1] <= lr:
-                    j1 += 1
-            else:
-                while not qi + qy[r, j1 - 1] <= lr:
-                    j1 -= 1
-            run_lo[r, i] = j0
-            run_hi[r, i] = j1
+            left = 0
+            for j in range(bottom):
+                left += qi + qy[r, j] <= lr  # eq. (12)
+            inside = left
+            for j in range(bottom, sy):
+                inside += qi + qy[r, j] <= lr
+            run_lo[r, i] = bottom - left
+            run_hi[r, i] = bottom - left + inside
         total = 0.0
         count = 0
         for i in range(sx):
@@ -346,8 +336,8 @@ def dw_kernel(
                 if normalise:
                     v = v / t
                 pj = j0 + j - uy0
-                if v > patch[pi, pj]:  # eq. (17): max over t_r
-                    patch[pi, pj] = v
+                old = patch[pi, pj]
+                patch[pi, pj] = v if v > old else old  # eq. (17): max over t_r
     return n_cells, patch, ux0, uy0
 
 
