@@ -226,9 +226,14 @@ def test_new_particle_sets_refuse_nan_and_infinite_log_weights() -> None:
     """A NaN log-weight used to be read as -inf and a +inf one as uniform weights, silently;
     a NaN position given to ``replace`` used to make every estimate NaN."""
     pos = np.array([[0.0, 0.0], [1.0, 0.0], [2.0, 0.0]])
-    for bad in ([np.nan, 0.0, 0.0], [np.inf, 0.0, 0.0]):
+    for bad in ([np.nan, 0.0, 0.0], [np.inf, 0.0, 0.0], [0.0, -np.inf, np.nan], [0, 1, np.inf]):
         with pytest.raises(ConfigError, match="log_weights"):
             ParticleFilter(pos, log_weights=bad)
+    for i, bad in enumerate((np.nan, np.inf, -np.inf)):
+        broken = pos.copy()
+        broken[2 - i, i % 2] = bad
+        with pytest.raises(ConfigError, match="positions"):
+            ParticleFilter(broken)
     pf = ParticleFilter(pos, log_weights=[0.0, -np.inf, 0.0])  # an excluded hypothesis is fine
     np.testing.assert_allclose(pf.weights, [0.5, 0.0, 0.5])
     with pytest.raises(ConfigError, match="log_weights"):

@@ -17,6 +17,8 @@ Nothing here assumes a fixed ``N``.
 
 from __future__ import annotations
 
+import math
+
 from collections import deque
 from typing import Literal
 
@@ -50,12 +52,15 @@ def _particle_set(
     if pos.ndim != 2 or len(pos) == 0 or (dim is not None and pos.shape[1] != dim):
         want = "d" if dim is None else str(dim)
         raise ConfigError("positions", f"expected shape (N>=1, {want}), got {pos.shape}")
-    if not np.all(np.isfinite(pos)):
+    # a NaN propagates through max and min, an infinity is one of them: two reductions check
+    # every entry without a temporary array (a filter replaces its set at every update)
+    if not (math.isfinite(pos.max()) and math.isfinite(pos.min())):
         raise ConfigError("positions", "must be finite")
     lw = np.zeros(len(pos)) if log_weights is None else np.array(log_weights, dtype=float)
     if lw.shape != (len(pos),):
         raise ConfigError("log_weights", f"expected shape ({len(pos)},), got {lw.shape}")
-    if np.any(np.isnan(lw)) or np.any(lw == np.inf):
+    top = lw.max()
+    if top != top or top == math.inf:
         raise ConfigError("log_weights", "must not contain NaN or +inf")
     return pos, lw
 
