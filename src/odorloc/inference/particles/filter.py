@@ -18,7 +18,6 @@ Nothing here assumes a fixed ``N``.
 from __future__ import annotations
 
 import math
-
 from collections import deque
 from typing import Literal
 
