@@ -496,13 +496,14 @@ class OdorPathEstimator:
         """
         if self.params.kernel == "point" and self._use_numba():
             g = self.grid
-            boxes, qx, qy, arg_x, arg_y, coef = axis_kernel_fast(
+            boxes, qa_x, qa_y, coef = axis_kernel_fast(
                 w.center, w.var, w.k, g.lower[0], g.lower[1], g.cell_size, g.nx, g.ny
             )
+            qx, qy = qa_x[0], qa_y[0]
             # in place: coef * exp(arg), the NumPy branch's product (one rounding either way)
-            fx = np.exp(arg_x, out=arg_x)
+            fx = np.exp(qa_x[1], out=qa_x[1])
             fx *= coef[:, 0:1]
-            fy = np.exp(arg_y, out=arg_y)
+            fy = np.exp(qa_y[1], out=qa_y[1])
             fy *= coef[:, 1:2]
             return AxisTerms(boxes=boxes, qx=qx, qy=qy, fx=fx, fy=fy, lim=2.0 * w.k)
         a = self.grid.cell_size

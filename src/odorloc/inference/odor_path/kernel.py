@@ -174,7 +174,7 @@ def axis_kernel(
     a: float,
     nx: int,
     ny: int,
-) -> tuple[IntArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
+) -> tuple[IntArray, FloatArray, FloatArray, FloatArray]:
     """The windows' boxes and axis terms as the estimator's NumPy prelude computes them (point
     kernel), all but the exponentials.
 
@@ -185,9 +185,10 @@ def axis_kernel(
     -------
     boxes : (R, 4) int ndarray
         ``(ix0, ix1, iy0, iy1)`` (empty: ``ix1 == ix0`` or ``iy1 == iy0``).
-    qx, arg_x : (R, Bx) ndarray
-        ``d^2 / v`` (eq. 12) and ``-0.5 d^2 / v`` (eq. 11) at the cells of each box.
-    qy, arg_y : (R, By) ndarray
+    qa_x : (2, R, Bx) ndarray
+        ``d^2 / v`` (eq. 12) and ``-0.5 d^2 / v`` (eq. 11) at the cells of each box along x.
+    qa_y : (2, R, By) ndarray
+        The same along y.
     coef : (R, 2) ndarray
         ``a / sqrt(2 pi v)`` per axis.
     """
@@ -214,22 +215,29 @@ def axis_kernel(
             coef[r, ax] = a / np.sqrt(2.0 * np.pi * var[r, ax])
         bx = max(bx, boxes[r, 1] - boxes[r, 0])
         by = max(by, boxes[r, 3] - boxes[r, 2])
-    qx = np.empty((n_r, bx))
-    arg_x = np.empty((n_r, bx))
-    qy = np.empty((n_r, by))
-    arg_y = np.empty((n_r, by))
+    # two arrays, not four: each array handed back to Python costs more than its filling here
+    qa_x = np.empty((2, n_r, bx))
+    qa_y = np.empty((2, n_r, by))
+    qx, arg_x = qa_x[0], qa_x[1]
+    qy, arg_y = qa_y[0], qa_y[1]
     for r in range(n_r):
         for ax in range(2):
-            q = qx if ax == 0 else qy
-            arg = arg_x if ax == 0 else arg_y
+            q = qx[r] if ax == 0 else qy[r]
+            arg = arg_x[r] if ax == 0 else arg_y[r]
             c = center[r, ax]
             v = var[r, ax]
-            for i in range(q.shape[1]):
-                cell = min(boxes[r, 2 * ax] + i, shape[ax] - 1)
-                d = (lows[ax] + (cell + 0.5) * a) - c
-                q[r, i] = d * d / v
-                arg[r, i] = -0.5 * d * d / v
-    return boxes, qx, qy, arg_x, arg_y, coef
+            start = boxes[r, 2 * ax]
+            last = shape[ax] - 1
+            low = lows[ax]
+            for i in range(q.shape[0]):
+                cell = min(start + i, last)
+                d = (low + (cell + 0.5) * a) - c
+                qq = d * d / v
+                q[i] = qq
+                # -0.5 d d / v as NumPy computes it: scaling by a power of two commutes with
+                # every rounding (no subnormal distances here), so one division serves both
+                arg[i] = -0.5 * qq
+    return boxes, qa_x, qa_y, coef
 
 
 def dw_kernel(
@@ -291,25 +299,32 @@ def dw_kernel(
             if qy[r, j] < qy[r, bottom]:
                 bottom = j
         lr = lim[r]
+        # one-dimensional views: loops over them compile to vector code (a 2-D index keeps
+        # its checks in the loop)
+        qyr = qy[r, :sy]
+        fyr = fy[r, :sy]
+        below = qyr[:bottom]
+        rest = qyr[bottom:]
         # the row's run from two counts of cells inside (compares without branches: which
         # cells a row keeps changes from call to call and would defeat branch prediction)
         for i in range(sx):
             qi = qx[r, i]
             left = 0
             for j in range(bottom):
-                left += qi + qy[r, j] <= lr  # eq. (12)
+                left += qi + below[j] <= lr  # eq. (12)
             inside = left
-            for j in range(bottom, sy):
-                inside += qi + qy[r, j] <= lr
+            for j in range(sy - bottom):
+                inside += qi + rest[j] <= lr
             run_lo[r, i] = bottom - left
             run_hi[r, i] = bottom - left + inside
         total = 0.0
         count = 0
         for i in range(sx):
             f = fx[r, i]
-            for j in range(run_lo[r, i], run_hi[r, i]):
-                total += f * fy[r, j]
-            count += run_hi[r, i] - run_lo[r, i]
+            run = fyr[run_lo[r, i] : run_hi[r, i]]
+            for j in range(run.size):
+                total += f * run[j]
+            count += run.size
         if count > 0 and total > 0.0:
             n_cells[r] = count
             totals[r] = total
@@ -328,16 +343,19 @@ def dw_kernel(
             continue
         i0, j0 = boxes[r, 0], boxes[r, 2]
         t = totals[r]
+        fyr = fy[r]
         for i in range(boxes[r, 1] - i0):
             f = fx[r, i]
-            pi = i0 + i - ux0
-            for j in range(run_lo[r, i], run_hi[r, i]):
-                v = f * fy[r, j]
+            a = run_lo[r, i]
+            b = run_hi[r, i]
+            run = fyr[a:b]
+            out = patch[i0 + i - ux0, j0 + a - uy0 : j0 + b - uy0]
+            for j in range(b - a):
+                v = f * run[j]
                 if normalise:
                     v = v / t
-                pj = j0 + j - uy0
-                old = patch[pi, pj]
-                patch[pi, pj] = v if v > old else old  # eq. (17): max over t_r
+                old = out[j]
+                out[j] = v if v > old else old  # eq. (17): max over t_r
     return n_cells, patch, ux0, uy0
 
 
