@@ -77,6 +77,31 @@ def load_scenario(scenario: str | Path | Scenario) -> tuple[Scenario, str]:
     return sc, sc.name
 
 
+def core_for(
+    metadata: dict[str, Any],
+    render_mode: str | None,
+    scenario: str | Path | Scenario,
+    observation: Any,
+    action: Any,
+    reward: Any,
+    record: bool,
+    world_key: str | None,
+) -> EnvCore:
+    """The :class:`EnvCore` of an environment whose ``metadata`` lists its render modes; the
+    agents' paths are kept only when the environment renders."""
+    if render_mode is not None and render_mode not in metadata["render_modes"]:
+        raise ConfigError("render_mode", f"must be one of {metadata['render_modes']}")
+    return EnvCore(
+        scenario,
+        observation,
+        action,
+        reward,
+        record=record,
+        world_key=world_key,
+        trails=render_mode is not None,
+    )
+
+
 class EnvCore:
     """One episode stepped by an environment (see the module docstring).
 

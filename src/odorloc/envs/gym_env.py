@@ -32,7 +32,7 @@ from gymnasium import spaces
 
 from odorloc.core.errors import ConfigError
 from odorloc.core.types import Action
-from odorloc.envs.core import EnvCore
+from odorloc.envs.core import core_for
 from odorloc.scenarios import DEFAULT_SCENARIO, Scenario
 
 __all__ = ["SearchEnv"]
@@ -68,16 +68,8 @@ class SearchEnv(gym.Env):
         record: bool = False,
         world_key: str | None = None,
     ) -> None:
-        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ConfigError("render_mode", f"must be one of {self.metadata['render_modes']}")
-        self.core = EnvCore(
-            scenario,
-            observation,
-            action,
-            reward,
-            record=record,
-            world_key=world_key,
-            trails=render_mode is not None,
+        self.core = core_for(
+            self.metadata, render_mode, scenario, observation, action, reward, record, world_key
         )
         if self.core.n_agents != 1:
             raise ConfigError(

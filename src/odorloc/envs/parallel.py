@@ -32,7 +32,7 @@ from pettingzoo import ParallelEnv
 
 from odorloc.core.errors import ConfigError
 from odorloc.core.types import Action
-from odorloc.envs.core import EnvCore
+from odorloc.envs.core import core_for
 from odorloc.scenarios import Scenario
 
 __all__ = ["ParallelSearchEnv", "parallel_env"]
@@ -70,16 +70,8 @@ class ParallelSearchEnv(ParallelEnv):
         record: bool = False,
         world_key: str | None = None,
     ) -> None:
-        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ConfigError("render_mode", f"must be one of {self.metadata['render_modes']}")
-        self.core = EnvCore(
-            scenario,
-            observation,
-            action,
-            reward,
-            record=record,
-            world_key=world_key,
-            trails=render_mode is not None,
+        self.core = core_for(
+            self.metadata, render_mode, scenario, observation, action, reward, record, world_key
         )
         if not isinstance(team_reward, bool):
             raise ConfigError("team_reward", f"must be true or false, got {team_reward!r}")
