@@ -16,6 +16,15 @@ alternating rounds (best of each). The batched env runs on one thread (``threads
 for like with the synchronous vector); ``lattice_steps_per_s_4096_threads`` is B = 4 096 on
 every thread numba was given (``threads=None``).
 
+The 3-D encounter-rate world (:class:`~odorloc.envs.vector_encounter.EncounterVectorEnv` on
+``muc-osl-3d``, three UAVs, random axis moves or staying): agent-steps per second of the batched
+team at every B, and of one UAV alone at B = 4 096, beside the single environments (B = 64):
+PettingZoo's ``ParallelSearchEnv`` stepped one after another for the team (Gymnasium has no
+vector of PettingZoo environments), Gymnasium's ``SyncVectorEnv`` of ``SearchEnv`` for one UAV;
+keys ``encounter_steps_per_s_<B>``, ``encounter_solo_steps_per_s_4096``,
+``encounter_loop_steps_per_s``, ``encounter_sync_steps_per_s``, ``encounter_batched_vs_loop``
+and ``encounter_solo_vs_sync`` (one thread against one thread).
+
 The last line is ``RESULT env_overhead=<x> env_steps_per_s=<y> env_overhead_farrell=<z>
 pz_overhead=<w> pz_bare_ms=<v> pz_adapter_overhead=<u> lattice_steps_per_s_1=...
 lattice_steps_per_s_64=... lattice_steps_per_s_1024=... lattice_steps_per_s_4096=...
@@ -114,6 +123,7 @@ def lockstep(
 # ---------------------------------------------------------------------- batched lattice env
 BATCHES = (1, 64, 1024, 4096)
 LATTICE = "lattice-isotropic-2d"
+ENCOUNTER = "muc-osl-3d"
 SYNC_B = 64  # Gymnasium's SyncVectorEnv of single environments
 ASYNC_B = 2  # AsyncVectorEnv: one process per sub-environment, as many as the machine has cores
 
@@ -160,6 +170,110 @@ def gym_vector_rate(kind: str, b: int, steps: int, seed: int) -> float:
         return b * steps / (time.perf_counter() - t0)
     finally:
         env.close()
+
+
+def _encounter_scenario(team: bool) -> Any:
+    """``muc-osl-3d`` (three UAVs) or the same world with its first UAV alone."""
+    sc = get_scenario(ENCOUNTER)
+    return sc if team else sc.with_overrides({"agents.starts": [sc.agents.starts[0]]})
+
+
+def encounter_rate(b: int, steps: int, seed: int, team: bool) -> float:
+    """Agent-steps per second of :class:`~odorloc.envs.vector_encounter.EncounterVectorEnv`
+    (``b`` sub-environments, one thread, uniform random axis moves or staying)."""
+    from odorloc.envs.vector_encounter import EncounterVectorEnv
+
+    env = EncounterVectorEnv(_encounter_scenario(team), num_envs=b)
+    env.reset(seed=seed)
+    n = env.n_agents
+    shape = (steps + 1, b, n) if n > 1 else (steps + 1, b)
+    acts = np.random.default_rng(seed).integers(0, 7, size=shape)
+    env.step(acts[0])
+    t0 = time.perf_counter()
+    for a in acts[1:]:
+        env.step(a)
+    return b * n * steps / (time.perf_counter() - t0)
+
+
+def encounter_single_rate(b: int, steps: int, seed: int, team: bool) -> float:
+    """Agent-steps per second of the single environments on the same world: Gymnasium's
+    ``SyncVectorEnv`` of ``SearchEnv`` (one UAV), or ``b`` PettingZoo ``ParallelSearchEnv``
+    stepped one after another (the team: Gymnasium has no vector of PettingZoo
+    environments)."""
+    import gymnasium as gym
+
+    from odorloc.envs.gym_env import SearchEnv
+    from odorloc.envs.parallel import ParallelSearchEnv
+
+    sc = _encounter_scenario(team)
+    kw = {"action": {"kind": "discrete", "declare": "none"}}
+    rng = np.random.default_rng(seed)
+    if not team:
+        env = gym.vector.SyncVectorEnv([lambda: SearchEnv(sc, **kw) for _ in range(b)])
+        env.reset(seed=seed)
+        acts = rng.integers(0, 7, size=(steps + 1, b))
+        env.step(acts[0])
+        t0 = time.perf_counter()
+        for a in acts[1:]:
+            env.step(a)
+        dt = time.perf_counter() - t0
+        env.close()
+        return b * steps / dt
+    envs = [ParallelSearchEnv(sc, **kw) for _ in range(b)]
+    for i, e in enumerate(envs):
+        e.reset(seed=seed, options={"episode": i})
+    names = envs[0].possible_agents
+    acts = rng.integers(0, 7, size=(steps, b, len(names)))
+    t0 = time.perf_counter()
+    for a in acts:
+        for i, e in enumerate(envs):
+            if not e.agents:
+                e.reset()
+            e.step({x: int(a[i, k]) for k, x in enumerate(names)})
+    return b * len(names) * steps / (time.perf_counter() - t0)
+
+
+def encounter(rounds: int, quick: bool) -> dict[str, float]:
+    """The 3-D encounter-rate world: agent-steps per second of the batched team (every B) and
+    one UAV (the largest B) beside the single environments, best of ``rounds`` rounds."""
+    work = 5_000 if quick else 400_000
+    single_steps = 3 if quick else 40
+    best: dict[str, float] = {}
+    for r in range(rounds):
+        for b in BATCHES:
+            steps = max(5, min(2000, work // (3 * b)))
+            k = f"encounter_steps_per_s_{b}"
+            best[k] = max(best.get(k, 0.0), encounter_rate(b, steps, r, team=True))
+        top = BATCHES[-1]
+        k = f"encounter_solo_steps_per_s_{top}"
+        rate = encounter_rate(top, max(5, min(2000, work // top)), r, team=False)
+        best[k] = max(best.get(k, 0.0), rate)
+        rate = encounter_single_rate(SYNC_B, single_steps, r, team=True)
+        best["encounter_loop_steps_per_s"] = max(best.get("encounter_loop_steps_per_s", 0), rate)
+        rate = encounter_single_rate(SYNC_B, single_steps, r, team=False)
+        best["encounter_sync_steps_per_s"] = max(best.get("encounter_sync_steps_per_s", 0), rate)
+    top = BATCHES[-1]
+    best["encounter_batched_vs_loop"] = (
+        best[f"encounter_steps_per_s_{top}"] / best["encounter_loop_steps_per_s"]
+    )
+    best["encounter_solo_vs_sync"] = (
+        best[f"encounter_solo_steps_per_s_{top}"] / best["encounter_sync_steps_per_s"]
+    )
+    print(
+        f"\nAgent-steps per second on {ENCOUNTER} (3 UAVs; 'one UAV': its first UAV alone; "
+        f"uniform random axis moves or staying; best of {rounds} rounds)"
+    )
+    print(f"{'environment':<44} {'B':>6} {'agent-steps/s':>14}")
+    for b in BATCHES:
+        print(f"{'EncounterVectorEnv, team (odorloc)':<44} {b:>6} "
+              f"{best[f'encounter_steps_per_s_{b}']:>14,.0f}")  # fmt: skip
+    print(f"{'EncounterVectorEnv, one UAV (odorloc)':<44} {top:>6} "
+          f"{best[f'encounter_solo_steps_per_s_{top}']:>14,.0f}")  # fmt: skip
+    print(f"{'ParallelSearchEnv, team, one after another':<44} {SYNC_B:>6} "
+          f"{best['encounter_loop_steps_per_s']:>14,.0f}")  # fmt: skip
+    print(f"{'SyncVectorEnv of SearchEnv, one UAV':<44} {SYNC_B:>6} "
+          f"{best['encounter_sync_steps_per_s']:>14,.0f}")  # fmt: skip
+    return best
 
 
 def batched(rounds: int, quick: bool) -> dict[str, float]:
@@ -231,9 +345,11 @@ def main(argv: list[str] | None = None) -> None:
         keys.append(adapters(args.rounds))
     if not args.no_batched:
         vec = batched(max(1, min(args.rounds, 3)), args.quick)
+        vec.update(encounter(max(1, min(args.rounds, 3)), args.quick))
         keys.append(
             " ".join(
-                f"{k}={v:.2f}" if k == "batched_vs_sync" else f"{k}={v:.0f}" for k, v in vec.items()
+                f"{k}={v:.2f}" if k.endswith(("_vs_sync", "_vs_loop")) else f"{k}={v:.0f}"
+                for k, v in vec.items()
             )
         )
     print("RESULT " + " ".join(keys))

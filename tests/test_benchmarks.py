@@ -216,6 +216,7 @@ def test_env_speed_result_carries_every_case(
         es, "lockstep", lambda name, acts, r, n, radio: (1.0, fake[name] - 0.5 * radio, 100)
     )
     monkeypatch.setattr(es, "batched", lambda rounds, quick: {"batched_vs_sync": 2.0})
+    monkeypatch.setattr(es, "encounter", lambda rounds, quick: {"encounter_batched_vs_loop": 3.0})
     es.main(["--rounds", "1"])
     result = capsys.readouterr().out.strip().splitlines()[-1]
     keys = dict(kv.split("=") for kv in result.split()[1:])
@@ -225,6 +226,7 @@ def test_env_speed_result_carries_every_case(
     assert keys["pz_bare_ms"] == "10.000"
     assert keys["pz_adapter_overhead"] == "0.300"
     assert keys["batched_vs_sync"] == "2.00"
+    assert keys["encounter_batched_vs_loop"] == "3.00"
 
 
 def test_env_speed_batched_reports_every_batch_size(
@@ -234,6 +236,7 @@ def test_env_speed_batched_reports_every_batch_size(
     # the batched env for real on small batches; the single-env vectors faked (slow to build)
     monkeypatch.setattr(es, "BATCHES", (1, 8))
     monkeypatch.setattr(es, "gym_vector_rate", lambda kind, b, steps, seed: 100.0)
+    monkeypatch.setattr(es, "encounter_single_rate", lambda b, steps, seed, team: 50.0 + team)
     es.main(["--rounds", "1", "--quick", "--no-adapters"])
     result = capsys.readouterr().out.strip().splitlines()[-1]
     keys = dict(kv.split("=") for kv in result.split()[1:])
@@ -241,6 +244,15 @@ def test_env_speed_batched_reports_every_batch_size(
     assert keys["sync_steps_per_s"] == "100"
     assert float(keys["batched_vs_sync"]) == pytest.approx(
         float(keys["lattice_steps_per_s_8"]) / 100, rel=1e-2
+    )
+    # the encounter-rate world: the team at every batch size, one UAV at the largest
+    assert float(keys["encounter_steps_per_s_1"]) > 0
+    assert keys["encounter_loop_steps_per_s"] == "51"
+    assert float(keys["encounter_batched_vs_loop"]) == pytest.approx(
+        float(keys["encounter_steps_per_s_8"]) / 51, rel=1e-2
+    )
+    assert float(keys["encounter_solo_vs_sync"]) == pytest.approx(
+        float(keys["encounter_solo_steps_per_s_8"]) / 50, rel=1e-2
     )
 
 
