@@ -32,6 +32,13 @@ The last line is machine-readable::
            decision_speedup_37=<otto/ours> decision_speedup_19=<...> decision_speedup_53=<...>
            decision_source=<otto|partial|none> identical_19=<same>/<states> identical_37=...
            identical_53=... step_identical_37=... step_identical_53=...
+           engine_step_ms_37=... engine_step_ms_53=... engine_step_speedup_37=<otto step/...>
+           engine_step_speedup_53=...
+
+``engine_step_*``: our general engine per step over whole infotaxis episodes of the built-in
+scenarios (``odorloc batch``'s path: episode, platform and sensor objects, the grid estimator,
+the planner), against OTTO's whole step; the compiled step above is what the batched lattice
+environment and :func:`~odorloc.planning.lattice_step.search_step` run.
 
 ``identical_*``: our planner's choices equal to OTTO's; ``step_identical_*``: the compiled
 step's. OTTO's own step draws its hit through ``scipy.stats`` (a frozen distribution per hit
@@ -232,6 +239,31 @@ def our_steps(
     return choices, times
 
 
+ENGINE_SCENARIOS = {
+    19: "lattice-isotropic-2d",
+    37: "lattice-isotropic-2d-l2",
+    53: "lattice-isotropic-2d-l3",
+}
+
+
+def engine_step_ms(n: int, episodes: int, seed: int) -> float:
+    """Milliseconds per step of our general engine with the ``infotaxis`` searcher (what
+    ``odorloc batch -s lattice-isotropic-2d[-l2|-l3]`` runs: the episode's world, platform and
+    sensor objects, the grid estimator and the planner), over ``episodes`` whole episodes."""
+    from odorloc.core.seeds import episode_seeds
+    from odorloc.engine.episode import run_episode
+    from odorloc.scenarios import get_scenario
+
+    name = ENGINE_SCENARIOS[n]
+    sc = get_scenario(name)
+    # the first episode loads the compiled kernels: a process's one-off cost
+    run_episode(sc, *episode_seeds(seed, name, 0), record=False)
+    steps, t0 = 0, time.perf_counter()
+    for e in range(1, episodes + 1):
+        steps += int(run_episode(sc, *episode_seeds(seed, name, e), record=False).metrics["steps"])
+    return (time.perf_counter() - t0) / max(steps, 1)
+
+
 def our_states(n: int, count: int, seed: int) -> tuple[np.ndarray, ...]:
     """States of our own compiled infotaxis episodes (when OTTO is not available): beliefs,
     agents, sources and hits as :func:`otto_worker` records them."""
@@ -383,7 +415,7 @@ def main(argv: list[str] | None = None) -> None:
             ratios[n] = rows[(n, "infotaxis")]["mean"] / OTTO[(SETTINGS[n][0], "infotaxis")]["mean"]
 
     use_otto = bool(args.otto_python and args.otto_src)
-    sides = ("otto", "otto_env", "ours", "ours_step")
+    sides = ("otto", "otto_env", "ours", "ours_step", "engine")
     rounds: dict[int, dict[str, list]] = {
         n: {k: [] for k in (*sides, "same", "same_step")} for n in SETTINGS
     }
@@ -421,6 +453,7 @@ def main(argv: list[str] | None = None) -> None:
                 r["ours"].append(float(np.median(t)))
                 step_choices, ts = our_steps(beliefs, agents, sources, hits, n, args.seed)
                 r["ours_step"].append(float(np.median(ts)))
+                r["engine"].append(engine_step_ms(n, 3 if args.quick else 20, args.seed))
                 if otto is not None:
                     ref = np.array(otto[str(n)]["choices"])
                     r["same"].append((int(np.sum(np.array(choices) == ref)), len(ref)))
@@ -428,6 +461,7 @@ def main(argv: list[str] | None = None) -> None:
     ran = otto_rounds > 0
     source = "none" if not ran else "partial" if otto_failed else "otto"
     speedup, step_speedup, identical, step_identical = {}, {}, {}, {}
+    engine_speedup: dict[int, float] = {}
     step_vs_dec: dict[int, float] = {}
     best: dict[int, dict[str, float]] = {}
     for n in SETTINGS:
@@ -442,6 +476,7 @@ def main(argv: list[str] | None = None) -> None:
         ok = source == "otto"
         speedup[n] = best[n]["otto"] / best[n]["ours"] if ok else math.nan
         step_speedup[n] = best[n]["otto_env"] / best[n]["ours_step"] if ok else math.nan
+        engine_speedup[n] = best[n]["otto_env"] / best[n]["engine"] if ok else math.nan
         # a bound that does not depend on OTTO's hit draw (SciPy-version dependent): our whole
         # step against OTTO's decision alone
         step_vs_dec[n] = best[n]["otto"] / best[n]["ours_step"] if ok else math.nan
@@ -459,6 +494,14 @@ def main(argv: list[str] | None = None) -> None:
             f"{n:>3} {bn['otto']:>9.3f} {bn['ours']:>9.3f} {speedup[n]:>6.1f} {identical[n]:>9}  "
             f"{bn['otto_env']:>10.3f} {bn['ours_step']:>10.3f} {step_speedup[n]:>6.1f} "
             f"{step_identical[n]:>9}"
+        )
+    print("\nOur general engine (what `odorloc batch` runs: episode, platform and sensor objects,")
+    print("the grid estimator and the planner), ms per step over whole infotaxis episodes:")
+    for n in SETTINGS:
+        bn = best[n]
+        print(
+            f"{n:>3} engine {bn['engine']:>7.3f}  OTTO step {bn['otto_env']:>7.3f}  "
+            f"OTTO step / engine step {engine_speedup[n]:>5.2f}"
         )
     print("(milliseconds; 'same': our choice equals OTTO's on its states; the step's update is")
     print(" fed OTTO's recorded hit, so every state starts from OTTO's own belief. OTTO's step")
@@ -482,7 +525,10 @@ def main(argv: list[str] | None = None) -> None:
         f"decision_speedup_53={speedup[53]:.2f} decision_source={source} "
         f"identical_19={identical[19]} identical_37={identical[37]} "
         f"identical_53={identical[53]} step_identical_37={step_identical[37]} "
-        f"step_identical_53={step_identical[53]}"
+        f"step_identical_53={step_identical[53]} "
+        f"engine_step_ms_37={best[37]['engine']:.4f} engine_step_ms_53={best[53]['engine']:.4f} "
+        f"engine_step_speedup_37={engine_speedup[37]:.2f} "
+        f"engine_step_speedup_53={engine_speedup[53]:.2f}"
     )
 
 
