@@ -160,6 +160,36 @@ def _update(
     return new, -(c * e + c * new * math.log(c)) / math.log(2.0)
 
 
+def episode_streams(
+    words: np.ndarray, n_root: int, episode: int, world: np.ndarray, sense: np.ndarray
+) -> None:
+    """The world and sensor streams (PCG64 states ``(4,)``, into ``world`` and ``sense``) of
+    ``episode``: :func:`~odorloc.core.seeds.world_generators` of the world seed of
+    :func:`~odorloc.core.seeds.episode_seeds`, as NumPy computes them. ``words`` holds the
+    root's ``n_root`` words, the world stream (0) and the key's eight words
+    (:func:`~odorloc.core.seeds.stream_words`)."""
+    n = n_root + 9
+    w = np.empty(n + 2, np.uint64)
+    w[:n] = words[:n]
+    w[n] = np.uint64(episode & 0xFFFFFFFF)
+    if episode >> 32:
+        w[n + 1] = np.uint64(episode >> 32)
+        n += 2
+    else:
+        n += 1
+    ws = seed_words(w[:n], n_root)
+    v = np.empty(3, np.uint64)
+    v[0] = ws & np.uint64(0xFFFFFFFF)
+    n_ws = 1
+    if ws >> np.uint64(32):
+        v[1] = ws >> np.uint64(32)
+        n_ws = 2
+    v[n_ws] = np.uint64(0)
+    pcg_seed(v[: n_ws + 1], n_ws, world)
+    v[n_ws] = np.uint64(1)
+    pcg_seed(v[: n_ws + 1], n_ws, sense)
+
+
 def _start(
     i: int,
     episode: int,
@@ -188,31 +218,9 @@ def _start(
     sense: np.ndarray,
     epi: np.ndarray,
 ) -> None:
-    """Start ``episode`` in sub-environment ``i`` (module docstring). ``words`` holds the
-    root's ``n_root`` words, the world stream (0) and the key's eight words, then room for the
-    episode's one or two words."""
-    # the world seed of episode_seeds(root, key, episode), then world_generators(world seed)
-    n = n_root + 9
-    w = np.empty(n + 2, np.uint64)
-    w[:n] = words[:n]
-    w[n] = np.uint64(episode & 0xFFFFFFFF)
-    if episode >> 32:
-        w[n + 1] = np.uint64(episode >> 32)
-        n += 2
-    else:
-        n += 1
-    ws = seed_words(w[:n], n_root)
-    v = np.empty(3, np.uint64)
-    v[0] = ws & np.uint64(0xFFFFFFFF)
-    n_ws = 1
-    if ws >> np.uint64(32):
-        v[1] = ws >> np.uint64(32)
-        n_ws = 2
+    """Start ``episode`` in sub-environment ``i`` (module docstring)."""
     world = np.empty(4, np.uint64)
-    v[n_ws] = np.uint64(0)
-    pcg_seed(v[: n_ws + 1], n_ws, world)
-    v[n_ws] = np.uint64(1)
-    pcg_seed(v[: n_ws + 1], n_ws, sense[i])
+    episode_streams(words, n_root, episode, world, sense[i])
     # the plume's draws: the first hit class, then the source from that hit's start belief
     h0 = np.searchsorted(cdf_h0, pcg_double(world), side="right")
     cell = np.searchsorted(cdf_b0[h0], pcg_double(world), side="right")
@@ -474,6 +482,7 @@ def _step_one(
 
 
 _poisson_mult = jit(_poisson_mult)
+episode_streams = jit(episode_streams)
 _scale = jit(_scale)
 _update = jit(_update, fastmath={"reassoc", "contract", "arcp", "nsz"})
 _start = jit(_start)

@@ -60,10 +60,10 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from odorloc.core.errors import ConfigError
 from odorloc.core.jit import HAVE_NUMBA, jit, prange, set_threads
 from odorloc.core.jit import threads as jit_threads
-from odorloc.core.pcg import pcg_double, pcg_seed, seed_words
+from odorloc.core.pcg import pcg_double
 from odorloc.core.seeds import check_seed, stream_words
 from odorloc.envs.core import EnvCore, RewardParams, validated
-from odorloc.envs.vector import _renamed
+from odorloc.envs.vector import _renamed, episode_streams
 from odorloc.geometry.vectors import wrap_angle
 from odorloc.models.vergassola import unit_direction
 from odorloc.scenarios import Scenario
@@ -439,27 +439,8 @@ def _start(
     :func:`~odorloc.core.seeds.episode_generators` of its world seed), its sources, every UAV at
     its start. ``draw``: 0 fixed sources; else the uniform draw's box (6), least start distance,
     least separation, tries, rate law (0 none, 1 uniform, 2 log-uniform) and its bounds."""
-    n = n_root + 9
-    wd = np.empty(n + 2, np.uint64)
-    wd[:n] = words[:n]
-    wd[n] = np.uint64(episode & 0xFFFFFFFF)
-    if episode >> 32:
-        wd[n + 1] = np.uint64(episode >> 32)
-        n += 2
-    else:
-        n += 1
-    ws = seed_words(wd[:n], n_root)
-    v = np.empty(3, np.uint64)
-    v[0] = ws & np.uint64(0xFFFFFFFF)
-    n_ws = 1
-    if ws >> np.uint64(32):
-        v[1] = ws >> np.uint64(32)
-        n_ws = 2
     world = np.empty(4, np.uint64)
-    v[n_ws] = np.uint64(0)
-    pcg_seed(v[: n_ws + 1], n_ws, world)
-    v[n_ws] = np.uint64(1)
-    pcg_seed(v[: n_ws + 1], n_ws, sense[i])
+    episode_streams(words, n_root, episode, world, sense[i])
     n_src = src0.shape[0]
     if draw[0] == 0.0:
         src[i] = src0
