@@ -77,7 +77,7 @@ from odorloc.models.vergassola import vergassola_rate
 from odorloc.planning.lattice_step import LatticeKernels
 from odorloc.scenarios import Scenario
 
-__all__ = ["LatticeVectorEnv"]
+__all__ = ["EpisodeRoots", "LatticeVectorEnv"]
 
 _LOG_FLOOR = -1e300  # log of an empty cell (finite: 0 * floor adds nothing to an entropy)
 
@@ -593,7 +593,44 @@ class _Problem:
         self.enlam = np.ascontiguousarray(el if dim == 3 else el[None])
 
 
-class LatticeVectorEnv(VectorEnv):
+class EpisodeRoots:
+    """The root seed of a batched environment's episodes (``reset``'s ``seed``), shared by the
+    batched environments: the seed words of the world key in ``_words`` for
+    :func:`episode_streams`."""
+
+    root: int | None
+    world_key: str
+    _words: np.ndarray
+    _n_root: int
+
+    @staticmethod
+    def _checked_sizes(num_envs: Any, threads: Any) -> int:
+        """The thread count (``None``: all of numba's) after checking it and ``num_envs``."""
+        if isinstance(num_envs, bool) or not isinstance(num_envs, int) or num_envs < 1:
+            raise ConfigError("num_envs", f"must be an integer >= 1, got {num_envs!r}")
+        most = jit_threads()
+        if threads is None:
+            threads = most
+        if isinstance(threads, bool) or not isinstance(threads, int) or not 1 <= threads <= most:
+            raise ConfigError("threads", f"must be an integer in [1, {most}], got {threads!r}")
+        return threads
+
+    def _set_root(self, seed: Any) -> None:
+        if isinstance(seed, list):
+            raise ConfigError("seed", "one root seed for every sub-environment, not a list")
+        VectorEnv.reset(self, seed=seed)  # type: ignore[arg-type]
+        if seed is not None:
+            self.root = check_seed(int(seed), "seed")
+        elif self.root is None:
+            rng = self.np_random  # type: ignore[attr-defined]
+            self.root = int(rng.integers(0, 2**63 - 1, dtype=np.int64))
+        words, n_root = stream_words(self.root, self.world_key, 0)
+        self._words[:] = 0
+        self._words[: len(words)] = words
+        self._n_root = n_root
+
+
+class LatticeVectorEnv(EpisodeRoots, VectorEnv):
     """``num_envs`` episodes of a lattice scenario stepped as arrays (module docstring).
 
     Parameters
@@ -622,14 +659,7 @@ class LatticeVectorEnv(VectorEnv):
         world_key: str | None = None,
         threads: int | None = 1,
     ) -> None:
-        if isinstance(num_envs, bool) or not isinstance(num_envs, int) or num_envs < 1:
-            raise ConfigError("num_envs", f"must be an integer >= 1, got {num_envs!r}")
-        most = jit_threads()
-        if threads is None:
-            threads = most
-        if isinstance(threads, bool) or not isinstance(threads, int) or not 1 <= threads <= most:
-            raise ConfigError("threads", f"must be an integer in [1, {most}], got {threads!r}")
-        self.threads = threads
+        self.threads = self._checked_sizes(num_envs, threads)
         sc, key = load_scenario(scenario)
         self.scenario = sc
         self.world_key = world_key or key
@@ -773,17 +803,7 @@ class LatticeVectorEnv(VectorEnv):
     ) -> tuple[np.ndarray, dict[str, Any]]:
         """Start episodes ``0 .. B-1`` of root ``seed`` (of a new root drawn from the
         environment's own generator when no seed was ever given)."""
-        if isinstance(seed, list):
-            raise ConfigError("seed", "one root seed for every sub-environment, not a list")
-        super().reset(seed=seed)
-        if seed is not None:
-            self.root = check_seed(int(seed), "seed")
-        elif self.root is None:
-            self.root = int(self.np_random.integers(0, 2**63 - 1, dtype=np.int64))
-        words, n_root = stream_words(self.root, self.world_key, 0)
-        self._words[:] = 0
-        self._words[: len(words)] = words
-        self._n_root = n_root
+        self._set_root(seed)
         pr = self.problem
         _reset_all(0, *self._common(), pr.dim, pr.z, self._ent_max, *self._state(), self._obs)
         self._next = self.num_envs

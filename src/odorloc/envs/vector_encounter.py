@@ -59,11 +59,9 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 
 from odorloc.core.errors import ConfigError
 from odorloc.core.jit import HAVE_NUMBA, jit, prange, set_threads
-from odorloc.core.jit import threads as jit_threads
 from odorloc.core.pcg import pcg_double
-from odorloc.core.seeds import check_seed, stream_words
 from odorloc.envs.core import EnvCore, RewardParams, validated
-from odorloc.envs.vector import _renamed, episode_streams
+from odorloc.envs.vector import EpisodeRoots, _poisson_mult, _renamed, episode_streams
 from odorloc.geometry.vectors import wrap_angle
 from odorloc.models.vergassola import unit_direction
 from odorloc.scenarios import Scenario
@@ -130,15 +128,7 @@ def _poisson(st: np.ndarray, mu: float) -> int:
     multiplication method otherwise) from the PCG64 stream ``st``."""
     if mu == 0.0:
         return 0
-    enlam = math.exp(-mu)
-    x = 0
-    prod = 1.0
-    while True:
-        prod *= pcg_double(st)
-        if prod > enlam:
-            x += 1
-        else:
-            return x
+    return _poisson_mult(st, math.exp(-mu))
 
 
 # ---------------------------------------------------------------------- the UAV
@@ -779,46 +769,6 @@ def _restart(
     _features(i, fs, js, heard, sent, 0.0, threshold, cols, low, high, obs[i])
 
 
-def _reset_all(
-    first: int,
-    words: np.ndarray,
-    n_root: int,
-    starts: np.ndarray,
-    heading: float,
-    src0: np.ndarray,
-    rate0: np.ndarray,
-    draw: np.ndarray,
-    w: np.ndarray,
-    air: np.ndarray,
-    gain_dt: np.ndarray,
-    threshold: int,
-    cols: np.ndarray,
-    low: np.ndarray,
-    high: np.ndarray,
-    src: np.ndarray,
-    aq: np.ndarray,
-    fs: np.ndarray,
-    js: np.ndarray,
-    heard: np.ndarray,
-    sent: np.ndarray,
-    found: np.ndarray,
-    flags: np.ndarray,
-    steps: np.ndarray,
-    recent: np.ndarray,
-    sense: np.ndarray,
-    bytes_: np.ndarray,
-    epi: np.ndarray,
-    obs: np.ndarray,
-) -> None:
-    """Episodes ``first .. first + B - 1`` in sub-environments ``0 .. B - 1``."""
-    for i in range(fs.shape[0]):
-        _restart(
-            i, first + i, words, n_root, starts, heading, src0, rate0, draw, w, air, gain_dt,
-            threshold, cols, low, high, src, aq, fs, js, heard, sent, found, flags, steps,
-            recent, sense, bytes_, epi, obs,
-        )  # fmt: skip
-
-
 def _batch_step(
     disc: np.ndarray,
     vel: np.ndarray,
@@ -922,7 +872,6 @@ _start = jit(_start)
 _features = jit(_features)
 _step_one = jit(_step_one)
 _restart = jit(_restart)
-_reset_all = jit(_reset_all)
 _batch_step_threads = jit(_renamed(_batch_step, "_batch_step_threads"), parallel=True)
 _batch_step = jit(_batch_step)
 
@@ -1055,7 +1004,7 @@ class _World:
         self.comm = float(sc.agents.comm_radius)
 
 
-class EncounterVectorEnv(VectorEnv):
+class EncounterVectorEnv(EpisodeRoots, VectorEnv):
     """``num_envs`` episodes of a 3-D encounter-rate scenario stepped as arrays (module
     docstring).
 
@@ -1088,14 +1037,7 @@ class EncounterVectorEnv(VectorEnv):
         world_key: str | None = None,
         threads: int | None = 1,
     ) -> None:
-        if isinstance(num_envs, bool) or not isinstance(num_envs, int) or num_envs < 1:
-            raise ConfigError("num_envs", f"must be an integer >= 1, got {num_envs!r}")
-        most = jit_threads()
-        if threads is None:
-            threads = most
-        if isinstance(threads, bool) or not isinstance(threads, int) or not 1 <= threads <= most:
-            raise ConfigError("threads", f"must be an integer in [1, {most}], got {threads!r}")
-        self.threads = threads
+        self.threads = self._checked_sizes(num_envs, threads)
         if action is None:
             action = {"kind": "discrete", "declare": "none"}
         if isinstance(observation, dict) and observation.get("belief") is not None:
@@ -1236,18 +1178,9 @@ class EncounterVectorEnv(VectorEnv):
     ) -> tuple[np.ndarray, dict[str, Any]]:
         """Start episodes ``0 .. B-1`` of root ``seed`` (of a new root drawn from the
         environment's own generator when no seed was ever given)."""
-        if isinstance(seed, list):
-            raise ConfigError("seed", "one root seed for every sub-environment, not a list")
-        super().reset(seed=seed)
-        if seed is not None:
-            self.root = check_seed(int(seed), "seed")
-        elif self.root is None:
-            self.root = int(self.np_random.integers(0, 2**63 - 1, dtype=np.int64))
-        words, n_root = stream_words(self.root, self.world_key, 0)
-        self._words[:] = 0
-        self._words[: len(words)] = words
-        self._n_root = n_root
-        _reset_all(0, *self._common(), *self._state(), self._obs)
+        self._set_root(seed)
+        for i in range(self.num_envs):
+            _restart(i, i, *self._common(), *self._state(), self._obs)
         self._check_draws()
         self._next = self.num_envs
         return self._view(self._obs).copy(), {"episode": self._episode.copy()}
