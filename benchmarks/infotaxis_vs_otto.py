@@ -33,12 +33,14 @@ The last line is machine-readable::
            decision_source=<otto|partial|none> identical_19=<same>/<states> identical_37=...
            identical_53=... step_identical_37=... step_identical_53=...
            engine_step_ms_37=... engine_step_ms_53=... engine_step_speedup_37=<otto step/...>
-           engine_step_speedup_53=...
+           engine_step_speedup_53=... fused_step_ms_37=... fused_step_ms_53=...
+           fused_step_speedup_37=... fused_step_speedup_53=...
 
-``engine_step_*``: our general engine per step over whole infotaxis episodes of the built-in
-scenarios (``odorloc batch``'s path: episode, platform and sensor objects, the grid estimator,
-the planner), against OTTO's whole step; the compiled step above is what the batched lattice
-environment and :func:`~odorloc.planning.lattice_step.search_step` run.
+``engine_step_*``: ``run_episode`` per step over whole infotaxis episodes of the built-in
+scenarios (``odorloc batch``'s path) with the ``infotaxis`` searcher in the engine's loop
+(episode, platform and sensor objects, the grid estimator, the planner), against OTTO's whole
+step; ``fused_step_*``: the same with the ``lattice-infotaxis`` searcher, whose episodes
+``run_episode`` plays whole in one compiled call (its decisions are the compiled step's).
 
 ``identical_*``: our planner's choices equal to OTTO's; ``step_identical_*``: the compiled
 step's. OTTO's own step draws its hit through ``scipy.stats`` (a frozen distribution per hit
@@ -246,16 +248,21 @@ ENGINE_SCENARIOS = {
 }
 
 
-def engine_step_ms(n: int, episodes: int, seed: int) -> float:
-    """Milliseconds per step of our general engine with the ``infotaxis`` searcher (what
-    ``odorloc batch -s lattice-isotropic-2d[-l2|-l3]`` runs: the episode's world, platform and
-    sensor objects, the grid estimator and the planner), over ``episodes`` whole episodes."""
+def engine_step_ms(n: int, episodes: int, seed: int, fused: bool = False) -> float:
+    """Milliseconds per step of ``run_episode`` (what ``odorloc batch -s
+    lattice-isotropic-2d[-l2|-l3]`` runs) over ``episodes`` whole episodes: with the
+    ``infotaxis`` searcher (the engine's loop: world, platform and sensor objects, the grid
+    estimator and the planner), or with ``fused`` the ``lattice-infotaxis`` searcher (the same
+    policy, whole episodes in one compiled call)."""
     from odorloc.core.seeds import episode_seeds
     from odorloc.engine.episode import run_episode
     from odorloc.scenarios import get_scenario
 
     name = ENGINE_SCENARIOS[n]
     sc = get_scenario(name)
+    if fused:
+        model = dict(sc.searcher.model)
+        sc = sc.with_overrides({"searcher": {"type": "lattice-infotaxis", "model": model}})
     # the first episode loads the compiled kernels: a process's one-off cost
     run_episode(sc, *episode_seeds(seed, name, 0), record=False)
     steps, t0 = 0, time.perf_counter()
@@ -415,7 +422,7 @@ def main(argv: list[str] | None = None) -> None:
             ratios[n] = rows[(n, "infotaxis")]["mean"] / OTTO[(SETTINGS[n][0], "infotaxis")]["mean"]
 
     use_otto = bool(args.otto_python and args.otto_src)
-    sides = ("otto", "otto_env", "ours", "ours_step", "engine")
+    sides = ("otto", "otto_env", "ours", "ours_step", "engine", "fused")
     rounds: dict[int, dict[str, list]] = {
         n: {k: [] for k in (*sides, "same", "same_step")} for n in SETTINGS
     }
@@ -454,6 +461,7 @@ def main(argv: list[str] | None = None) -> None:
                 step_choices, ts = our_steps(beliefs, agents, sources, hits, n, args.seed)
                 r["ours_step"].append(float(np.median(ts)))
                 r["engine"].append(engine_step_ms(n, 3 if args.quick else 20, args.seed))
+                r["fused"].append(engine_step_ms(n, 5 if args.quick else 60, args.seed, True))
                 if otto is not None:
                     ref = np.array(otto[str(n)]["choices"])
                     r["same"].append((int(np.sum(np.array(choices) == ref)), len(ref)))
@@ -462,6 +470,7 @@ def main(argv: list[str] | None = None) -> None:
     source = "none" if not ran else "partial" if otto_failed else "otto"
     speedup, step_speedup, identical, step_identical = {}, {}, {}, {}
     engine_speedup: dict[int, float] = {}
+    fused_speedup: dict[int, float] = {}
     step_vs_dec: dict[int, float] = {}
     best: dict[int, dict[str, float]] = {}
     for n in SETTINGS:
@@ -477,6 +486,7 @@ def main(argv: list[str] | None = None) -> None:
         speedup[n] = best[n]["otto"] / best[n]["ours"] if ok else math.nan
         step_speedup[n] = best[n]["otto_env"] / best[n]["ours_step"] if ok else math.nan
         engine_speedup[n] = best[n]["otto_env"] / best[n]["engine"] if ok else math.nan
+        fused_speedup[n] = best[n]["otto_env"] / best[n]["fused"] if ok else math.nan
         # a bound that does not depend on OTTO's hit draw (SciPy-version dependent): our whole
         # step against OTTO's decision alone
         step_vs_dec[n] = best[n]["otto"] / best[n]["ours_step"] if ok else math.nan
@@ -495,13 +505,15 @@ def main(argv: list[str] | None = None) -> None:
             f"{bn['otto_env']:>10.3f} {bn['ours_step']:>10.3f} {step_speedup[n]:>6.1f} "
             f"{step_identical[n]:>9}"
         )
-    print("\nOur general engine (what `odorloc batch` runs: episode, platform and sensor objects,")
-    print("the grid estimator and the planner), ms per step over whole infotaxis episodes:")
+    print("\nWhat `odorloc batch` runs, ms per step over whole infotaxis episodes: 'engine' the")
+    print("infotaxis searcher in the engine's loop (episode, platform and sensor objects, grid")
+    print("estimator, planner); 'fused' lattice-infotaxis, whole episodes in one compiled call:")
     for n in SETTINGS:
         bn = best[n]
         print(
-            f"{n:>3} engine {bn['engine']:>7.3f}  OTTO step {bn['otto_env']:>7.3f}  "
-            f"OTTO step / engine step {engine_speedup[n]:>5.2f}"
+            f"{n:>3} engine {bn['engine']:>7.3f} ({engine_speedup[n]:>5.2f}x OTTO's step)  "
+            f"fused {bn['fused']:>7.3f} ({fused_speedup[n]:>5.2f}x)  "
+            f"OTTO step {bn['otto_env']:>7.3f}"
         )
     print("(milliseconds; 'same': our choice equals OTTO's on its states; the step's update is")
     print(" fed OTTO's recorded hit, so every state starts from OTTO's own belief. OTTO's step")
@@ -528,7 +540,10 @@ def main(argv: list[str] | None = None) -> None:
         f"step_identical_53={step_identical[53]} "
         f"engine_step_ms_37={best[37]['engine']:.4f} engine_step_ms_53={best[53]['engine']:.4f} "
         f"engine_step_speedup_37={engine_speedup[37]:.2f} "
-        f"engine_step_speedup_53={engine_speedup[53]:.2f}"
+        f"engine_step_speedup_53={engine_speedup[53]:.2f} "
+        f"fused_step_ms_37={best[37]['fused']:.4f} fused_step_ms_53={best[53]['fused']:.4f} "
+        f"fused_step_speedup_37={fused_speedup[37]:.2f} "
+        f"fused_step_speedup_53={fused_speedup[53]:.2f}"
     )
 
 

@@ -24,7 +24,7 @@ import numpy as np
 
 from odorloc.core.jit import jit
 
-__all__ = ["int_words", "pcg_double", "pcg_seed", "seed_words", "ss_state"]
+__all__ = ["int_words", "pcg_double", "pcg_poisson_mult", "pcg_seed", "seed_words", "ss_state"]
 
 _M32 = np.uint64(0xFFFFFFFF)
 _INIT_A = np.uint64(0x43B0D7E5)
@@ -166,6 +166,19 @@ def pcg_double(st: np.ndarray) -> float:
     return float(out >> np.uint64(11)) * (1.0 / 9007199254740992.0)
 
 
+def pcg_poisson_mult(st: np.ndarray, enlam: float) -> int:
+    """NumPy's Poisson draw by multiplication (``Generator.poisson`` below a mean of 10;
+    ``enlam = exp(-mean)``) from the stream ``st`` (advanced in place)."""
+    x = 0
+    prod = 1.0
+    while True:
+        prod *= pcg_double(st)
+        if prod > enlam:
+            x += 1
+        else:
+            return x
+
+
 _hashmix = jit(_hashmix)
 _mix = jit(_mix)
 ss_state = jit(ss_state)
@@ -174,3 +187,4 @@ _mulhi = jit(_mulhi)
 _pcg_step = jit(_pcg_step)
 pcg_seed = jit(pcg_seed)
 pcg_double = jit(pcg_double)
+pcg_poisson_mult = jit(pcg_poisson_mult)

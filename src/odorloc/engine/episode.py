@@ -38,11 +38,11 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from odorloc.core.errors import ConfigError
 from odorloc.core.seeds import episode_generators
 from odorloc.core.types import Action, Declaration, Event, Message, Observation, SearchContext
 from odorloc.engine.metrics import EpisodeMetrics
 from odorloc.engine.recorder import Recorder, Recording
+from odorloc.engine.steps import control_substeps, step_count
 from odorloc.platforms.team import CommGraph
 from odorloc.scenarios.build import Built, build, build_world, search_context
 from odorloc.scenarios.config import Scenario
@@ -59,13 +59,6 @@ __all__ = [
     "run_episode",
     "score_declaration",
 ]
-
-
-def control_substeps(scenario: Scenario) -> tuple[float, int, float]:
-    """``(control period T, world substeps per period, world step)`` of a scenario, seconds."""
-    T = scenario.limits.control_dt
-    n_sub = max(1, round(T / scenario.world.dt))
-    return T, n_sub, T / n_sub
 
 
 def prepare_world(
@@ -213,13 +206,8 @@ class Episode:
         self.built = built if built is not None else build(scenario)
         self.record = scenario.recording.enabled if record is None else bool(record)
         T, n_sub, wdt = control_substeps(scenario)
-        lim = scenario.limits
-        if lim.time < T - 1e-9:
-            raise ConfigError(
-                "limits.time", f"{lim.time:g} s is shorter than one control period ({T:g} s)"
-            )
+        self.n_steps = step_count(scenario)
         self._T, self._n_sub, self._wdt = T, n_sub, wdt
-        self.n_steps = math.floor(lim.time / T + 1e-9)
         self.n_agents = len(scenario.agents.starts)
         self._started = False
 
@@ -641,6 +629,7 @@ def run_episode(
     record: bool | None = None,
     built: Built | None = None,
     searcher: Searcher | None = None,
+    fused: bool = True,
 ) -> EpisodeResult:
     """Run one episode of ``scenario`` with its searcher and return its metrics (and recording).
 
@@ -655,7 +644,20 @@ def run_episode(
         Pre-built components (fresh ones are built when omitted).
     searcher : Searcher, optional
         Use this searcher instead of the scenario's.
+    fused : bool
+        Without a recording, play a whole episode of a searcher that has a compiled episode
+        (``lattice-infotaxis`` on the lattice problem: :mod:`odorloc.engine.lattice_fused`) in
+        one call; the same episode as the loop below, whose measured times alone differ.
     """
+    keep = scenario.recording.enabled if record is None else bool(record)
+    if fused and not keep:
+        from odorloc.engine.lattice_fused import run_fused
+
+        given = searcher if searcher is not None else built.searcher if built is not None else None
+        parts = run_fused(scenario, given, world_seed, agent_seed)
+        if parts is not None:
+            metrics, extra, agents, sources, events = parts
+            return EpisodeResult(EpisodeMetrics(metrics, extra, agents), None, [], sources, events)
     ep = Episode(scenario, built=built, record=record)
     agent = searcher if searcher is not None else ep.built.searcher
     obs = ep.reset(world_seed, agent_seed)

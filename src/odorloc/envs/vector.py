@@ -60,21 +60,10 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from odorloc.core.errors import ConfigError
 from odorloc.core.jit import jit, prange, set_threads
 from odorloc.core.jit import threads as jit_threads
-from odorloc.core.pcg import pcg_double, pcg_seed, seed_words
+from odorloc.core.pcg import pcg_double, pcg_poisson_mult, pcg_seed, seed_words
 from odorloc.core.seeds import check_seed, stream_words
+from odorloc.engine.lattice_fused import LatticeProblem
 from odorloc.envs.core import RewardParams, load_scenario, validated
-from odorloc.models.lattice import (
-    IsotropicHitModel,
-    IsotropicHitParams,
-    auto_n_hits,
-    initial_belief,
-    initial_hit_probabilities,
-    isotropic_mean_hits,
-    tabulate,
-)
-from odorloc.models.poisson import censored_poisson
-from odorloc.models.vergassola import vergassola_rate
-from odorloc.planning.lattice_step import LatticeKernels
 from odorloc.scenarios import Scenario
 
 __all__ = ["EpisodeRoots", "LatticeVectorEnv"]
@@ -83,19 +72,6 @@ _LOG_FLOOR = -1e300  # log of an empty cell (finite: 0 * floor adds nothing to a
 
 
 # ---------------------------------------------------------------------- compiled batch step
-def _poisson_mult(st: np.ndarray, enlam: float) -> int:
-    """NumPy's Poisson draw by multiplication (mean below 10, ``enlam = exp(-mean)``) from the
-    PCG64 stream ``st`` (advanced in place)."""
-    x = 0
-    prod = 1.0
-    while True:
-        prod *= pcg_double(st)
-        if prod > enlam:
-            x += 1
-        else:
-            return x
-
-
 def _scale(tot: float) -> float:
     """The factor that turns a stored belief of mass ``tot`` into the belief: ``1 / tot``,
     or 1 when the mass is at or below ``1e-10`` (the reference's normalisation rule)."""
@@ -460,7 +436,7 @@ def _step_one(
     r1 = src[i, 1] - ag[i, 1] + half[1]
     r2 = src[i, 2] - ag[i, 2] + half[2]
     el = enlam[r0, r1, r2]
-    count = _poisson_mult(sense[i], el) if el < 1.0 else 0
+    count = pcg_poisson_mult(sense[i], el) if el < 1.0 else 0
     h = count if count < z - 1 else z - 1
     last[i] = h
     reached = ag[i, 0] == src[i, 0] and ag[i, 1] == src[i, 1] and ag[i, 2] == src[i, 2]
@@ -481,7 +457,6 @@ def _step_one(
     return 0
 
 
-_poisson_mult = jit(_poisson_mult)
 episode_streams = jit(episode_streams)
 _scale = jit(_scale)
 _update = jit(_update, fastmath={"reassoc", "contract", "arcp", "nsz"})
@@ -495,104 +470,6 @@ _batch_step = jit(_batch_step)
 
 
 # ---------------------------------------------------------------------- the environment
-def _cdf(p: np.ndarray) -> np.ndarray:
-    """The cumulative sum ``numpy.random.Generator.choice`` searches for ``p``."""
-    cdf = np.asarray(p, float).cumsum()
-    cdf /= cdf[-1]
-    return cdf
-
-
-class _Problem:
-    """What a lattice scenario fixes for every episode (checked once, from its built parts)."""
-
-    def __init__(self, sc: Scenario) -> None:
-        from odorloc.engine.episode import Episode, control_substeps
-        from odorloc.plume.lattice import LatticeIsotropicPlume
-        from odorloc.sensors.encounter import EncounterSensor
-
-        ep = Episode(sc, record=False)
-        built = ep.built
-        plume = built.world.plume
-        if not isinstance(plume, LatticeIsotropicPlume) or plume.params.start != "initial-hit":
-            raise ConfigError(
-                "world.plume",
-                "the batched lattice env needs a lattice-isotropic plume with start: initial-hit",
-            )
-        if sc.platform.type != "lattice":
-            raise ConfigError("platform.type", "the batched lattice env needs a lattice platform")
-        if len(built.platforms) != 1:
-            raise ConfigError("agents", "the batched lattice env has one agent per episode")
-        sensor = built.gas_sensors[0]
-        if not isinstance(sensor, EncounterSensor):
-            raise ConfigError("sensors.gas", "the batched lattice env needs an encounter counter")
-        if sc.world.source_draw is not None:
-            raise ConfigError("world.source_draw", "the lattice plume draws the source itself")
-        arena = plume.arena
-        if arena.occ is not None:
-            raise ConfigError("world.arena", "the batched lattice env needs an open arena")
-        grid = arena.grid
-        shape = tuple(int(v) for v in grid.shape)
-        dim = len(shape)
-        cell = float(plume.cell)
-        self.dim, self.cell, self.shape = dim, cell, shape
-        self.length = float(plume.params.length)
-        rate = float(plume.sources[0].rate_at(0.0))
-        self.intensity = rate * float(plume.params.exposure)
-        nh = plume.params.n_hits
-        z = nh if nh is not None else auto_n_hits(self.length, self.intensity, cell, dim)
-        self.z = int(z)
-        self.start = tuple(int(v) for v in grid.index(plume.origin)[0])
-        agent = tuple(int(v) for v in grid.index(np.asarray(sc.agents.starts[0], float))[0])
-        if agent != self.start:
-            raise ConfigError("agents.starts", "the agent must start in the plume's origin cell")
-        self.dt = float(control_substeps(sc)[0])
-        self.n_steps = int(ep.n_steps)
-        stuck = sc.task.stuck_limit
-        self.stuck = -1 if stuck is None else int(stuck)
-        # the first-hit law and the start beliefs, as the plume computes them
-        self.p_h0 = initial_hit_probabilities(self.length, self.intensity, cell, dim, self.z)
-        centres = grid.flat_centers()
-        d = np.linalg.norm(centres - plume.origin, axis=1)
-        mu0 = isotropic_mean_hits(d, self.length, self.intensity, cell, dim)
-        like = censored_poisson(mu0, self.z)
-        # Generator.choice(p=...) draws one uniform number and searches the normalised
-        # cumulative sum: the same search on the same sums draws the same index
-        self.cdf_h0 = _cdf(self.p_h0)
-        self.b0: list[np.ndarray | None] = []
-        for h in range(self.z):
-            if self.p_h0[h] > 0:
-                b0 = initial_belief(like[:, h].reshape(shape), self.start)
-                self.b0.append(b0.reshape(-1))
-            else:
-                self.b0.append(None)
-        self.cdf_b0 = [None if b is None else _cdf(b) for b in self.b0]
-        # the searcher's belief update: the problem's own model, tabulated over the offsets
-        model = IsotropicHitModel(IsotropicHitParams(length=self.length, intensity=self.intensity))
-        table = tabulate(model, cell, tuple(n - 1 for n in shape))
-        if table.n_classes != self.z:
-            raise ConfigError("world.plume.n_hits", f"must be the model's {table.n_classes}")
-        self.kernels = LatticeKernels(table.prob)
-        # exp(-mean hits) per source-minus-agent offset: the plume's encounter rate at the
-        # offset, times the sensor's gain and the control period, as the sensor computes it
-        offs = [np.arange(-(n - 1), n) * cell for n in shape]
-        pts = np.stack(np.meshgrid(*offs, indexing="ij"), -1).reshape(-1, dim)
-        r = vergassola_rate(
-            -pts,
-            np.zeros((1, dim)),
-            np.array([rate]),
-            V=0.0,
-            D=1.0,
-            tau=self.length**2,
-            a=0.5 * cell,
-        )[:, 0]
-        mu = sensor.params.gain * r * self.dt
-        if np.any(mu[np.isfinite(mu)] >= 10.0):
-            raise ConfigError("world.sources[0].rate", "mean hits of 10 or more per step")
-        with np.errstate(over="ignore"):
-            el = np.exp(-mu).reshape(tuple(2 * n - 1 for n in shape))
-        self.enlam = np.ascontiguousarray(el if dim == 3 else el[None])
-
-
 class EpisodeRoots:
     """The root seed of a batched environment's episodes (``reset``'s ``seed``), shared by the
     batched environments: the seed words of the world key in ``_words`` for
@@ -664,7 +541,7 @@ class LatticeVectorEnv(EpisodeRoots, VectorEnv):
         self.scenario = sc
         self.world_key = world_key or key
         self.reward_params = validated(RewardParams, reward, "reward")
-        pr = _Problem(sc)
+        pr = LatticeProblem(sc)
         self.problem = pr
         k = pr.kernels
         self.num_envs = num_envs

@@ -59,9 +59,9 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 
 from odorloc.core.errors import ConfigError
 from odorloc.core.jit import HAVE_NUMBA, jit, prange, set_threads
-from odorloc.core.pcg import pcg_double
+from odorloc.core.pcg import pcg_double, pcg_poisson_mult
 from odorloc.envs.core import EnvCore, RewardParams, validated
-from odorloc.envs.vector import EpisodeRoots, _poisson_mult, _renamed, episode_streams
+from odorloc.envs.vector import EpisodeRoots, _renamed, episode_streams
 from odorloc.geometry.vectors import wrap_angle
 from odorloc.models.vergassola import unit_direction
 from odorloc.scenarios import Scenario
@@ -128,7 +128,7 @@ def _poisson(st: np.ndarray, mu: float) -> int:
     multiplication method otherwise) from the PCG64 stream ``st``."""
     if mu == 0.0:
         return 0
-    return _poisson_mult(st, math.exp(-mu))
+    return pcg_poisson_mult(st, math.exp(-mu))
 
 
 # ---------------------------------------------------------------------- the UAV

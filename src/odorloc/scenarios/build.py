@@ -118,6 +118,15 @@ def _check_searcher(sc: Scenario, searcher: Searcher) -> None:
         )
 
 
+def build_searcher(sc: Scenario) -> Searcher:
+    """The scenario's searcher, checked against its dimension and team size."""
+    se = registry.entry("searcher", sc.searcher.type)
+    sp = sc.searcher.params("searcher", "searcher")
+    searcher = prefixed("searcher", se.build, sp)
+    _check_searcher(sc, searcher)
+    return searcher
+
+
 def build(sc: Scenario, world: World | None = None) -> Built:
     """Construct the world (unless given), one sensor pair and platform per agent, and the
     searcher."""
@@ -133,10 +142,7 @@ def build(sc: Scenario, world: World | None = None) -> Built:
     an_cls = registry.entry("anemometer", sc.sensors.anemometer.type).build
     pl_cls = registry.entry("platform", sc.platform.type).build
     plp = sc.platform.params("platform", "platform")
-    se = registry.entry("searcher", sc.searcher.type)
-    sp = sc.searcher.params("searcher", "searcher")
-    searcher = prefixed("searcher", se.build, sp)
-    _check_searcher(sc, searcher)
+    searcher = build_searcher(sc)
     platforms = [prefixed("platform", pl_cls, plp) for _ in range(n)]
     radii = np.array([float(pl.radius) for pl in platforms])
     _check_clearance(world.arena, starts, radii)
