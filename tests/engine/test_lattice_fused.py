@@ -49,6 +49,7 @@ def _compare(sc, key: str, episodes: int) -> set[str]:  # type: ignore[no-untype
         diff = {k: (ra[k], rb[k]) for k in ra if k not in MEASURED and not _same(ra[k], rb[k])}
         assert not diff, (e, diff)
         assert math.isnan(ra["world_fraction"]) and ra["wall_time"] > 0
+        assert ra["searcher_fraction"] == 1.0
         assert _events(fast) == _events(loop)
         np.testing.assert_array_equal(fast.sources, loop.sources)
         ends.add(ra["termination"])

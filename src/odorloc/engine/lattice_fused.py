@@ -13,8 +13,9 @@ sampler), the searcher's belief update and decision by the same kernels its ``ac
 the engine's order (the reading, the decision, the step cap, the move, the next reading, the
 reach and the stuck rule). Its metrics row has the engine's columns and values
 (:meth:`~odorloc.engine.episode.Episode.result`), except the measured times: ``wall_time`` and
-``wall_per_step_ms`` are the compiled episode's, ``world_fraction`` and
-``searcher_fraction`` are NaN (the world and the searcher are not timed apart). There is no
+``wall_per_step_ms`` are the compiled episode's, ``world_fraction`` is NaN and
+``searcher_fraction`` 1 (the world and the searcher are not timed apart: the whole is counted
+as the searcher's, an upper bound of its share). There is no
 recording: :func:`~odorloc.engine.episode.run_episode` takes this path only without one.
 """
 
@@ -285,5 +286,7 @@ def run_fused(
     metrics["declarations"] = 0
     for s in range(pr.n_sources):
         metrics[f"found_time_{s}"] = math.nan
-    metrics["searcher_fraction"] = math.nan
+    # the compiled episode is not timed apart: all of it counts as the searcher's (an upper
+    # bound of its share; the world's part is a Poisson draw per step)
+    metrics["searcher_fraction"] = 1.0
     return metrics, searcher.final_metrics(), searcher.agent_metrics(), sources, events
