@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import weakref
 
 import numpy as np
 import pydantic
@@ -17,7 +18,8 @@ from odorloc.inference.odor_path import (
     from_paper_k,
     paper_k,
 )
-from odorloc.inference.odor_path.kernel import dw_kernel, window_kernel
+from odorloc.inference.odor_path.estimator import PathPatch
+from odorloc.inference.odor_path.kernel import dw_kernel, paint, window_kernel
 
 
 def feed(est: OdorPathEstimator, winds: np.ndarray, position=(8.0, 5.0), dt=0.5, signal=1.0):
@@ -434,3 +436,90 @@ def test_earlier_map_needing_trimmed_records_is_refused_not_truncated():
     early = OdorPathEstimator(OdorPathParams(), (0, 0), (10, 10))
     feed(early, winds[:8])
     assert len(early.windows(t_c=5 * 0.5)) == 5
+
+
+# ------------------------------------------------------------------------------ dense maps
+def _fresh_dense(patch: PathPatch) -> np.ndarray:
+    """The patch made dense in a new array (no canvas)."""
+    return PathPatch(patch.ix0, patch.iy0, patch.values, patch.grid, patch.ref_cell).to_dense()
+
+
+@pytest.mark.parametrize("compiled_paint", [True, False])
+def test_reused_dense_map_never_changes_a_map_already_returned(monkeypatch, compiled_paint):
+    """The estimator writes its dense maps into one array while nothing else refers to it: a
+    map somebody keeps (or keeps a view of) never changes, and every map equals the patch
+    made dense in a new array, whatever the previous map covered (the robot jumps across
+    the grid, and a reading without a detection gives an empty map in between)."""
+    import odorloc.inference.odor_path.estimator as op
+
+    if not compiled_paint:
+        monkeypatch.setattr(op, "HAVE_NUMBA", False)
+    rng = np.random.default_rng(21)
+    est = OdorPathEstimator(OdorPathParams(cell_size=0.1, backend="auto"), (0, 0), (10, 10))
+    spots = [(8.0, 5.0), (8.5, 5.5), (2.0, 8.5), (0.3, 0.4), (9.8, 9.7), (5.0, 5.0)]
+    kept, copies = [], []
+    view = None
+    for i in range(60):
+        spot = spots[(i // 7) % len(spots)]
+        est.update(0.5 * i, spot, np.array([0.8, 0.1]) + rng.normal(0, 0.08, 2), i % 5 != 4)
+        if i < 3:
+            continue
+        patch = est.path_patch(require_detection=True)
+        pi = patch.to_dense()
+        np.testing.assert_array_equal(pi, _fresh_dense(patch))
+        assert not pi.flags.writeable
+        if i % 11 == 0:  # kept whole
+            kept.append(pi)
+            copies.append(pi.copy())
+        elif i == 20:  # only a view of it kept
+            view, view_copy = pi[::2, 3:].T, pi[::2, 3:].T.copy()
+        del pi
+    assert any(c.any() for c in copies) and view_copy.any()
+    for m, c in zip(kept, copies, strict=True):
+        np.testing.assert_array_equal(m, c)
+    np.testing.assert_array_equal(view, view_copy)
+    # a returned map cannot be written into (its memory may serve a later map)
+    with pytest.raises(ValueError, match="read-only"):
+        est.path_map()[0, 0] = 1.0
+    # the memory is reused once the map is dropped, and only then
+    first = est.path_map()
+    second = est.path_map()
+    assert second is not first
+    gone = weakref.ref(second)
+    del second
+    assert est.path_map() is gone()
+
+
+def test_paint_kernel_as_python_writes_the_patch_and_clears_only_the_old_box():
+    """The canvas kernel run as plain Python (what numba compiles)."""
+    rng = np.random.default_rng(22)
+    canvas = np.zeros((9, 7))
+    last = np.zeros(4, np.intp)
+    for _ in range(40):
+        bx, by = int(rng.integers(0, 5)), int(rng.integers(0, 5))
+        ix0, iy0 = int(rng.integers(0, 10 - bx)), int(rng.integers(0, 8 - by))
+        values = rng.uniform(0.1, 1.0, (bx, by))
+        paint(canvas, last, values, ix0, iy0)
+        expect = np.zeros((9, 7))
+        expect[ix0 : ix0 + bx, iy0 : iy0 + by] = values
+        np.testing.assert_array_equal(canvas, expect)
+        np.testing.assert_array_equal(last, [ix0, ix0 + bx, iy0, iy0 + by])
+
+
+@pytest.mark.skipif(not HAVE_NUMBA, reason="numba not installed")
+def test_compiled_map_with_more_windows_than_the_first_buffer_holds():
+    """Records every 0.05 s: 200 sub-windows, more than the first record buffer (64) and so
+    the compiled map's first arrays hold; the maps stay the NumPy batch's."""
+    rng = np.random.default_rng(23)
+    kw = {"cell_size": 0.2, "dt": 0.05}
+    a = OdorPathEstimator(OdorPathParams(backend="numpy", **kw), (0, 0), (10, 10))
+    b = OdorPathEstimator(OdorPathParams(backend="numba", **kw), (0, 0), (10, 10))
+    for i in range(230):
+        u = np.array([0.7, -0.2]) + rng.normal(0, 0.1, 2)
+        for e in (a, b):
+            e.update(0.05 * i, (7.0, 6.0), u, 1.0)
+        if i in (40, 63, 64, 65, 120, 229):
+            pa, pb = a.path_patch(), b.path_patch()
+            assert (pa.ix0, pa.iy0) == (pb.ix0, pb.iy0)
+            np.testing.assert_array_equal(pa.values, pb.values)
+    assert len(b.windows()) == 200
