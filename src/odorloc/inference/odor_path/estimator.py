@@ -821,6 +821,10 @@ class OdorPathEstimator:
             return out
         a = self.grid.cell_size
         xc, yc = self.grid.x_centers(), self.grid.y_centers()
+        # work arrays for every window (no full-size temporaries per window)
+        q = np.empty(self.grid.shape)
+        s = np.empty(self.grid.shape)
+        outside = np.empty(self.grid.shape, bool)
         for r in range(len(w.t_r)):
             var, k = w.var[r], w.k[r]
             if k < 0.0:
@@ -828,21 +832,22 @@ class OdorPathEstimator:
             dx = xc - w.center[r, 0]
             dy = yc - w.center[r, 1]
             qx, qy = dx * dx / var[0], dy * dy / var[1]
-            q = qx[:, None] + qy[None, :]
+            np.add.outer(qx, qy, out=q)
             if self.params.kernel == "point":
                 # eq. 11; the Gaussian is separable, so nx + ny exponentials instead of nx ny
-                c = a * a / (2.0 * np.pi * np.sqrt(var[0] * var[1]))
-                s = (c * np.exp(-0.5 * qx))[:, None] * np.exp(-0.5 * qy)[None, :]
+                cf = a * a / (2.0 * np.pi * np.sqrt(var[0] * var[1]))
+                np.multiply.outer(cf * np.exp(-0.5 * qx), np.exp(-0.5 * qy), out=s)
             else:
                 sx, sy = np.sqrt(var)
                 fx = ndtr((dx + 0.5 * a) / sx) - ndtr((dx - 0.5 * a) / sx)
                 fy = ndtr((dy + 0.5 * a) / sy) - ndtr((dy - 0.5 * a) / sy)
-                s = fx[:, None] * fy[None, :]
-            s = np.where(q <= 2.0 * k, s, 0.0)  # eq. (12)
+                np.multiply.outer(fx, fy, out=s)
+            np.greater(q, 2.0 * k, out=outside)
+            np.putmask(s, outside, 0.0)  # eq. (12)
             if self.params.normalise:
                 total = s.sum()
                 if not total > 0:
                     continue
-                s = s / total
+                s /= total
             np.maximum(out, s, out=out)
         return out
