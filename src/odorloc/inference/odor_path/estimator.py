@@ -417,10 +417,15 @@ class OdorPathEstimator:
         if not math.isfinite(s):
             raise ConfigError("signal", "must be finite")
         keep_from = t - self.params.t_thr - self.params.history - _TIME_TOL
-        if self._hi > self._lo and self._tt[self._lo] < keep_from:
-            n_drop = int(np.searchsorted(self._tt[self._lo : self._hi], keep_from, side="left"))
-            self._dropped_t = float(self._tt[self._lo + n_drop - 1])
-            self._lo += n_drop
+        lo, hi = self._lo, self._hi
+        if hi > lo and self._tt[lo] < keep_from:
+            # at a steady period one record leaves per record stored: two scalar tests
+            if hi > lo + 1 and self._tt[lo + 1] >= keep_from:
+                n_drop = 1
+            else:
+                n_drop = int(np.searchsorted(self._tt[lo:hi], keep_from, side="left"))
+            self._dropped_t = float(self._tt[lo + n_drop - 1])
+            self._lo = lo + n_drop
         if self._hi == len(self._tt):
             n = self._hi - self._lo
             cap = max(len(self._tt), 2 * (n + 1))
