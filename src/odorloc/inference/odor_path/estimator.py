@@ -12,7 +12,8 @@ sub-dynamic window ``DW(t_r, t_c)`` keeps the cells with ``S >= eta`` -- an axis
 ``sum |DW|`` rather than the map size ``M``; :meth:`OdorPathEstimator.path_map_full` evaluates the
 same maths on every cell as a reference. The per-window loop is compiled with numba when the
 ``fast`` extra is installed (``backend="auto"``); otherwise all windows are evaluated in one
-batched NumPy pass. Both give the same map (tested).
+batched NumPy pass. Both give the same map (tested). Dense maps are drawn into an array the
+estimator reuses (:class:`DenseCanvas`) and are read-only.
 
 Readings of the paper's flattened or ambiguous formulas (each one configurable):
 
@@ -804,7 +805,8 @@ class OdorPathEstimator:
     def path_map(self, t_c: float | None = None, require_detection: bool = False) -> FloatArray:
         """The odor-path probability map ``pi`` at ``t_c``, ``(nx, ny)`` (eq. 17).
 
-        See :meth:`path_patch` for the parameters.
+        See :meth:`path_patch` for the parameters. The array is read-only: its memory serves a
+        later map once nothing refers to it any more (:meth:`PathPatch.to_dense`).
         """
         return self.path_patch(t_c, require_detection).to_dense()
 

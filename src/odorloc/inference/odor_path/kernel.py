@@ -1,10 +1,14 @@
-"""The per-window loop of the dynamic-window odor-path map (odor-path paper, eqs. 12-17).
+"""The compiled loops of the dynamic-window odor-path map (odor-path paper, eqs. 10-17).
 
 :func:`dw_kernel` is the loop form of the estimator's batched NumPy pass plus the maximum over
-windows; it is compiled with numba when the ``fast`` extra is installed (:data:`HAVE_NUMBA`).
-The NumPy batch of :class:`~odorloc.inference.odor_path.estimator.OdorPathEstimator` is the
-reference; both start from the same NumPy axis terms and give the same patch to the bit, so the
-same seed gives the same D-S episode with or without numba.
+windows; :func:`window_kernel` and :func:`axis_kernel` compute the sub-windows and the axis terms
+as the NumPy code does. The estimator's map runs them as three calls on arrays it allocates once
+(:func:`window_pass`, :func:`axis_pass`, :func:`dw_pass`), with NumPy's logarithm and one NumPy
+exponential between them; :func:`paint` writes a patch into a reused dense map. They are compiled
+with numba when it is installed (:data:`HAVE_NUMBA`). The NumPy batch of
+:class:`~odorloc.inference.odor_path.estimator.OdorPathEstimator` is the reference; both paths
+use NumPy's exponentials and logarithms and give the same patch to the bit, so the same seed
+gives the same D-S episode with or without numba.
 """
 
 from __future__ import annotations
