@@ -490,6 +490,23 @@ def test_reused_dense_map_never_changes_a_map_already_returned(monkeypatch, comp
     assert est.path_map() is gone()
 
 
+def test_copied_estimator_draws_its_own_dense_maps():
+    import copy
+    import pickle
+
+    rng = np.random.default_rng(24)
+    est = OdorPathEstimator(OdorPathParams(cell_size=0.1), (0, 0), (10, 10))
+    feed(est, noisy_winds(rng))
+    held = est.path_map()
+    twin = copy.deepcopy(est)
+    thawed = pickle.loads(pickle.dumps(est))
+    for other in (twin, thawed):
+        np.testing.assert_array_equal(other.path_map(), held)
+        other.update(10.5, (2.0, 2.0), (0.5, 0.5), 1.0)
+        assert not np.array_equal(other.path_map(), held)
+    np.testing.assert_array_equal(est.path_map(), held)  # the original is unchanged
+
+
 def test_paint_kernel_as_python_writes_the_patch_and_clears_only_the_old_box():
     """The canvas kernel run as plain Python (what numba compiles)."""
     rng = np.random.default_rng(22)

@@ -264,6 +264,13 @@ class DenseCanvas:
         self._last = np.zeros(4, np.intp)  # box of the patch the map holds
         self._free = 0  # reference count of a map nothing outside refers to
 
+    def __getstate__(self) -> dict[str, tuple[int, int]]:
+        # a copy or a pickle starts its own map: the array is memory handed out, not state
+        return {"shape": self.shape}
+
+    def __setstate__(self, state: dict[str, tuple[int, int]]) -> None:
+        self.__init__(state["shape"])  # type: ignore[misc]
+
     def draw(self, patch: PathPatch) -> FloatArray:
         """``patch`` as a full read-only map (see the class notes)."""
         m = self._map
