@@ -376,6 +376,7 @@ class OdorPathEstimator:
         self._flags = np.array(
             [p.advection == "interval", p.snap_to_cell, p.variance == "fixed"], np.intp
         )
+        self._grid_f = self._fpar[1:4]  # x0, y0, a
         self._grid_n = np.array(g.shape, np.intp)
         self._ws: _Workspace | None = None
         self.reset()
@@ -718,7 +719,7 @@ class OdorPathEstimator:
         k = ws.k[:n_r]
         np.log(ws.k_arg[:n_r], out=k)
         n = axis_pass_fast(
-            ws.center, ws.var, ws.k, n_r, self._fpar[1:4], self._grid_n, ws.boxes, ws.coef,
+            ws.center, ws.var, ws.k, n_r, self._grid_f, self._grid_n, ws.boxes, ws.coef,
             ws.q, ws.arg, ws.sizes,
         )  # fmt: skip
         # one contiguous run for both axes: NumPy's exponential, as on the NumPy path
