@@ -19,7 +19,15 @@ from odorloc.inference.odor_path import (
     paper_k,
 )
 from odorloc.inference.odor_path.estimator import PathPatch
-from odorloc.inference.odor_path.kernel import dw_kernel, paint, window_kernel
+from odorloc.inference.odor_path.kernel import (
+    axis_pass,
+    dw_kernel,
+    dw_pass,
+    paint,
+    window_fill,
+    window_kernel,
+    window_pass,
+)
 
 
 def feed(est: OdorPathEstimator, winds: np.ndarray, position=(8.0, 5.0), dt=0.5, signal=1.0):
@@ -211,6 +219,45 @@ def test_python_window_kernel_matches_numpy():
     np.testing.assert_array_equal(var, ref.var)
     np.testing.assert_array_equal(np.log(k_arg), ref.k)
     np.testing.assert_array_equal(cell, ref.ref_cell)
+
+
+def test_python_passes_give_the_numpy_patch():
+    """The three passes of the compiled map run as plain Python (what numba compiles) on
+    arrays of their own, NumPy's log and exp between them: the NumPy batch's patch; and the
+    window pass's core run as plain Python gives the same sub-windows."""
+    rng = np.random.default_rng(15)
+    est = OdorPathEstimator(OdorPathParams(cell_size=0.2, backend="numpy"), (0, 0), (10, 8))
+    feed(est, noisy_winds(rng, n=30, sigma=0.1), position=(6.0, 4.0))
+    ref = est.path_patch()
+    p, g = est.params, est.grid
+    times = est.times
+    n = len(times)
+    winds = noisy_winds(np.random.default_rng(15), n=30, sigma=0.1)[-n:]
+    pos = np.tile([6.0, 4.0], (n, 1))
+    limit = times[-1] - p.t_thr - 1e-9
+    fixed = (*g.lower, g.cell_size, *p.fixed_variance, p.min_variance)
+    fpar = np.array([p.dt, *fixed, p.noise_time_scale, est.eta])
+    flags = np.array([1, 1, 0], np.intp)  # interval advection, snapped, online variance
+    win = [np.zeros(n), np.zeros((n, 2)), np.zeros((n, 2)), np.zeros(n), np.zeros(2, np.intp)]
+    n_r = window_pass(times, winds, pos, limit, n - 1, 0, fpar, flags, *win)
+    assert n_r == 20
+    _, center, var, k_arg, cell = win
+    k = np.log(k_arg[:n_r])
+    boxes, coef, sizes = np.zeros((n_r, 4), np.intp), np.zeros((n_r, 2)), np.zeros(2, np.intp)
+    qbuf, argbuf = np.zeros(n_r * sum(g.shape)), np.zeros(n_r * sum(g.shape))
+    shape = np.array(g.shape, np.intp)
+    m = axis_pass(center, var, k, n_r, fpar[1:4], shape, boxes, coef, qbuf, argbuf, sizes)
+    np.exp(argbuf[:m], out=argbuf[:m])
+    patch, ix0, iy0 = dw_pass(boxes, coef, k, n_r, qbuf, argbuf, sizes, True)
+    assert (ix0, iy0) == (ref.ix0, ref.iy0)
+    np.testing.assert_array_equal(patch, ref.values)
+    np.testing.assert_array_equal(cell, ref.ref_cell)
+    again = [np.zeros(n), np.zeros((n, 2)), np.zeros((n, 2)), np.zeros(n), np.zeros(2, np.intp)]
+    settings = (p.dt, True, True, *g.lower, g.cell_size, False, np.zeros(2), p.min_variance)
+    assert window_fill(times, winds, pos, limit, n - 1, 0, *settings, 1.0, est.eta, *again) == n_r
+    for a, b in zip(again[:4], win[:4], strict=True):
+        np.testing.assert_array_equal(a[:n_r], b[:n_r])
+    np.testing.assert_array_equal(again[4], cell)
 
 
 def test_cost_follows_window_size_not_map_size():
