@@ -365,13 +365,16 @@ def test_muc_osl_speed_colpf_loop_is_the_whole_update(count: float) -> None:
 
 # ---------------------------------------------------------------------- odor_path_speed
 def _fake_odor_path_rows(digest_of: dict[str, str]):
-    def fake(noise: float, instances: int, backend: str, seed: int) -> dict:
+    def fake(
+        noise: float, instances: int, backend: str, seed: int, compiled_full: bool = False
+    ) -> dict:
         name = "numba" if backend == "auto" else "numpy"
         return {
             "fast_ms": 1.0,
             "fast_dense_ms": 1.0,
             "full_ms": 2.0,
             "cell_ms": 3.0,
+            "nb_ms": 1.5 if compiled_full else float("nan"),
             "cells": 10.0,
             "max_err": 0.0,
             "digests": [digest_of[name]] * instances,

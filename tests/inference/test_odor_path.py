@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import weakref
 
 import numpy as np
 import pydantic
@@ -17,7 +18,16 @@ from odorloc.inference.odor_path import (
     from_paper_k,
     paper_k,
 )
-from odorloc.inference.odor_path.kernel import dw_kernel, window_kernel
+from odorloc.inference.odor_path.estimator import PathPatch
+from odorloc.inference.odor_path.kernel import (
+    axis_pass,
+    dw_kernel,
+    dw_pass,
+    paint,
+    window_fill,
+    window_kernel,
+    window_pass,
+)
 
 
 def feed(est: OdorPathEstimator, winds: np.ndarray, position=(8.0, 5.0), dt=0.5, signal=1.0):
@@ -209,6 +219,45 @@ def test_python_window_kernel_matches_numpy():
     np.testing.assert_array_equal(var, ref.var)
     np.testing.assert_array_equal(np.log(k_arg), ref.k)
     np.testing.assert_array_equal(cell, ref.ref_cell)
+
+
+def test_python_passes_give_the_numpy_patch():
+    """The three passes of the compiled map run as plain Python (what numba compiles) on
+    arrays of their own, NumPy's log and exp between them: the NumPy batch's patch; and the
+    window pass's core run as plain Python gives the same sub-windows."""
+    rng = np.random.default_rng(15)
+    est = OdorPathEstimator(OdorPathParams(cell_size=0.2, backend="numpy"), (0, 0), (10, 8))
+    feed(est, noisy_winds(rng, n=30, sigma=0.1), position=(6.0, 4.0))
+    ref = est.path_patch()
+    p, g = est.params, est.grid
+    times = est.times
+    n = len(times)
+    winds = noisy_winds(np.random.default_rng(15), n=30, sigma=0.1)[-n:]
+    pos = np.tile([6.0, 4.0], (n, 1))
+    limit = times[-1] - p.t_thr - 1e-9
+    fixed = (*g.lower, g.cell_size, *p.fixed_variance, p.min_variance)
+    fpar = np.array([p.dt, *fixed, p.noise_time_scale, est.eta])
+    flags = np.array([1, 1, 0], np.intp)  # interval advection, snapped, online variance
+    win = [np.zeros(n), np.zeros((n, 2)), np.zeros((n, 2)), np.zeros(n), np.zeros(2, np.intp)]
+    n_r = window_pass(times, winds, pos, limit, n - 1, 0, fpar, flags, *win)
+    assert n_r == 20
+    _, center, var, k_arg, cell = win
+    k = np.log(k_arg[:n_r])
+    boxes, coef, sizes = np.zeros((n_r, 4), np.intp), np.zeros((n_r, 2)), np.zeros(2, np.intp)
+    qbuf, argbuf = np.zeros(n_r * sum(g.shape)), np.zeros(n_r * sum(g.shape))
+    shape = np.array(g.shape, np.intp)
+    m = axis_pass(center, var, k, n_r, fpar[1:4], shape, boxes, coef, qbuf, argbuf, sizes)
+    np.exp(argbuf[:m], out=argbuf[:m])
+    patch, ix0, iy0 = dw_pass(boxes, coef, k, n_r, qbuf, argbuf, sizes, True)
+    assert (ix0, iy0) == (ref.ix0, ref.iy0)
+    np.testing.assert_array_equal(patch, ref.values)
+    np.testing.assert_array_equal(cell, ref.ref_cell)
+    again = [np.zeros(n), np.zeros((n, 2)), np.zeros((n, 2)), np.zeros(n), np.zeros(2, np.intp)]
+    settings = (p.dt, True, True, *g.lower, g.cell_size, False, np.zeros(2), p.min_variance)
+    assert window_fill(times, winds, pos, limit, n - 1, 0, *settings, 1.0, est.eta, *again) == n_r
+    for a, b in zip(again[:4], win[:4], strict=True):
+        np.testing.assert_array_equal(a[:n_r], b[:n_r])
+    np.testing.assert_array_equal(again[4], cell)
 
 
 def test_cost_follows_window_size_not_map_size():
@@ -434,3 +483,107 @@ def test_earlier_map_needing_trimmed_records_is_refused_not_truncated():
     early = OdorPathEstimator(OdorPathParams(), (0, 0), (10, 10))
     feed(early, winds[:8])
     assert len(early.windows(t_c=5 * 0.5)) == 5
+
+
+# ------------------------------------------------------------------------------ dense maps
+def _fresh_dense(patch: PathPatch) -> np.ndarray:
+    """The patch made dense in a new array (no canvas)."""
+    return PathPatch(patch.ix0, patch.iy0, patch.values, patch.grid, patch.ref_cell).to_dense()
+
+
+@pytest.mark.parametrize("compiled_paint", [True, False])
+def test_reused_dense_map_never_changes_a_map_already_returned(monkeypatch, compiled_paint):
+    """The estimator writes its dense maps into one array while nothing else refers to it: a
+    map somebody keeps (or keeps a view of) never changes, and every map equals the patch
+    made dense in a new array, whatever the previous map covered (the robot jumps across
+    the grid, and a reading without a detection gives an empty map in between)."""
+    import odorloc.inference.odor_path.estimator as op
+
+    if not compiled_paint:
+        monkeypatch.setattr(op, "HAVE_NUMBA", False)
+    rng = np.random.default_rng(21)
+    est = OdorPathEstimator(OdorPathParams(cell_size=0.1, backend="auto"), (0, 0), (10, 10))
+    spots = [(8.0, 5.0), (8.5, 5.5), (2.0, 8.5), (0.3, 0.4), (9.8, 9.7), (5.0, 5.0)]
+    kept, copies = [], []
+    view = None
+    for i in range(60):
+        spot = spots[(i // 7) % len(spots)]
+        est.update(0.5 * i, spot, np.array([0.8, 0.1]) + rng.normal(0, 0.08, 2), i % 5 != 4)
+        if i < 3:
+            continue
+        patch = est.path_patch(require_detection=True)
+        pi = patch.to_dense()
+        np.testing.assert_array_equal(pi, _fresh_dense(patch))
+        assert not pi.flags.writeable
+        if i % 11 == 0:  # kept whole
+            kept.append(pi)
+            copies.append(pi.copy())
+        elif i == 20:  # only a view of it kept
+            view, view_copy = pi[::2, 3:].T, pi[::2, 3:].T.copy()
+        del pi
+    assert any(c.any() for c in copies) and view_copy.any()
+    for m, c in zip(kept, copies, strict=True):
+        np.testing.assert_array_equal(m, c)
+    np.testing.assert_array_equal(view, view_copy)
+    # a returned map cannot be written into (its memory may serve a later map)
+    with pytest.raises(ValueError, match="read-only"):
+        est.path_map()[0, 0] = 1.0
+    # the memory is reused once the map is dropped, and only then
+    first = est.path_map()
+    second = est.path_map()
+    assert second is not first
+    gone = weakref.ref(second)
+    del second
+    assert est.path_map() is gone()
+
+
+def test_copied_estimator_draws_its_own_dense_maps():
+    import copy
+    import pickle
+
+    rng = np.random.default_rng(24)
+    est = OdorPathEstimator(OdorPathParams(cell_size=0.1), (0, 0), (10, 10))
+    feed(est, noisy_winds(rng))
+    held = est.path_map()
+    twin = copy.deepcopy(est)
+    thawed = pickle.loads(pickle.dumps(est))
+    for other in (twin, thawed):
+        np.testing.assert_array_equal(other.path_map(), held)
+        other.update(10.5, (2.0, 2.0), (0.5, 0.5), 1.0)
+        assert not np.array_equal(other.path_map(), held)
+    np.testing.assert_array_equal(est.path_map(), held)  # the original is unchanged
+
+
+def test_paint_kernel_as_python_writes_the_patch_and_clears_only_the_old_box():
+    """The canvas kernel run as plain Python (what numba compiles)."""
+    rng = np.random.default_rng(22)
+    canvas = np.zeros((9, 7))
+    last = np.zeros(4, np.intp)
+    for _ in range(40):
+        bx, by = int(rng.integers(0, 5)), int(rng.integers(0, 5))
+        ix0, iy0 = int(rng.integers(0, 10 - bx)), int(rng.integers(0, 8 - by))
+        values = rng.uniform(0.1, 1.0, (bx, by))
+        paint(canvas, last, values, ix0, iy0)
+        expect = np.zeros((9, 7))
+        expect[ix0 : ix0 + bx, iy0 : iy0 + by] = values
+        np.testing.assert_array_equal(canvas, expect)
+        np.testing.assert_array_equal(last, [ix0, ix0 + bx, iy0, iy0 + by])
+
+
+@pytest.mark.skipif(not HAVE_NUMBA, reason="numba not installed")
+def test_compiled_map_with_more_windows_than_the_first_buffer_holds():
+    """Records every 0.05 s: 200 sub-windows, more than the first record buffer (64) and so
+    the compiled map's first arrays hold; the maps stay the NumPy batch's."""
+    rng = np.random.default_rng(23)
+    kw = {"cell_size": 0.2, "dt": 0.05}
+    a = OdorPathEstimator(OdorPathParams(backend="numpy", **kw), (0, 0), (10, 10))
+    b = OdorPathEstimator(OdorPathParams(backend="numba", **kw), (0, 0), (10, 10))
+    for i in range(230):
+        u = np.array([0.7, -0.2]) + rng.normal(0, 0.1, 2)
+        for e in (a, b):
+            e.update(0.05 * i, (7.0, 6.0), u, 1.0)
+        if i in (40, 63, 64, 65, 120, 229):
+            pa, pb = a.path_patch(), b.path_patch()
+            assert (pa.ix0, pa.iy0) == (pb.ix0, pb.iy0)
+            np.testing.assert_array_equal(pa.values, pb.values)
+    assert len(b.windows()) == 200

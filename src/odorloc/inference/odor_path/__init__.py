@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from odorloc.geometry.grid import CellGrid
 from odorloc.inference.odor_path.estimator import (
+    DenseCanvas,
     OdorPathEstimator,
     OdorPathParams,
     PathPatch,
@@ -21,6 +22,7 @@ from odorloc.inference.odor_path.kernel import HAVE_NUMBA
 __all__ = [
     "HAVE_NUMBA",
     "CellGrid",
+    "DenseCanvas",
     "OdorPathEstimator",
     "OdorPathParams",
     "PathPatch",

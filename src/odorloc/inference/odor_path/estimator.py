@@ -12,7 +12,8 @@ sub-dynamic window ``DW(t_r, t_c)`` keeps the cells with ``S >= eta`` -- an axis
 ``sum |DW|`` rather than the map size ``M``; :meth:`OdorPathEstimator.path_map_full` evaluates the
 same maths on every cell as a reference. The per-window loop is compiled with numba when the
 ``fast`` extra is installed (``backend="auto"``); otherwise all windows are evaluated in one
-batched NumPy pass. Both give the same map (tested).
+batched NumPy pass. Both give the same map (tested). Dense maps are drawn into an array the
+estimator reuses (:class:`DenseCanvas`) and are read-only.
 
 Readings of the paper's flattened or ambiguous formulas (each one configurable):
 
@@ -45,8 +46,9 @@ Readings of the paper's flattened or ambiguous formulas (each one configurable):
 from __future__ import annotations
 
 import math
+import sys
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Literal
 
 import numpy as np
@@ -60,8 +62,12 @@ from odorloc.geometry.grid import CellGrid
 from odorloc.inference.odor_path.kernel import (
     HAVE_NUMBA,
     axis_kernel_fast,
+    axis_pass_fast,
     dw_kernel_fast,
+    dw_pass_fast,
+    paint_fast,
     window_kernel_fast,
+    window_pass_fast,
 )
 
 FloatArray = NDArray[np.float64]
@@ -199,6 +205,9 @@ class PathPatch:
     grid : CellGrid
     ref_cell : (2,) int ndarray
         Cell of the robot the map was computed for (used to shift it, eq. 7 of the D-S paper).
+    canvas : DenseCanvas, optional
+        Where :meth:`to_dense` writes the full map (the estimator's own, reused between maps);
+        ``None``: a fresh array each time.
     """
 
     ix0: int
@@ -206,6 +215,7 @@ class PathPatch:
     values: FloatArray
     grid: CellGrid
     ref_cell: IntArray
+    canvas: DenseCanvas | None = field(default=None, repr=False)
 
     @property
     def slices(self) -> tuple[slice, slice]:
@@ -219,11 +229,69 @@ class PathPatch:
         return self.values.size == 0 or not np.any(self.values > 0)
 
     def to_dense(self) -> FloatArray:
-        """The full ``(nx, ny)`` map."""
+        """The full ``(nx, ny)`` map.
+
+        A fresh writable array, or, for a patch with a :attr:`canvas` (the estimator's), a
+        read-only one whose memory the canvas reuses once nothing refers to it any more: copy
+        it to modify it.
+        """
+        if self.canvas is not None:
+            return self.canvas.draw(self)
         out = np.zeros(self.grid.shape)
         if self.values.size:
             out[self.slices] = self.values
         return out
+
+
+class DenseCanvas:
+    """A full ``(nx, ny)`` map reused for the dense form of successive patches.
+
+    Making a 40 000-cell map dense costs more than computing the patch when the map is a fresh
+    array each time (the whole array is zeroed); a canvas instead clears only the previous
+    patch's box and writes the new one. It hands its array out read-only and reuses it only
+    when nothing else refers to it (CPython's reference count: any view of it counts), so a map
+    once returned never changes; otherwise it starts a new array.
+
+    Parameters
+    ----------
+    shape : (2,) tuple of int
+        ``(nx, ny)``.
+    """
+
+    def __init__(self, shape: tuple[int, int]) -> None:
+        self.shape = shape
+        self._map: FloatArray | None = None
+        self._last = np.zeros(4, np.intp)  # box of the patch the map holds
+        self._free = 0  # reference count of a map nothing outside refers to
+
+    def __getstate__(self) -> dict[str, tuple[int, int]]:
+        # a copy or a pickle starts its own map: the array is memory handed out, not state
+        return {"shape": self.shape}
+
+    def __setstate__(self, state: dict[str, tuple[int, int]]) -> None:
+        self.__init__(state["shape"])  # type: ignore[misc]
+
+    def draw(self, patch: PathPatch) -> FloatArray:
+        """``patch`` as a full read-only map (see the class notes)."""
+        m = self._map
+        if m is None or sys.getrefcount(m) > self._free:
+            m = np.zeros(self.shape)
+            self._map = m
+            self._last[:] = 0
+            # the same expression as the test above, so the count is the same on any CPython
+            self._free = sys.getrefcount(m)
+        else:
+            m.flags.writeable = True
+        if HAVE_NUMBA:
+            paint_fast(m, self._last, patch.values, patch.ix0, patch.iy0)
+        else:
+            a, b, c, d = self._last.tolist()
+            m[a:b, c:d] = 0.0
+            m[patch.slices] = patch.values
+            bx, by = patch.values.shape
+            self._last[:] = (patch.ix0, patch.ix0 + bx, patch.iy0, patch.iy0 + by)
+        m.flags.writeable = False
+        return m
 
 
 # -------------------------------------------------------------------------------- estimator
@@ -255,6 +323,26 @@ class AxisTerms:
     lim: FloatArray
 
 
+class _Workspace:
+    """Preallocated arrays of the compiled map (:meth:`OdorPathEstimator._patch_compiled`)
+    for up to ``capacity`` sub-windows on an ``(nx, ny)`` grid."""
+
+    def __init__(self, capacity: int, shape: tuple[int, int]) -> None:
+        self.capacity = capacity
+        self.t_r = np.empty(capacity)
+        self.center = np.empty((capacity, 2))
+        self.var = np.empty((capacity, 2))
+        self.k_arg = np.empty(capacity)
+        self.k = np.empty(capacity)
+        self.ref = np.zeros(2, np.intp)
+        self.boxes = np.zeros((capacity, 4), np.intp)
+        self.coef = np.empty((capacity, 2))
+        # the axis terms of every window padded to the largest box: at most the grid's sides
+        self.q = np.empty(capacity * (shape[0] + shape[1]))
+        self.arg = np.empty(capacity * (shape[0] + shape[1]))
+        self.sizes = np.zeros(2, np.intp)
+
+
 class OdorPathEstimator:
     """Odor-path probability maps from the robot's wind record (odor-path paper, section IV).
 
@@ -280,6 +368,17 @@ class OdorPathEstimator:
             raise ConfigError("lower", "the odor-path map needs 2D bounds (x, y)")
         self.grid = CellGrid.from_extent(lower, upper, params.cell_size)
         self.eta = params.eta if params.eta is not None else 1.0 / self.grid.n_cells
+        self._canvas = DenseCanvas(self.grid.shape)
+        g, p = self.grid, params
+        # the compiled map's fixed settings, packed once (window_pass, axis_pass)
+        fixed = (g.lower[0], g.lower[1], g.cell_size, *p.fixed_variance, p.min_variance)
+        self._fpar = np.array([p.dt, *fixed, p.noise_time_scale, self.eta], float)
+        self._flags = np.array(
+            [p.advection == "interval", p.snap_to_cell, p.variance == "fixed"], np.intp
+        )
+        self._grid_f = self._fpar[1:4]  # x0, y0, a
+        self._grid_n = np.array(g.shape, np.intp)
+        self._ws: _Workspace | None = None
         self.reset()
 
     # ------------------------------------------------------------------------ records
@@ -327,10 +426,15 @@ class OdorPathEstimator:
         if not math.isfinite(s):
             raise ConfigError("signal", "must be finite")
         keep_from = t - self.params.t_thr - self.params.history - _TIME_TOL
-        if self._hi > self._lo and self._tt[self._lo] < keep_from:
-            n_drop = int(np.searchsorted(self._tt[self._lo : self._hi], keep_from, side="left"))
-            self._dropped_t = float(self._tt[self._lo + n_drop - 1])
-            self._lo += n_drop
+        lo, hi = self._lo, self._hi
+        if hi > lo and self._tt[lo] < keep_from:
+            # at a steady period one record leaves per record stored: two scalar tests
+            if hi > lo + 1 and self._tt[lo + 1] >= keep_from:
+                n_drop = 1
+            else:
+                n_drop = int(np.searchsorted(self._tt[lo:hi], keep_from, side="left"))
+            self._dropped_t = float(self._tt[lo + n_drop - 1])
+            self._lo = lo + n_drop
         if self._hi == len(self._tt):
             n = self._hi - self._lo
             cap = max(len(self._tt), 2 * (n + 1))
@@ -587,6 +691,45 @@ class OdorPathEstimator:
             raise ConfigError("backend", "numba is not installed (install the 'fast' extra)")
         return b == "numba" or (b == "auto" and HAVE_NUMBA)
 
+    def _workspace(self) -> _Workspace:
+        """Arrays the compiled map writes into, sized for the record buffer."""
+        ws = self._ws
+        if ws is None or ws.capacity < len(self._tt):
+            ws = self._ws = _Workspace(len(self._tt), self.grid.shape)
+        return ws
+
+    def _patch_compiled(self, c: int, require_detection: bool) -> PathPatch:
+        """:meth:`path_patch` of record ``c`` by the compiled passes (point kernel).
+
+        The same maths as :meth:`window_arrays`, :meth:`axis_terms` and :meth:`_compiled`, in
+        three compiled calls on preallocated arrays with NumPy's logarithm and one NumPy
+        exponential between them, so the patch is the NumPy batch's to the bit.
+        """
+        limit = self._tt[c] - self.params.t_thr - _TIME_TOL
+        if self._dropped_t >= limit:
+            self._first_window(c)  # its error: the records needed are gone
+        ws = self._workspace()
+        n_r = window_pass_fast(
+            self._tt, self._ww, self._pp, limit, c, self._lo, self._fpar, self._flags,
+            ws.t_r, ws.center, ws.var, ws.k_arg, ws.ref,
+        )  # fmt: skip
+        ref = ws.ref.copy()
+        if require_detection and not self._ss[c] > 0.0:
+            return PathPatch(0, 0, np.zeros((0, 0)), self.grid, ref, self._canvas)
+        k = ws.k[:n_r]
+        np.log(ws.k_arg[:n_r], out=k)
+        n = axis_pass_fast(
+            ws.center, ws.var, ws.k, n_r, self._grid_f, self._grid_n, ws.boxes, ws.coef,
+            ws.q, ws.arg, ws.sizes,
+        )  # fmt: skip
+        # one contiguous run for both axes: NumPy's exponential, as on the NumPy path
+        e = ws.arg[:n]
+        np.exp(e, out=e)
+        patch, ix0, iy0 = dw_pass_fast(
+            ws.boxes, ws.coef, ws.k, n_r, ws.q, ws.arg, ws.sizes, self.params.normalise
+        )
+        return PathPatch(ix0, iy0, patch, self.grid, ref, self._canvas)
+
     def _compiled(self, w: WindowArrays) -> tuple[IntArray, IntArray, FloatArray, int, int]:
         t = self.axis_terms(w)
         n_cells, patch, ix0, iy0 = dw_kernel_fast(
@@ -643,17 +786,19 @@ class OdorPathEstimator:
         PathPatch
             Cost is proportional to the number of cells in the windows, not to ``M``.
         """
+        if self.params.kernel == "point" and self._use_numba():
+            return self._patch_compiled(self._record_index(t_c), require_detection)
         w = self.window_arrays(t_c)
         if require_detection and not self._ss[self._record_index(t_c)] > 0.0:
-            return PathPatch(0, 0, np.zeros((0, 0)), self.grid, w.ref_cell)
+            return PathPatch(0, 0, np.zeros((0, 0)), self.grid, w.ref_cell, self._canvas)
         if self._use_numba():
             # no window with a cell: the kernel's patch is (0, 0) at (0, 0), the empty patch
             _, _, patch, ix0, iy0 = self._compiled(w)
-            return PathPatch(int(ix0), int(iy0), patch, self.grid, w.ref_cell)
+            return PathPatch(int(ix0), int(iy0), patch, self.grid, w.ref_cell, self._canvas)
         boxes, vals, n_cells = self._batch(w)
         used = np.flatnonzero(n_cells > 0)
         if used.size == 0:
-            return PathPatch(0, 0, np.zeros((0, 0)), self.grid, w.ref_cell)
+            return PathPatch(0, 0, np.zeros((0, 0)), self.grid, w.ref_cell, self._canvas)
         b = boxes[used]
         ix0, iy0 = int(b[:, 0].min()), int(b[:, 2].min())
         ix1, iy1 = int(b[:, 1].max()), int(b[:, 3].max())
@@ -663,12 +808,13 @@ class OdorPathEstimator:
             bx0, bx1, by0, by1 = box_list[r]
             view = out[bx0 - ix0 : bx1 - ix0, by0 - iy0 : by1 - iy0]
             np.maximum(view, vals[r, : bx1 - bx0, : by1 - by0], out=view)  # eq. (17)
-        return PathPatch(ix0, iy0, out, self.grid, w.ref_cell)
+        return PathPatch(ix0, iy0, out, self.grid, w.ref_cell, self._canvas)
 
     def path_map(self, t_c: float | None = None, require_detection: bool = False) -> FloatArray:
         """The odor-path probability map ``pi`` at ``t_c``, ``(nx, ny)`` (eq. 17).
 
-        See :meth:`path_patch` for the parameters.
+        See :meth:`path_patch` for the parameters. The array is read-only: its memory serves a
+        later map once nothing refers to it any more (:meth:`PathPatch.to_dense`).
         """
         return self.path_patch(t_c, require_detection).to_dense()
 
@@ -690,6 +836,10 @@ class OdorPathEstimator:
             return out
         a = self.grid.cell_size
         xc, yc = self.grid.x_centers(), self.grid.y_centers()
+        # work arrays for every window (no full-size temporaries per window)
+        q = np.empty(self.grid.shape)
+        s = np.empty(self.grid.shape)
+        outside = np.empty(self.grid.shape, bool)
         for r in range(len(w.t_r)):
             var, k = w.var[r], w.k[r]
             if k < 0.0:
@@ -697,21 +847,22 @@ class OdorPathEstimator:
             dx = xc - w.center[r, 0]
             dy = yc - w.center[r, 1]
             qx, qy = dx * dx / var[0], dy * dy / var[1]
-            q = qx[:, None] + qy[None, :]
+            np.add.outer(qx, qy, out=q)
             if self.params.kernel == "point":
                 # eq. 11; the Gaussian is separable, so nx + ny exponentials instead of nx ny
-                c = a * a / (2.0 * np.pi * np.sqrt(var[0] * var[1]))
-                s = (c * np.exp(-0.5 * qx))[:, None] * np.exp(-0.5 * qy)[None, :]
+                cf = a * a / (2.0 * np.pi * np.sqrt(var[0] * var[1]))
+                np.multiply.outer(cf * np.exp(-0.5 * qx), np.exp(-0.5 * qy), out=s)
             else:
                 sx, sy = np.sqrt(var)
                 fx = ndtr((dx + 0.5 * a) / sx) - ndtr((dx - 0.5 * a) / sx)
                 fy = ndtr((dy + 0.5 * a) / sy) - ndtr((dy - 0.5 * a) / sy)
-                s = fx[:, None] * fy[None, :]
-            s = np.where(q <= 2.0 * k, s, 0.0)  # eq. (12)
+                np.multiply.outer(fx, fy, out=s)
+            np.greater(q, 2.0 * k, out=outside)
+            np.putmask(s, outside, 0.0)  # eq. (12)
             if self.params.normalise:
                 total = s.sum()
                 if not total > 0:
                     continue
-                s = s / total
+                s /= total
             np.maximum(out, s, out=out)
         return out
