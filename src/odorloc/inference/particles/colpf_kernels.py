@@ -53,6 +53,7 @@ __all__ = [
     "readings_log_likelihood",
     "resample_systematic",
     "reversible_moves",
+    "reversible_moves_of_set",
     "unit_rows",
     "weighted_fit",
 ]
@@ -250,6 +251,106 @@ def reversible_moves(
                     out[i, a] = prop[a]
                 ll[i] = new
                 col_acc += 1
+    return out, ll, env_acc, col_acc, evaluated
+
+
+@jit
+def reversible_moves_of_set(
+    x: np.ndarray,
+    sel: np.ndarray,
+    ll_known: np.ndarray,
+    known: bool,
+    s: np.ndarray,
+    directions: np.ndarray,
+    counts: np.ndarray,
+    dts: np.ndarray,
+    exponents: np.ndarray,
+    default: np.ndarray,
+    aq: float,
+    adv: float,
+    inv_lam: float,
+    a2: float,
+    lo: np.ndarray,
+    hi: np.ndarray,
+    env: bool,
+    upwind: np.ndarray,
+    step: float,
+    env_draws: np.ndarray,
+    col: bool,
+    centre: np.ndarray,
+    chol: np.ndarray,
+    normals: np.ndarray,
+    col_uniforms: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, int, int, int]:
+    """:func:`reversible_moves` of the rows ``sel`` of a whole particle set, in one pass.
+
+    Parameters
+    ----------
+    x : (N, 3) ndarray, metres
+        The particles (not modified).
+    sel : (S,) int ndarray
+        The selected rows (distinct).
+    ll_known : (N,) ndarray
+        The history's log-likelihood at ``x`` if ``known``; otherwise ignored and computed here
+        (:func:`readings_log_likelihood`, every particle's: kept for the next iterations).
+    known : bool
+    s, directions, counts, dts, exponents, default, aq, adv, inv_lam, a2, lo, hi, env, upwind,
+    step, env_draws, col, centre, chol, normals, col_uniforms
+        As :func:`reversible_moves`.
+
+    Returns
+    -------
+    positions : (N, 3) ndarray, metres
+        ``x`` with the selected rows moved (a new array).
+    log_likelihood : (N,) ndarray
+        The history's log-likelihood at ``positions`` (a new array).
+    env_accepted, col_accepted, evaluated : int
+        As :func:`reversible_moves`.
+    """
+    if known:
+        ll = ll_known.copy()
+    else:
+        ll = readings_log_likelihood(
+            x, s, directions, counts, dts, exponents, default, aq, adv, inv_lam, a2
+        )
+    m = sel.shape[0]
+    d = x.shape[1]
+    xs = np.empty((m, d))
+    ll_sel = np.empty(m)
+    for j in range(m):
+        for a in range(d):
+            xs[j, a] = x[sel[j], a]
+        ll_sel[j] = ll[sel[j]]
+    moved, ll_moved, env_acc, col_acc, evaluated = reversible_moves(
+        xs,
+        ll_sel,
+        s,
+        directions,
+        counts,
+        dts,
+        exponents,
+        default,
+        aq,
+        adv,
+        inv_lam,
+        a2,
+        lo,
+        hi,
+        env,
+        upwind,
+        step,
+        env_draws,
+        col,
+        centre,
+        chol,
+        normals,
+        col_uniforms,
+    )
+    out = x.copy()
+    for j in range(m):
+        for a in range(d):
+            out[sel[j], a] = moved[j, a]
+        ll[sel[j]] = ll_moved[j]
     return out, ll, env_acc, col_acc, evaluated
 
 
