@@ -521,8 +521,11 @@ class VergassolaModel(MeasurementModel):
             raise ConfigError("wind_direction", f"needs non-zero {dim}-vectors")
         return g / norm[:, None]
 
-    def n_classes(self, mean: np.ndarray) -> int:
-        """Count classes needed so that the tail beyond holds < ``tail_mass`` (capped)."""
+    def n_classes(self, mean: np.ndarray | float) -> int:
+        """Count classes needed so that the tail beyond holds < ``tail_mass`` (capped), for
+        expected counts ``mean`` (any shape; a float: their maximum)."""
+        if type(mean) is float:
+            return self._classes_for(mean)
         return self._classes_for(float(np.max(mean)) if np.size(mean) else 0.0)
 
     def _classes_for(self, m: float) -> int:

@@ -401,7 +401,7 @@ class AdaptivePathPlanner(StepPlanner):
             return Plan(None, pos + self.steps, scores, ok, 0, {"length": 0, "l_max": l_max})
         if not (top < math.inf and mu.min() >= 0.0):
             raise ConfigError("expected_counts", "must be finite and >= 0")
-        z = self.model.n_classes(np.array([top]))
+        z = self.model.n_classes(float(top))
         rewards, kept, k, r, length = kernels.adap_pp_choose(
             mu,
             int(z),

@@ -412,12 +412,15 @@ class ColPFEstimator(TeamEstimator):
         self._record_cue(m)
         fits = [read_fit_payload(s, inbox[s]) for s in sorted(inbox)]
         mean_i, cov_i = self.fit
-        if p.weighting == "confidence":
+        if not fits:
+            # nothing received (most iterations): no factors to take
+            betas = _NO_BETAS
+        elif p.weighting == "confidence":
             d = len(mean_i)
             means = np.array([f.mean for f in fits]).reshape(len(fits), d)
             covs = np.array([f.cov for f in fits]).reshape(len(fits), d, d)
             betas = None
-            if self._compiled is not None and fits:
+            if self._compiled is not None:
                 kl, ok = colpf_kernels.kl_divergences(mean_i, cov_i, means, covs, KL_JITTER)
                 # KL >= 0 in exact arithmetic; round-off may leave -1e-12 (eq. 10)
                 betas = np.exp(-np.maximum(kl, 0.0)) if ok else None
@@ -467,7 +470,9 @@ class ColPFEstimator(TeamEstimator):
             self.n_moved, judged = self._pugl(m, fits, betas, rng), 0
         d = pf.positions.shape[1]
         if p.adaptive_count:
-            dist = float(np.linalg.norm(m.position - pf.estimate()))
+            # numpy.linalg.norm of a vector is sqrt(v . v): called directly
+            gap = m.position - pf.estimate()
+            dist = math.sqrt(float(gap.dot(gap)))
             self.target_n = self.counter.next(pf.n, self.cue_iterations, m.k, dist)
         if self._compiled is not None:
             self.fit = colpf_kernels.weighted_fit(pf.positions, pf.weights)
@@ -668,17 +673,18 @@ class ColPFEstimator(TeamEstimator):
         n_s = len(sel)
         x = pf.positions
         d = x.shape[1]
-        up = np.zeros(d)
+        up = _NO_WIND
         # the kernel's arguments of a move not proposed (read, never written)
         env_draws, centre, chol, normals, uniforms = _NO_MOVE
         env_on = False
         if env:
             self.moves["env"][0] += n_s
-            up[:2] = -np.asarray(m.direction, float)[:2]
-            norm = math.hypot(up[0], up[1])
+            # against the wind's horizontal part (env_applies: a measured direction)
+            ux, uy = -float(m.direction[0]), -float(m.direction[1])  # type: ignore[index]
+            norm = math.hypot(ux, uy)
             # no horizontal wind: no env-pu proposal (and no draws), as the NumPy move
             if norm >= 1e-12:
-                up /= norm
+                up = np.array([ux / norm, uy / norm, 0.0])
                 env_on = True
                 env_draws = rng.random((n_s, 3))
         if proposal is not None:
@@ -824,8 +830,12 @@ class StandardPFEstimator(TeamEstimator):
 #: the compiled moves' arguments of a move not proposed (3-D): env-pu draws, the col-pu centre,
 #: Cholesky factor, normals and uniforms
 _NO_MOVE = (np.zeros((0, 3)), np.zeros(3), np.eye(3), np.zeros((0, 3)), np.zeros(0))
-#: the compiled moves' kept log-likelihoods when none are kept (read, never written)
+#: the compiled moves' kept log-likelihoods when none are kept, and their upwind direction
+#: without env-pu (read, never written)
 _NO_LL = np.zeros(0)
+_NO_WIND = np.zeros(3)
+#: the confidence factors of an iteration without messages
+_NO_BETAS = np.zeros(0)
 
 
 def _same(a: np.ndarray, b: np.ndarray) -> bool:
