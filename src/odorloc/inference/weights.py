@@ -53,7 +53,7 @@ def normalise_log_weights(log_w: ArrayLike) -> tuple[FloatArray, FloatArray]:
         m = lw.max()
     if m == math.inf:
         raise ConfigError("log_weights", "a log-weight of +inf (a likelihood gave +inf)")
-    if not np.isfinite(m):
+    if not math.isfinite(m):
         lw = np.full(lw.shape, -math.log(lw.size))
         return lw, np.exp(lw)
     return _normalise_from(lw, m)
