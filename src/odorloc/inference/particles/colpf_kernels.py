@@ -46,7 +46,7 @@ import math
 import numpy as np
 
 from odorloc.core.jit import jit
-from odorloc.models.kernels import history_term, history_work, inside_box
+from odorloc.models.kernels import history_term3, inside_box
 
 __all__ = [
     "kl_divergences",
@@ -122,9 +122,26 @@ def readings_log_likelihood(
     lf = _log_factorials(counts)
     n = x.shape[0]
     out = np.empty(n)
-    work = history_work(s.shape[0])
+    dist = np.empty(s.shape[0])
+    expo = np.empty(s.shape[0])
     for i in range(n):
-        out[i] = history_term(x[i], s, e, counts, lf, dts, exponents, aq, adv, inv_lam, a2, work)
+        out[i] = history_term3(
+            x[i, 0],
+            x[i, 1],
+            x[i, 2],
+            s,
+            e,
+            counts,
+            lf,
+            dts,
+            exponents,
+            aq,
+            adv,
+            inv_lam,
+            a2,
+            dist,
+            expo,
+        )
     return out
 
 
@@ -198,7 +215,8 @@ def reversible_moves(
     m, d = xs.shape
     e = unit_rows(directions, default)
     lf = _log_factorials(counts)
-    work = history_work(s.shape[0])
+    dist = np.empty(s.shape[0])
+    expo = np.empty(s.shape[0])
     out = xs.copy()
     ll = ll_in.copy()
     evaluated = 0
@@ -214,7 +232,23 @@ def reversible_moves(
             if not inside_box(prop, lo, hi):
                 continue
             evaluated += 1
-            new = history_term(prop, s, e, counts, lf, dts, exponents, aq, adv, inv_lam, a2, work)
+            new = history_term3(
+                prop[0],
+                prop[1],
+                prop[2],
+                s,
+                e,
+                counts,
+                lf,
+                dts,
+                exponents,
+                aq,
+                adv,
+                inv_lam,
+                a2,
+                dist,
+                expo,
+            )
             u = env_draws[i, 2]
             log_u = math.log(u) if u > 0.0 else -math.inf
             if log_u < new - ll[i]:
@@ -243,7 +277,23 @@ def reversible_moves(
                 back[a] = v / chol[a, a]
                 bb += back[a] * back[a]
             evaluated += 1
-            new = history_term(prop, s, e, counts, lf, dts, exponents, aq, adv, inv_lam, a2, work)
+            new = history_term3(
+                prop[0],
+                prop[1],
+                prop[2],
+                s,
+                e,
+                counts,
+                lf,
+                dts,
+                exponents,
+                aq,
+                adv,
+                inv_lam,
+                a2,
+                dist,
+                expo,
+            )
             u = col_uniforms[i]
             log_u = math.log(u) if u > 0.0 else -math.inf
             if log_u < new - ll[i] + (-0.5 * bb + 0.5 * zz):
