@@ -525,14 +525,17 @@ def history_work(k: int) -> np.ndarray:
     return np.empty((2, k))
 
 
-@jit
-def inside_box(p: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> bool:
+def _inside_box(p: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> bool:
     """Whether the point ``p`` lies in the box ``[lo, hi]`` (bounds included)."""
     # a loop, not all() over a generator: numba compiles no generator expressions
     for a in range(p.shape[0]):  # noqa: SIM110
         if not (lo[a] <= p[a] <= hi[a]):
             return False
     return True
+
+
+#: inlined into its callers (comparisons only): kernels test every proposal and candidate
+inside_box = _cached_jit(_inside_box, nogil=True, inline="always")
 
 
 @jit
