@@ -639,7 +639,7 @@ class ColPFEstimator(TeamEstimator):
             dts = np.array([r[2] for r in readings], float)
             exps = np.array([r[4] for r in readings], float)
         return colpf_kernels.readings_log_likelihood(
-            # a writable copy: the kernel is compiled for one array type (the moves pass theirs)
+            # a writable copy: the kernel is compiled for one array type
             np.array(x, float, order="C"),
             where,
             dirs,
