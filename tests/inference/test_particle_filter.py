@@ -348,3 +348,18 @@ def test_an_adopted_set_becomes_the_filter_state_and_versions_count_replacements
     assert pf.version == v0 + 3
     with pytest.raises(TypeError):
         pf.adopt(fresh, np.zeros(25))
+
+
+@pytest.mark.parametrize("n", [1, 7, 23, 160, 1000])
+def test_uniform_weights_written_directly_are_the_normalised_ones(n: int) -> None:
+    """What a compiled resampling adopts (``0 - log n`` and ``1 / n``) is, bit for bit, what
+    replace() makes of uniform log-weights, and a renormalisation leaves it unchanged."""
+    from odorloc.inference.weights import normalise_checked_log_weights
+
+    pf = ParticleFilter(np.zeros((3, 2)))
+    pf.replace(np.zeros((n, 2)), np.full(n, -math.log(n)))
+    lw, w = np.full(n, 0.0 - math.log(n)), np.full(n, 1.0 / n)
+    # compared as bytes: the sign of a zero counts too
+    assert pf.log_weights.tobytes() == lw.tobytes() and pf.weights.tobytes() == w.tobytes()
+    again = normalise_checked_log_weights(lw)
+    assert again[0].tobytes() == lw.tobytes() and again[1].tobytes() == w.tobytes()
