@@ -137,6 +137,38 @@ def test_reversible_moves_kernel_equals_the_numpy_moves() -> None:
     np.testing.assert_allclose(ll_moved, col.log_likelihood, rtol=RTOL, atol=0)
 
 
+@pytest.mark.parametrize("known", [False, True])
+def test_moves_of_a_whole_set_equal_the_moves_of_its_selected_rows(known: bool) -> None:
+    """The whole-set kernel (gather, history evaluation, moves, scatter in one pass) gives, bit
+    for bit, what the row kernel gives on the selected rows: the other rows and their kept
+    log-likelihoods untouched, the input not written."""
+    rng = np.random.default_rng(14)
+    h = _history(rng)
+    numba_model = _models()[1]
+    args = _kernel_args(numba_model, h)
+    arena = Arena.box((0.0, 0.0, 0.0), UPPER, 2.0)
+    lo, hi = np.array(arena.lo, float), np.array(arena.hi, float)
+    x = np.clip(SRC + rng.normal(0.0, 6.0, (90, 3)), 0.0, UPPER)
+    x_before = x.copy()
+    sel = rng.choice(len(x), size=70, replace=False)
+    up = np.array([0.0, 1.0, 0.0])
+    draws = rng.random((len(sel), 3))
+    centre, chol = SRC + 1.0, np.linalg.cholesky(np.diag([9.0, 16.0, 4.0]))
+    normals = rng.standard_normal((len(sel), 3))
+    uniforms = rng.random(len(sel))
+    moves = (lo, hi, True, up, 2.0, draws, True, centre, chol, normals, uniforms)
+    ll_all = colpf_kernels.readings_log_likelihood(x, *args)
+    ref = colpf_kernels.reversible_moves(np.ascontiguousarray(x[sel]), ll_all[sel], *args, *moves)
+    got_x, got_ll, env_acc, col_acc, evaluated = colpf_kernels.reversible_moves_of_set(
+        x, sel, ll_all if known else np.zeros(0), known, *args, *moves
+    )
+    assert (env_acc, col_acc, evaluated) == ref[2:] and env_acc > 0 and col_acc > 0
+    assert np.array_equal(got_x[sel], ref[0]) and np.array_equal(got_ll[sel], ref[1])
+    rest = np.setdiff1d(np.arange(len(x)), sel)
+    assert np.array_equal(got_x[rest], x[rest]) and np.array_equal(got_ll[rest], ll_all[rest])
+    assert np.array_equal(x, x_before)
+
+
 def _context() -> SearchContext:
     return SearchContext(
         arena=Arena.box((0.0, 0.0, 0.0), UPPER, 2.0),

@@ -309,3 +309,57 @@ def test_a_plus_infinite_log_weight_is_an_error_not_uniform_weights() -> None:
     assert w.tolist() == [0.0, 1.0]
     _, w = normalise_log_weights([-math.inf, -math.inf])
     assert w.tolist() == [0.5, 0.5]
+
+
+def test_checked_normalisation_is_the_normalisation_bit_for_bit() -> None:
+    """The unchecked form, on valid log-weights (normalised or not, with -inf entries), gives
+    the same arrays as the checked one to the last bit."""
+    from odorloc.inference.weights import normalise_checked_log_weights, normalise_log_weights
+
+    rng = np.random.default_rng(5)
+    for scale in (0.1, 3.0, 300.0):
+        lw = rng.normal(0.0, scale, 157)
+        lw[::13] = -np.inf
+        for v in (lw, normalise_log_weights(lw)[0]):
+            ref = normalise_log_weights(v)
+            got = normalise_checked_log_weights(v)
+            assert all(np.array_equal(a, b) for a, b in zip(got, ref, strict=True))
+
+
+def test_an_adopted_set_becomes_the_filter_state_and_versions_count_replacements() -> None:
+    """adopt() takes the arrays it is given (weights kept when none are given); every change of
+    the set, and no weight update, moves the version on."""
+    rng = np.random.default_rng(2)
+    pf = ParticleFilter(rng.uniform(0.0, 10.0, (40, 2)))
+    v0 = pf.version
+    pf.update(rng.normal(0.0, 1.0, 40))
+    assert pf.version == v0
+    lw, w = pf.log_weights.copy(), pf.weights.copy()
+    moved = pf.positions + 0.5
+    pf.adopt(moved)
+    assert pf.version == v0 + 1 and pf.n_resamples == 0
+    assert np.array_equal(pf.positions, moved) and np.array_equal(pf.log_weights, lw)
+    assert np.array_equal(pf.weights, w)
+    fresh = rng.uniform(0.0, 10.0, (25, 2))
+    pf.adopt(fresh, np.full(25, -math.log(25)), np.full(25, 1 / 25), resampled=True)
+    assert pf.n == 25 and pf.n_resamples == 1 and pf.version == v0 + 2
+    assert pf.ess == pytest.approx(25.0)
+    pf.replace(fresh)
+    assert pf.version == v0 + 3
+    with pytest.raises(TypeError):
+        pf.adopt(fresh, np.zeros(25))
+
+
+@pytest.mark.parametrize("n", [1, 7, 23, 160, 1000])
+def test_uniform_weights_written_directly_are_the_normalised_ones(n: int) -> None:
+    """What a compiled resampling adopts (``0 - log n`` and ``1 / n``) is, bit for bit, what
+    replace() makes of uniform log-weights, and a renormalisation leaves it unchanged."""
+    from odorloc.inference.weights import normalise_checked_log_weights
+
+    pf = ParticleFilter(np.zeros((3, 2)))
+    pf.replace(np.zeros((n, 2)), np.full(n, -math.log(n)))
+    lw, w = np.full(n, 0.0 - math.log(n)), np.full(n, 1.0 / n)
+    # compared as bytes: the sign of a zero counts too
+    assert pf.log_weights.tobytes() == lw.tobytes() and pf.weights.tobytes() == w.tobytes()
+    again = normalise_checked_log_weights(lw)
+    assert again[0].tobytes() == lw.tobytes() and again[1].tobytes() == w.tobytes()

@@ -40,6 +40,8 @@ def test_class_count_is_the_smallest_with_a_negligible_tail() -> None:
             assert censored_poisson(mean, n)[-1] < m.params.tail_mass
         if n > 2:
             assert censored_poisson(mean, n - 1)[-1] >= m.params.tail_mass
+        # the largest mean given as a number (the compiled planner's form): the same count
+        assert m.n_classes(float(mean)) == n == m.n_classes(np.array([[mean, 0.5 * mean]]))
 
 
 def test_likelihood_rows_equal_one_call_per_reading() -> None:

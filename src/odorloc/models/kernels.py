@@ -42,6 +42,7 @@ __all__ = [
     "censored_classes",
     "compiled",
     "history_term",
+    "history_term3",
     "history_work",
     "inside_box",
     "jit",
@@ -368,6 +369,27 @@ def weighted_poisson_log_likelihood(
     n = x.shape[0]
     out = np.empty(n)
     work = history_work(s.shape[0])
+    if x.shape[1] == 3:
+        dist, expo = work[0], work[1]
+        for i in range(n):
+            out[i] = history_term3(
+                x[i, 0],
+                x[i, 1],
+                x[i, 2],
+                s,
+                e,
+                counts,
+                log_fact,
+                scale,
+                exponents,
+                aq[i],
+                adv,
+                inv_lam,
+                a2,
+                dist,
+                expo,
+            )
+        return out
     for i in range(n):
         out[i] = history_term(
             x[i], s, e, counts, log_fact, scale, exponents, aq[i], adv, inv_lam, a2, work
@@ -396,38 +418,91 @@ def history_term(
     ``work`` ``(2, K)`` is scratch space (:func:`history_work`): the geometry of every reading
     (floored distance and exponent of eq. 1) is taken first in a loop without branches, which
     the compiler vectorises, then the logarithms in reading order, the same arithmetic as one
-    loop (bit for bit).
+    loop (bit for bit). A 3-D hypothesis is :func:`history_term3`'s (which hot loops call
+    directly: it takes the point as three numbers and the scratch as two vectors, no array
+    views made per call).
     """
     d = p.shape[0]
     k = s.shape[0]
     dist = work[0]
     expo = work[1]
     if d == 3:
-        p0 = p[0]
-        p1 = p[1]
-        p2 = p[2]
-        for j in range(k):
-            d0 = s[j, 0] - p0
-            d1 = s[j, 1] - p1
-            d2 = s[j, 2] - p2
-            r2 = d0 * d0 + d1 * d1 + d2 * d2
-            along = ((0.0 + d0 * e[j, 0]) + d1 * e[j, 1]) + d2 * e[j, 2]
-            r = math.sqrt(a2 if r2 < a2 else r2)
-            dist[j] = r
-            expo[j] = along * adv - r * inv_lam
-    else:
-        for j in range(k):
-            r2 = 0.0
-            along = 0.0
-            for a in range(d):
-                diff = s[j, a] - p[a]
-                r2 += diff * diff
-                along += diff * e[j, a]
-            r = math.sqrt(a2 if r2 < a2 else r2)
-            dist[j] = r
-            expo[j] = along * adv - r * inv_lam
-    acc = 0.0
+        return history_term3(
+            p[0],
+            p[1],
+            p[2],
+            s,
+            e,
+            counts,
+            log_fact,
+            scale,
+            exponents,
+            aq,
+            adv,
+            inv_lam,
+            a2,
+            dist,
+            expo,
+        )
     for j in range(k):
+        r2 = 0.0
+        along = 0.0
+        for a in range(d):
+            diff = s[j, a] - p[a]
+            r2 += diff * diff
+            along += diff * e[j, a]
+        r = math.sqrt(a2 if r2 < a2 else r2)
+        dist[j] = r
+        expo[j] = along * adv - r * inv_lam
+    return _history_sum(counts, log_fact, scale, exponents, aq, dist, expo)
+
+
+@jit
+def history_term3(
+    p0: float,
+    p1: float,
+    p2: float,
+    s: np.ndarray,
+    e: np.ndarray,
+    counts: np.ndarray,
+    log_fact: np.ndarray,
+    scale: np.ndarray,
+    exponents: np.ndarray,
+    aq: float,
+    adv: float,
+    inv_lam: float,
+    a2: float,
+    dist: np.ndarray,
+    expo: np.ndarray,
+) -> float:
+    """:func:`history_term` of the 3-D hypothesis ``(p0, p1, p2)`` (metres), with the scratch
+    vectors ``dist`` and ``expo`` ``(K,)``: the same arithmetic, bit for bit."""
+    k = s.shape[0]
+    for j in range(k):
+        d0 = s[j, 0] - p0
+        d1 = s[j, 1] - p1
+        d2 = s[j, 2] - p2
+        r2 = d0 * d0 + d1 * d1 + d2 * d2
+        along = ((0.0 + d0 * e[j, 0]) + d1 * e[j, 1]) + d2 * e[j, 2]
+        r = math.sqrt(a2 if r2 < a2 else r2)
+        dist[j] = r
+        expo[j] = along * adv - r * inv_lam
+    return _history_sum(counts, log_fact, scale, exponents, aq, dist, expo)
+
+
+def _history_sum_py(
+    counts: np.ndarray,
+    log_fact: np.ndarray,
+    scale: np.ndarray,
+    exponents: np.ndarray,
+    aq: float,
+    dist: np.ndarray,
+    expo: np.ndarray,
+) -> float:
+    """``sum_k e_k log Poisson(d_k | mu_k)`` in reading order from each reading's floored
+    distance and exponent of eq. 1 (``mu_k = dt_k a Q exp(expo_k) / r_k``)."""
+    acc = 0.0
+    for j in range(dist.shape[0]):
         if exponents[j] == 0.0:
             continue
         r = dist[j]
@@ -439,20 +514,28 @@ def history_term(
     return acc
 
 
+#: inlined into its callers (numba's IR inlining): a call per hypothesis would cost more than
+#: a short history's arithmetic
+_history_sum = _cached_jit(_history_sum_py, nogil=True, inline="always")
+
+
 @jit
 def history_work(k: int) -> np.ndarray:
     """Scratch space of :func:`history_term` for ``k`` readings, ``(2, k)``."""
     return np.empty((2, k))
 
 
-@jit
-def inside_box(p: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> bool:
+def _inside_box(p: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> bool:
     """Whether the point ``p`` lies in the box ``[lo, hi]`` (bounds included)."""
     # a loop, not all() over a generator: numba compiles no generator expressions
     for a in range(p.shape[0]):  # noqa: SIM110
         if not (lo[a] <= p[a] <= hi[a]):
             return False
     return True
+
+
+#: inlined into its callers (comparisons only): kernels test every proposal and candidate
+inside_box = _cached_jit(_inside_box, nogil=True, inline="always")
 
 
 @jit

@@ -32,7 +32,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 from pydantic import Field
-from scipy.special import gammainc, gammaln, k0e
+from scipy.special import cython_special, gammainc, gammaln, k0e
 
 from odorloc.core.errors import ConfigError
 from odorloc.core.params import Params, Positive, Vector
@@ -521,8 +521,11 @@ class VergassolaModel(MeasurementModel):
             raise ConfigError("wind_direction", f"needs non-zero {dim}-vectors")
         return g / norm[:, None]
 
-    def n_classes(self, mean: np.ndarray) -> int:
-        """Count classes needed so that the tail beyond holds < ``tail_mass`` (capped)."""
+    def n_classes(self, mean: np.ndarray | float) -> int:
+        """Count classes needed so that the tail beyond holds < ``tail_mass`` (capped), for
+        expected counts ``mean`` (any shape; a float: their maximum)."""
+        if type(mean) is float:
+            return self._classes_for(mean)
         return self._classes_for(float(np.max(mean)) if np.size(mean) else 0.0)
 
     def _classes_for(self, m: float) -> int:
@@ -532,13 +535,16 @@ class VergassolaModel(MeasurementModel):
         # similar means, so the search starts at the last answer and walks to the first such
         # n (the n a scan from 1 finds: the tails are monotone), one call per step.
         tail, top = p.tail_mass, p.max_classes
+        # the scalar form of scipy's gammainc (the same C function as the ufunc, without a
+        # ufunc call's overhead per number)
+        inc = cython_special.gammainc
         n = min(self._class_guess, top - 1)
-        if gammainc(n, m) < tail:
-            while n > 1 and gammainc(n - 1, m) < tail:
+        if inc(n, m) < tail:
+            while n > 1 and inc(n - 1, m) < tail:
                 n -= 1
         else:
             n += 1
-            while n < top and not gammainc(n, m) < tail:
+            while n < top and not inc(n, m) < tail:
                 n += 1
             if n == top:
                 return top

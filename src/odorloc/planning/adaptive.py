@@ -301,6 +301,8 @@ class AdaptivePathPlanner(StepPlanner):
         super().reset(ctx, model)
         self.l_max: int | None = self.params.l_max
         self.zeta = math.nan
+        # the model's constants for the compiled decision (fixed for the episode), once
+        self._consts: tuple | None = None
 
     def _l_max(self, model: BoundModel) -> int:
         if self.l_max is None:
@@ -366,8 +368,10 @@ class AdaptivePathPlanner(StepPlanner):
         with obstacles, conditions other than the exposure and the wind direction)."""
         if not self.compiled or self.ctx.arena.occ is not None or self.ctx.dim != 3:
             return None
-        get = getattr(self.model, "kernel_constants", None)
-        consts = get() if callable(get) else None
+        consts = self._consts
+        if consts is None:
+            get = getattr(self.model, "kernel_constants", None)
+            consts = self._consts = get() if callable(get) else None
         cond = pose.conditions
         if consts is None or set(cond) - {"dt", "direction"}:
             return None
@@ -397,11 +401,12 @@ class AdaptivePathPlanner(StepPlanner):
             x, pos, self.steps, lo, hi, e, aq, dt, adv, inv_lam, a2
         )
         scores = np.full(len(ok), np.inf)
-        if not ok.any():
+        if not len(targets):
+            # no feasible candidate (the targets are the feasible ones)
             return Plan(None, pos + self.steps, scores, ok, 0, {"length": 0, "l_max": l_max})
         if not (top < math.inf and mu.min() >= 0.0):
             raise ConfigError("expected_counts", "must be finite and >= 0")
-        z = self.model.n_classes(np.array([top]))
+        z = self.model.n_classes(float(top))
         rewards, kept, k, r, length = kernels.adap_pp_choose(
             mu,
             int(z),

@@ -461,7 +461,9 @@ def _class_sums(
     return pc, su, sv
 
 
-_class_sums = _cached_jit(_class_sums, nogil=True, fastmath=_REASSOC)
+#: inlined into the rewards (numba's IR inlining, under the same flags): a call per candidate
+#: and class, with a view of its row, would cost more than a short row's sums
+_class_sums = _cached_jit(_class_sums, nogil=True, fastmath=_REASSOC, inline="always")
 
 
 def _poisson_direction_rewards(

@@ -254,7 +254,8 @@ class UAVPlannerMember(Searcher):
         if self.params.wind == "model" or self._wind_n == 0:
             return None
         mean = self._wind_sum / self._wind_n
-        n = float(np.linalg.norm(mean))
+        # numpy.linalg.norm of a vector is sqrt(v . v): called directly (every iteration)
+        n = math.sqrt(float(mean.dot(mean)))
         return mean / n if n > 1e-9 else None
 
     def _approach(self, pos: np.ndarray, estimate: np.ndarray) -> Command:

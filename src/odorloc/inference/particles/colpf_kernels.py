@@ -46,13 +46,14 @@ import math
 import numpy as np
 
 from odorloc.core.jit import jit
-from odorloc.models.kernels import history_term, history_work, inside_box
+from odorloc.models.kernels import history_term3, inside_box
 
 __all__ = [
     "kl_divergences",
     "readings_log_likelihood",
     "resample_systematic",
     "reversible_moves",
+    "reversible_moves_of_set",
     "unit_rows",
     "weighted_fit",
 ]
@@ -121,9 +122,26 @@ def readings_log_likelihood(
     lf = _log_factorials(counts)
     n = x.shape[0]
     out = np.empty(n)
-    work = history_work(s.shape[0])
+    dist = np.empty(s.shape[0])
+    expo = np.empty(s.shape[0])
     for i in range(n):
-        out[i] = history_term(x[i], s, e, counts, lf, dts, exponents, aq, adv, inv_lam, a2, work)
+        out[i] = history_term3(
+            x[i, 0],
+            x[i, 1],
+            x[i, 2],
+            s,
+            e,
+            counts,
+            lf,
+            dts,
+            exponents,
+            aq,
+            adv,
+            inv_lam,
+            a2,
+            dist,
+            expo,
+        )
     return out
 
 
@@ -197,7 +215,8 @@ def reversible_moves(
     m, d = xs.shape
     e = unit_rows(directions, default)
     lf = _log_factorials(counts)
-    work = history_work(s.shape[0])
+    dist = np.empty(s.shape[0])
+    expo = np.empty(s.shape[0])
     out = xs.copy()
     ll = ll_in.copy()
     evaluated = 0
@@ -213,7 +232,23 @@ def reversible_moves(
             if not inside_box(prop, lo, hi):
                 continue
             evaluated += 1
-            new = history_term(prop, s, e, counts, lf, dts, exponents, aq, adv, inv_lam, a2, work)
+            new = history_term3(
+                prop[0],
+                prop[1],
+                prop[2],
+                s,
+                e,
+                counts,
+                lf,
+                dts,
+                exponents,
+                aq,
+                adv,
+                inv_lam,
+                a2,
+                dist,
+                expo,
+            )
             u = env_draws[i, 2]
             log_u = math.log(u) if u > 0.0 else -math.inf
             if log_u < new - ll[i]:
@@ -242,7 +277,23 @@ def reversible_moves(
                 back[a] = v / chol[a, a]
                 bb += back[a] * back[a]
             evaluated += 1
-            new = history_term(prop, s, e, counts, lf, dts, exponents, aq, adv, inv_lam, a2, work)
+            new = history_term3(
+                prop[0],
+                prop[1],
+                prop[2],
+                s,
+                e,
+                counts,
+                lf,
+                dts,
+                exponents,
+                aq,
+                adv,
+                inv_lam,
+                a2,
+                dist,
+                expo,
+            )
             u = col_uniforms[i]
             log_u = math.log(u) if u > 0.0 else -math.inf
             if log_u < new - ll[i] + (-0.5 * bb + 0.5 * zz):
@@ -250,6 +301,106 @@ def reversible_moves(
                     out[i, a] = prop[a]
                 ll[i] = new
                 col_acc += 1
+    return out, ll, env_acc, col_acc, evaluated
+
+
+@jit
+def reversible_moves_of_set(
+    x: np.ndarray,
+    sel: np.ndarray,
+    ll_known: np.ndarray,
+    known: bool,
+    s: np.ndarray,
+    directions: np.ndarray,
+    counts: np.ndarray,
+    dts: np.ndarray,
+    exponents: np.ndarray,
+    default: np.ndarray,
+    aq: float,
+    adv: float,
+    inv_lam: float,
+    a2: float,
+    lo: np.ndarray,
+    hi: np.ndarray,
+    env: bool,
+    upwind: np.ndarray,
+    step: float,
+    env_draws: np.ndarray,
+    col: bool,
+    centre: np.ndarray,
+    chol: np.ndarray,
+    normals: np.ndarray,
+    col_uniforms: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, int, int, int]:
+    """:func:`reversible_moves` of the rows ``sel`` of a whole particle set, in one pass.
+
+    Parameters
+    ----------
+    x : (N, 3) ndarray, metres
+        The particles (not modified).
+    sel : (S,) int ndarray
+        The selected rows (distinct).
+    ll_known : (N,) ndarray
+        The history's log-likelihood at ``x`` if ``known``; otherwise ignored and computed here
+        (:func:`readings_log_likelihood`, every particle's: kept for the next iterations).
+    known : bool
+    s, directions, counts, dts, exponents, default, aq, adv, inv_lam, a2, lo, hi, env, upwind,
+    step, env_draws, col, centre, chol, normals, col_uniforms
+        As :func:`reversible_moves`.
+
+    Returns
+    -------
+    positions : (N, 3) ndarray, metres
+        ``x`` with the selected rows moved (a new array).
+    log_likelihood : (N,) ndarray
+        The history's log-likelihood at ``positions`` (a new array).
+    env_accepted, col_accepted, evaluated : int
+        As :func:`reversible_moves`.
+    """
+    if known:
+        ll = ll_known.copy()
+    else:
+        ll = readings_log_likelihood(
+            x, s, directions, counts, dts, exponents, default, aq, adv, inv_lam, a2
+        )
+    m = sel.shape[0]
+    d = x.shape[1]
+    xs = np.empty((m, d))
+    ll_sel = np.empty(m)
+    for j in range(m):
+        for a in range(d):
+            xs[j, a] = x[sel[j], a]
+        ll_sel[j] = ll[sel[j]]
+    moved, ll_moved, env_acc, col_acc, evaluated = reversible_moves(
+        xs,
+        ll_sel,
+        s,
+        directions,
+        counts,
+        dts,
+        exponents,
+        default,
+        aq,
+        adv,
+        inv_lam,
+        a2,
+        lo,
+        hi,
+        env,
+        upwind,
+        step,
+        env_draws,
+        col,
+        centre,
+        chol,
+        normals,
+        col_uniforms,
+    )
+    out = x.copy()
+    for j in range(m):
+        for a in range(d):
+            out[sel[j], a] = moved[j, a]
+        ll[sel[j]] = ll_moved[j]
     return out, ll, env_acc, col_acc, evaluated
 
 

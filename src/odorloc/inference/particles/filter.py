@@ -106,6 +106,7 @@ class ParticleFilter:
         self.constraint = constraint
         self._history: deque[np.ndarray] = deque(maxlen=int(history))
         self.n_resamples = 0
+        self._version = 0
 
     # ----------------------------------------------------------------- state
     @property
@@ -133,6 +134,13 @@ class ParticleFilter:
     def n(self) -> int:
         """Current number of particles."""
         return len(self._positions)
+
+    @property
+    def version(self) -> int:
+        """Times the particle set was replaced (:meth:`replace`, :meth:`resample`,
+        :meth:`adopt`); a weight update does not count. Equal versions mean unchanged
+        positions: what a cache of evaluations at the particles is keyed by."""
+        return self._version
 
     @property
     def ess(self) -> float:
@@ -206,6 +214,7 @@ class ParticleFilter:
         self._positions = pos
         self._log_weights, self._weights = normalise_log_weights(lw)
         self.n_resamples += 1
+        self._version += 1
 
     def resample_if_needed(self, rng: np.random.Generator, n: int | None = None) -> bool:
         """Resample when degenerate (or when a new target count ``n`` is asked); ``True`` if it
@@ -238,6 +247,42 @@ class ParticleFilter:
         pos, lw = _particle_set(positions, log_weights, self._positions.shape[1])
         self._positions = pos
         self._log_weights, self._weights = normalise_log_weights(lw)
+        self._version += 1
+        if resampled:
+            self.n_resamples += 1
+
+    def adopt(
+        self,
+        positions: np.ndarray,
+        log_weights: np.ndarray | None = None,
+        weights: np.ndarray | None = None,
+        *,
+        resampled: bool = False,
+    ) -> None:
+        """Take a particle set computed from this filter's own state, without checks or copies.
+
+        For compiled code that derives the new set from the filter's checked particles (a
+        resampling, moves that keep particles inside a box): what :meth:`replace` would check
+        holds by construction, and the arrays become the filter's own. Anything from elsewhere
+        goes through :meth:`replace`.
+
+        Parameters
+        ----------
+        positions : (N, d) ndarray of float64, metres
+            Finite; ``d`` as before. Owned by the filter from now on (never written).
+        log_weights, weights : (N,) ndarray of float64, optional
+            Normalised log-weights (``logsumexp == 0``) and their exponentials, as
+            :func:`~odorloc.inference.weights.normalise_log_weights` returns them; ``None``
+            (both) keeps the current ones (``N`` unchanged).
+        resampled : bool
+            The new set is a resampling of the old one: counted in :attr:`n_resamples`.
+        """
+        if (log_weights is None) != (weights is None):
+            raise TypeError("adopt() takes both log_weights and weights, or neither")
+        if log_weights is not None:
+            self._log_weights, self._weights = log_weights, weights
+        self._positions = positions
+        self._version += 1
         if resampled:
             self.n_resamples += 1
 

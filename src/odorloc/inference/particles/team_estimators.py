@@ -72,7 +72,7 @@ from odorloc.inference.particles.pugl import (
     reversible_env_move,
 )
 from odorloc.inference.particles.resampling import Resampler, SystematicResampler
-from odorloc.inference.weights import normalise_log_weights
+from odorloc.inference.weights import normalise_checked_log_weights, normalise_log_weights
 from odorloc.models.base import MeasurementModel
 
 #: Added to the diagonals of both fits in eq. 10's divergence (m^2), as
@@ -378,8 +378,11 @@ class ColPFEstimator(TeamEstimator):
         self.moves = {"env": [0, 0], "col": [0, 0]}
         self._compiled = self._compiled_setup(ctx, model)
         # the compiled path's history log-likelihood of every particle: (positions, values,
-        # history version) while the particles have not moved and no reading dropped out
-        self._known: tuple[np.ndarray, np.ndarray, int] | None = None
+        # history version, particle-set version) while the particles have not moved and no
+        # reading dropped out
+        self._known: tuple[np.ndarray, np.ndarray, int, int] | None = None
+        # the compiled path: the weights are a resampling's uniform ones (this iteration)
+        self._uniform = False
 
     def _compiled_setup(self, ctx: SearchContext, model: MeasurementModel) -> tuple | None:
         """The model's constants and the prior's support box for the compiled path
@@ -409,12 +412,15 @@ class ColPFEstimator(TeamEstimator):
         self._record_cue(m)
         fits = [read_fit_payload(s, inbox[s]) for s in sorted(inbox)]
         mean_i, cov_i = self.fit
-        if p.weighting == "confidence":
+        if not fits:
+            # nothing received (most iterations): no factors to take
+            betas = _NO_BETAS
+        elif p.weighting == "confidence":
             d = len(mean_i)
             means = np.array([f.mean for f in fits]).reshape(len(fits), d)
             covs = np.array([f.cov for f in fits]).reshape(len(fits), d, d)
             betas = None
-            if self._compiled is not None and fits:
+            if self._compiled is not None:
                 kl, ok = colpf_kernels.kl_divergences(mean_i, cov_i, means, covs, KL_JITTER)
                 # KL >= 0 in exact arithmetic; round-off may leave -1e-12 (eq. 10)
                 betas = np.exp(-np.maximum(kl, 0.0)) if ok else None
@@ -445,16 +451,14 @@ class ColPFEstimator(TeamEstimator):
                 self.history.append(*reading)
             ll = self._compiled_log_likelihood(readings, pf.positions)
             pf.update(ll)
-            known = self._known
-            self._known = None
-            if (
-                known is not None
-                and known[2] == before
-                and not self.history.dropped
-                and _same(known[0], pf.positions)
-            ):
-                # the history's log-likelihood grows by this iteration's readings (eq. 13)
-                self._known = (known[0], known[1] + ll, self.history.version)
+            known = None if self.history.dropped else self._known_at(before)
+            # the history's log-likelihood grows by this iteration's readings (eq. 13)
+            self._known = (
+                None
+                if known is None
+                else (pf.positions, known + ll, self.history.version, pf.version)
+            )
+            self._uniform = False
         evaluated = pf.n * len(readings)
         if self._compiled is not None and type(pf.resampler) is SystematicResampler:
             self._compiled_resample(rng)
@@ -466,7 +470,9 @@ class ColPFEstimator(TeamEstimator):
             self.n_moved, judged = self._pugl(m, fits, betas, rng), 0
         d = pf.positions.shape[1]
         if p.adaptive_count:
-            dist = float(np.linalg.norm(m.position - pf.estimate()))
+            # numpy.linalg.norm of a vector is sqrt(v . v): called directly
+            gap = m.position - pf.estimate()
+            dist = math.sqrt(float(gap.dot(gap)))
             self.target_n = self.counter.next(pf.n, self.cue_iterations, m.k, dist)
         if self._compiled is not None:
             self.fit = colpf_kernels.weighted_fit(pf.positions, pf.weights)
@@ -572,6 +578,18 @@ class ColPFEstimator(TeamEstimator):
         pf.replace(x, pf.log_weights)
         return n_s, judged
 
+    def _known_at(self, version: int) -> np.ndarray | None:
+        """The kept history log-likelihood of every particle, ``(N,)``, if it was taken at
+        history ``version`` and the particles have not moved since; else ``None``."""
+        known = self._known
+        if known is None or known[2] != version:
+            return None
+        pf = self.pf
+        # an unchanged set, or one replaced by the same positions
+        if known[3] == pf.version or _same(known[0], pf.positions):
+            return known[1]
+        return None
+
     def _compiled_resample(self, rng: np.random.Generator) -> None:
         """``pf.resample_if_needed(rng, n=target_n)`` with the low-variance resampler in one
         compiled pass (:func:`~odorloc.inference.particles.colpf_kernels.resample_systematic`),
@@ -586,11 +604,21 @@ class ColPFEstimator(TeamEstimator):
         u0 = rng.random()
         std = float(pf.resampler.params.jitter_std)  # type: ignore[union-attr]
         noise = rng.normal(0.0, std, size=(target, d)) if std > 0 else np.zeros((0, d))
-        # the weights as the resampler reads them: from the log-weights
-        w = normalise_log_weights(pf.log_weights)[1]
+        # the weights as the resampler reads them: from the log-weights (the filter's, whose
+        # maximum is finite)
+        w = normalise_checked_log_weights(pf.log_weights)[1]
         lo, hi = self._compiled[7], self._compiled[8]
         x = colpf_kernels.resample_systematic(pf.positions, w, target, u0, noise, lo, hi)
-        pf.replace(x, np.full(target, -math.log(target)), resampled=True)
+        # copies of checked particles moved by finite noise and clipped into the arena: finite
+        # by construction. The uniform weights as replace() would normalise them, bit for bit:
+        # the shifted log-weights are 0, their exponentials 1, their sum ``target``.
+        pf.adopt(
+            x,
+            np.full(target, 0.0 - math.log(target)),
+            np.full(target, 1.0 / target),
+            resampled=True,
+        )
+        self._uniform = True
 
     def _compiled_log_likelihood(self, readings: list[Reading], x: np.ndarray) -> np.ndarray:
         """:func:`_readings_log_likelihood` in one compiled pass of ``readings``, the history's
@@ -611,7 +639,7 @@ class ColPFEstimator(TeamEstimator):
             dts = np.array([r[2] for r in readings], float)
             exps = np.array([r[4] for r in readings], float)
         return colpf_kernels.readings_log_likelihood(
-            # a writable copy: the kernel is compiled for one array type (the moves pass theirs)
+            # a writable copy: the kernel is compiled for one array type
             np.array(x, float, order="C"),
             where,
             dirs,
@@ -643,19 +671,20 @@ class ColPFEstimator(TeamEstimator):
         pf = self.pf
         aq, adv, inv_lam, a2, default, lo, hi = self._compiled[:7]
         n_s = len(sel)
-        x = pf.positions.copy()
+        x = pf.positions
         d = x.shape[1]
-        up = np.zeros(d)
+        up = _NO_WIND
         # the kernel's arguments of a move not proposed (read, never written)
         env_draws, centre, chol, normals, uniforms = _NO_MOVE
         env_on = False
         if env:
             self.moves["env"][0] += n_s
-            up[:2] = -np.asarray(m.direction, float)[:2]
-            norm = math.hypot(up[0], up[1])
+            # against the wind's horizontal part (env_applies: a measured direction)
+            ux, uy = -float(m.direction[0]), -float(m.direction[1])  # type: ignore[index]
+            norm = math.hypot(ux, uy)
             # no horizontal wind: no env-pu proposal (and no draws), as the NumPy move
             if norm >= 1e-12:
-                up /= norm
+                up = np.array([ux / norm, uy / norm, 0.0])
                 env_on = True
                 env_draws = rng.random((n_s, 3))
         if proposal is not None:
@@ -670,17 +699,24 @@ class ColPFEstimator(TeamEstimator):
             normals = rng.standard_normal((n_s, d))
             uniforms = rng.random(n_s)
         counts, where, dts, dirs, exps = self.history.held()
-        hist = (where, dirs, counts, dts, exps, default, aq, adv, inv_lam, a2)
-        known = self._known
-        if known is not None and known[2] == self.history.version and _same(known[0], x):
-            ll = known[1]
-        else:
-            # every particle's, once: kept for the next iterations while they stay put
-            ll = colpf_kernels.readings_log_likelihood(x, *hist)
-        moved, ll_moved, env_acc, col_acc, evaluated = colpf_kernels.reversible_moves(
-            np.ascontiguousarray(x[sel]),
-            ll[sel],
-            *hist,
+        known = self._known_at(self.history.version)
+        # without a kept evaluation the kernel evaluates every particle once: kept for the next
+        # iterations while they stay put
+        x, ll, env_acc, col_acc, evaluated = colpf_kernels.reversible_moves_of_set(
+            x,
+            sel,
+            _NO_LL if known is None else known,
+            known is not None,
+            where,
+            dirs,
+            counts,
+            dts,
+            exps,
+            default,
+            aq,
+            adv,
+            inv_lam,
+            a2,
             lo,
             hi,
             env_on,
@@ -695,11 +731,14 @@ class ColPFEstimator(TeamEstimator):
         )
         self.moves["env"][1] += int(env_acc)
         self.moves["col"][1] += int(col_acc)
-        x[sel] = moved
-        ll = ll.copy()
-        ll[sel] = ll_moved
-        pf.replace(x, pf.log_weights)
-        self._known = (x, ll, self.history.version)
+        # the moved particles lie in the prior's support (a proposal outside is rejected), the
+        # others where they were: finite by construction. The weights as replace() would
+        # renormalise them: unchanged if uniform (a resampling's), else the same arithmetic.
+        if self._uniform:
+            pf.adopt(x)
+        else:
+            pf.adopt(x, *normalise_checked_log_weights(pf.log_weights))
+        self._known = (x, ll, self.history.version, pf.version)
         # the work of eq. 7 as the NumPy path counts it: the selected particles, then every
         # proposal in the support
         return n_s + int(evaluated)
@@ -791,6 +830,12 @@ class StandardPFEstimator(TeamEstimator):
 #: the compiled moves' arguments of a move not proposed (3-D): env-pu draws, the col-pu centre,
 #: Cholesky factor, normals and uniforms
 _NO_MOVE = (np.zeros((0, 3)), np.zeros(3), np.eye(3), np.zeros((0, 3)), np.zeros(0))
+#: the compiled moves' kept log-likelihoods when none are kept, and their upwind direction
+#: without env-pu (read, never written)
+_NO_LL = np.zeros(0)
+_NO_WIND = np.zeros(3)
+#: the confidence factors of an iteration without messages
+_NO_BETAS = np.zeros(0)
 
 
 def _same(a: np.ndarray, b: np.ndarray) -> bool:
