@@ -272,27 +272,51 @@ def test_replay_memory_without_rosbags_skips_the_bag(
 
 
 # ---------------------------------------------------------------------- muc_osl_speed
-def test_muc_osl_speed_episodes_timed_after_a_warm_up(monkeypatch: pytest.MonkeyPatch) -> None:
+def test_muc_osl_speed_episodes_timed_in_pairs_after_a_warm_up(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
     from odorloc.core.seeds import episode_seeds
 
     ms = load("muc_osl_speed")
-    calls: list[tuple[int, int]] = []
+    calls: list[tuple[str, int, int]] = []
     clock = [0.0]
+    # per backend and play: the first of each backend pays a one-off second (a kernel load);
+    # the second play of episode 0 on "numpy" is slower (a busy machine), the third faster
+    cost = {("numpy", 1): 0.5, ("numpy", 2): 0.2}
 
     def fake_episode(sc: object, world: int, agent: int, record: bool) -> SimpleNamespace:
-        # the first episode of the process pays a one-off second, as a kernel load would
-        clock[0] += 1.0 if not calls else 0.25
-        calls.append((world, agent))
+        b = sc.searcher.planner["backend"]  # type: ignore[attr-defined]
+        plays = sum(1 for c in calls if c[0] == b)
+        clock[0] += 1.0 if plays == 0 else cost.get((b, plays), 0.25)
+        calls.append((b, world, agent))
         return SimpleNamespace(metrics={"steps": 10, "success": True, "wall_time": 0.0})
 
     monkeypatch.setattr(ms, "run_episode", fake_episode)
     monkeypatch.setattr(ms.time, "perf_counter", lambda: clock[0])
-    walls, rows = ms.episode_rows("col-inf", "numpy", 2)
-    timed = [episode_seeds(2024, "muc-osl-3d", e) for e in range(2)]
-    assert calls[-2:] == timed
-    assert len(calls) == 3 and calls[0] not in timed
-    assert walls == [0.25, 0.25]
-    assert rows == [{"steps": 10, "success": True}] * 2
+    out = ms.episode_rows("col-inf", ("numpy", "numba"), 2, repeats=3)
+    w0, w1 = episode_seeds(2024, "muc-osl-3d", 0), episode_seeds(2024, "muc-osl-3d", 1)
+    warm = calls[:2]
+    assert [c[0] for c in warm] == ["numpy", "numba"] and all(c[1:] not in (w0, w1) for c in warm)
+    # episode by episode, the backends' order reversed at each repeat
+    assert [c[0] for c in calls[2:8]] == ["numpy", "numba", "numba", "numpy", "numpy", "numba"]
+    assert [c[1:] for c in calls[2:8]] == [w0] * 6
+    assert [c[1:] for c in calls[8:]] == [w1] * 6
+    assert out["numpy"][0] == pytest.approx([0.2, 0.25])
+    assert out["numba"][0] == pytest.approx([0.25, 0.25])
+    assert out["numpy"][1] == out["numba"][1] == [{"steps": 10, "success": True}] * 2
+
+
+def test_muc_osl_speed_refuses_repeats_that_differ(monkeypatch: pytest.MonkeyPatch) -> None:
+    ms = load("muc_osl_speed")
+    plays = [0]
+
+    def fake_episode(sc: object, world: int, agent: int, record: bool) -> SimpleNamespace:
+        plays[0] += 1
+        return SimpleNamespace(metrics={"steps": plays[0], "wall_time": 0.0})
+
+    monkeypatch.setattr(ms, "run_episode", fake_episode)
+    with pytest.raises(RuntimeError, match="differs between repeats"):
+        ms.episode_rows("col-inf", ("numpy",), 1, repeats=2)
 
 
 def test_muc_osl_speed_loops_agree_with_the_vector_code() -> None:

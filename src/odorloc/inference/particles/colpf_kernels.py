@@ -124,6 +124,7 @@ def readings_log_likelihood(
     out = np.empty(n)
     dist = np.empty(s.shape[0])
     expo = np.empty(s.shape[0])
+    ee = np.empty(s.shape[0])
     for i in range(n):
         out[i] = history_term3(
             x[i, 0],
@@ -141,6 +142,7 @@ def readings_log_likelihood(
             a2,
             dist,
             expo,
+            ee,
         )
     return out
 
@@ -217,6 +219,7 @@ def reversible_moves(
     lf = _log_factorials(counts)
     dist = np.empty(s.shape[0])
     expo = np.empty(s.shape[0])
+    ee = np.empty(s.shape[0])
     out = xs.copy()
     ll = ll_in.copy()
     evaluated = 0
@@ -248,6 +251,7 @@ def reversible_moves(
                 a2,
                 dist,
                 expo,
+                ee,
             )
             u = env_draws[i, 2]
             log_u = math.log(u) if u > 0.0 else -math.inf
@@ -293,6 +297,7 @@ def reversible_moves(
                 a2,
                 dist,
                 expo,
+                ee,
             )
             u = col_uniforms[i]
             log_u = math.log(u) if u > 0.0 else -math.inf
