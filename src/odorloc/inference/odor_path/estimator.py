@@ -98,6 +98,23 @@ def from_paper_k(grid: CellGrid, k: ArrayLike) -> tuple[IntArray, IntArray]:
     return (j - 1).astype(np.intp), (i - 1).astype(np.intp)
 
 
+def _pair(value: ArrayLike, name: str) -> tuple[float, float]:
+    """The two finite components of a record's ``position`` or ``wind``, or its error."""
+    if type(value) is np.ndarray and value.dtype is _F64 and value.shape == (2,):
+        x, y = value.tolist()
+    else:
+        v = np.asarray(value, float).reshape(-1)
+        if v.shape != (2,):
+            raise ConfigError(name, f"needs 2 finite components, got {value!r}")
+        x, y = float(v[0]), float(v[1])
+    if not (math.isfinite(x) and math.isfinite(y)):
+        raise ConfigError(name, f"needs 2 finite components, got {value!r}")
+    return x, y
+
+
+_F64 = np.dtype(np.float64)
+
+
 # ---------------------------------------------------------------------------------- parameters
 class OdorPathParams(Params):
     """Parameters of :class:`OdorPathEstimator`.
@@ -246,6 +263,28 @@ class PathPatch:
         return out
 
 
+def _patch(
+    ix0: int,
+    iy0: int,
+    values: FloatArray,
+    grid: CellGrid,
+    ref_cell: IntArray,
+    canvas: DenseCanvas | None,
+) -> PathPatch:
+    """``PathPatch(ix0, iy0, values, grid, ref_cell, canvas)`` without the frozen dataclass's
+    ``__init__`` (one ``object.__setattr__`` per field: a third of the Python around the
+    compiled map); the same object."""
+    p = object.__new__(PathPatch)
+    d = p.__dict__
+    d["ix0"] = ix0
+    d["iy0"] = iy0
+    d["values"] = values
+    d["grid"] = grid
+    d["ref_cell"] = ref_cell
+    d["canvas"] = canvas
+    return p
+
+
 class DenseCanvas:
     """A full ``(nx, ny)`` map reused for the dense form of successive patches.
 
@@ -263,9 +302,12 @@ class DenseCanvas:
 
     def __init__(self, shape: tuple[int, int]) -> None:
         self.shape = shape
-        self._map: FloatArray | None = None
+        # the map is written in _base and handed out as _view, a read-only view of it: no
+        # flag to set and reset around every drawing
+        self._base: FloatArray | None = None
+        self._view: FloatArray | None = None
         self._last = np.zeros(4, np.intp)  # box of the patch the map holds
-        self._free = 0  # reference count of a map nothing outside refers to
+        self._free = (0, 0)  # reference counts of view and base when nothing outside refers
 
     def __getstate__(self) -> dict[str, tuple[int, int]]:
         # a copy or a pickle starts its own map: the array is memory handed out, not state
@@ -276,15 +318,16 @@ class DenseCanvas:
 
     def draw(self, patch: PathPatch) -> FloatArray:
         """``patch`` as a full read-only map (see the class notes)."""
-        m = self._map
-        if m is None or sys.getrefcount(m) > self._free:
+        m, v = self._base, self._view
+        # a view of the map handed out refers to the base, not to the view it was cut from
+        if m is None or (sys.getrefcount(v), sys.getrefcount(m)) != self._free:
             m = np.zeros(self.shape)
-            self._map = m
+            v = m.view()
+            v.flags.writeable = False
+            self._base, self._view = m, v
             self._last[:] = 0
-            # the same expression as the test above, so the count is the same on any CPython
-            self._free = sys.getrefcount(m)
-        else:
-            m.flags.writeable = True
+            # the same expressions as the test above, so the counts are the same on any CPython
+            self._free = (sys.getrefcount(v), sys.getrefcount(m))
         if HAVE_NUMBA:
             paint_fast(m, self._last, patch.values, patch.ix0, patch.iy0)
         else:
@@ -293,8 +336,7 @@ class DenseCanvas:
             m[patch.slices] = patch.values
             bx, by = patch.values.shape
             self._last[:] = (patch.ix0, patch.ix0 + bx, patch.iy0, patch.iy0 + by)
-        m.flags.writeable = False
-        return m
+        return v  # type: ignore[return-value]
 
 
 # -------------------------------------------------------------------------------- estimator
@@ -364,6 +406,9 @@ class OdorPathEstimator:
         )  # fmt: skip
         self._ws: FloatArray | None = None  # its scratch (path_workspace)
         self._ws_capacity = 0
+        self._meta: IntArray | None = None  # path_meta of the scratch
+        # path_patch by the fused kernel (a missing numba is reported by _use_numba)
+        self._fused = p.kernel == "point" and p.backend != "numpy" and HAVE_NUMBA
         self.reset()
 
     # ------------------------------------------------------------------------ records
@@ -399,14 +444,10 @@ class OdorPathEstimator:
             raise ConfigError("t", "must be finite")
         if self._hi > self._lo and t <= self._tt[self._hi - 1]:
             raise ConfigError("t", f"must increase (got {t} after {self._tt[self._hi - 1]})")
-        p = np.asarray(position, float).reshape(-1)
-        u = np.asarray(wind, float).reshape(-1)
-        # two scalar tests: this runs at every record, where np.all(np.isfinite(.)) would cost
-        # more than storing the record
-        if p.shape != (2,) or not (math.isfinite(p[0]) and math.isfinite(p[1])):
-            raise ConfigError("position", f"needs 2 finite components, got {position!r}")
-        if u.shape != (2,) or not (math.isfinite(u[0]) and math.isfinite(u[1])):
-            raise ConfigError("wind", f"needs 2 finite components, got {wind!r}")
+        # this runs at every record: scalar tests, not np.all(np.isfinite(.)), and no array
+        # made from a float array of the right shape (either would cost more than the store)
+        px, py = _pair(position, "position")
+        wx, wy = _pair(wind, "wind")
         s = float(signal)
         if not math.isfinite(s):
             raise ConfigError("signal", "must be finite")
@@ -431,8 +472,11 @@ class OdorPathEstimator:
             self._lo, self._hi = 0, n
         i = self._hi
         self._tt[i] = t
-        self._pp[i] = p
-        self._ww[i] = u
+        pp, ww = self._pp, self._ww
+        pp[i, 0] = px
+        pp[i, 1] = py
+        ww[i, 0] = wx
+        ww[i, 1] = wy
         self._ss[i] = s
         self._hi += 1
 
@@ -698,9 +742,10 @@ class OdorPathEstimator:
         if ws is None or self._ws_capacity < len(tt):
             ws = self._ws = path_workspace(len(tt), *self.grid.shape)
             self._ws_capacity = len(tt)
+            self._meta = path_meta(ws)
         values = path_kernel_fast(tt, self._ww, self._pp, c, self._lo, self._par, ws)
-        ix0, iy0, rx, ry = path_meta(ws).tolist()
-        return PathPatch(ix0, iy0, values, self.grid, np.array([rx, ry], np.intp), self._canvas)
+        ix0, iy0, rx, ry = self._meta.tolist()  # type: ignore[union-attr]
+        return _patch(ix0, iy0, values, self.grid, np.array((rx, ry), np.intp), self._canvas)
 
     def _compiled(self, w: WindowArrays) -> tuple[IntArray, IntArray, FloatArray, int, int]:
         t = self.axis_terms(w)
@@ -758,7 +803,7 @@ class OdorPathEstimator:
         PathPatch
             Cost is proportional to the number of cells in the windows, not to ``M``.
         """
-        if self.params.kernel == "point" and self._use_numba():
+        if self._fused:
             return self._patch_compiled(self._record_index(t_c), require_detection)
         w = self.window_arrays(t_c)
         if require_detection and not self._ss[self._record_index(t_c)] > 0.0:
