@@ -601,10 +601,19 @@ def test_copied_estimator_draws_its_own_dense_maps():
     held = est.path_map()
     twin = copy.deepcopy(est)
     thawed = pickle.loads(pickle.dumps(est))
+    # the same records and one more, in an estimator never copied: its map is the copies'
+    fresh = OdorPathEstimator(OdorPathParams(cell_size=0.1), (0, 0), (10, 10))
+    feed(fresh, noisy_winds(np.random.default_rng(24)))
+    fresh.update(10.5, (2.0, 2.0), (0.5, 0.5), 1.0)
+    moved = fresh.path_patch()
     for other in (twin, thawed):
         np.testing.assert_array_equal(other.path_map(), held)
         other.update(10.5, (2.0, 2.0), (0.5, 0.5), 1.0)
         assert not np.array_equal(other.path_map(), held)
+        patch = other.path_patch()
+        assert (patch.ix0, patch.iy0) == (moved.ix0, moved.iy0)
+        np.testing.assert_array_equal(patch.ref_cell, moved.ref_cell)
+        np.testing.assert_array_equal(patch.values, moved.values)
     np.testing.assert_array_equal(est.path_map(), held)  # the original is unchanged
 
 

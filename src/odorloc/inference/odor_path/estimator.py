@@ -411,6 +411,13 @@ class OdorPathEstimator:
         self._fused = p.kernel == "point" and p.backend != "numpy" and HAVE_NUMBA
         self.reset()
 
+    def __getstate__(self) -> dict[str, object]:
+        # the compiled map's scratch is not state, and a copy of its integer view would not
+        # view the copy's scratch: a copy or a pickle allocates its own on first use
+        state = self.__dict__.copy()
+        state.update(_ws=None, _ws_capacity=0, _meta=None)
+        return state
+
     # ------------------------------------------------------------------------ records
     def reset(self) -> None:
         """Forget all records."""
