@@ -388,7 +388,7 @@ def test_muc_osl_speed_colpf_loop_is_the_whole_update(count: float) -> None:
 
 
 # ---------------------------------------------------------------------- odor_path_speed
-def _fake_odor_path_rows(digest_of: dict[str, str]):
+def _fake_odor_path_rows(map_of: dict[str, float]):
     def fake(
         noise: float, instances: int, backend: str, seed: int, compiled_full: bool = False
     ) -> dict:
@@ -399,25 +399,28 @@ def _fake_odor_path_rows(digest_of: dict[str, str]):
             "full_ms": 2.0,
             "cell_ms": 3.0,
             "nb_ms": 1.5 if compiled_full else float("nan"),
+            "nb_div_ms": 3.0 if compiled_full else float("nan"),
             "cells": 10.0,
             "max_err": 0.0,
-            "digests": [digest_of[name]] * instances,
+            "maps": [(1, 2, np.full((2, 3), map_of[name]))] * instances,
         }
 
     return fake
 
 
-@pytest.mark.parametrize(("numpy_map", "result"), [("same", "yes"), ("other", "no")])
-def test_odor_path_speed_reports_whether_kernels_agree_to_the_bit(
+@pytest.mark.parametrize(
+    ("numpy_map", "result"), [(0.25, "yes"), (0.25 * (1 + 1e-15), "yes"), (0.2501, "no")]
+)
+def test_odor_path_speed_reports_whether_kernels_agree(
     monkeypatch: pytest.MonkeyPatch,
     capsys: pytest.CaptureFixture[str],
-    numpy_map: str,
+    numpy_map: float,
     result: str,
 ) -> None:
     ops = load("odor_path_speed")
     monkeypatch.setattr(ops, "HAVE_NUMBA", True)
     monkeypatch.setattr(
-        ops, "time_odor_path", _fake_odor_path_rows({"numba": "same", "numpy": numpy_map})
+        ops, "time_odor_path", _fake_odor_path_rows({"numba": 0.25, "numpy": numpy_map})
     )
     ds = {"dense_ms": 1.0, "patch_ms": 1.0, "plan_ms": 1.0, "cells": 1.0}
     monkeypatch.setattr(ops, "time_ds", lambda grid, repeats, seed: ds)
@@ -429,22 +432,34 @@ def test_odor_path_speed_reports_whether_kernels_agree_to_the_bit(
     assert keys["speedup_vs_full_compiled"] == "1.5"
 
 
-def test_odor_path_speed_digests_follow_the_maps() -> None:
+def test_odor_path_speed_map_comparison_follows_the_maps() -> None:
+    """Both kernels' maps of the same records agree (the fused map within 1e-12 of the
+    batch's), other records' do not; a change in the last bit passes, a cell more or less,
+    a box shifted or a larger difference do not."""
     ops = load("odor_path_speed")
     if not ops.HAVE_NUMBA:
         pytest.skip("numba is not installed")
     a = ops.time_odor_path(0.05, 2, "auto", 11)
     b = ops.time_odor_path(0.05, 2, "numpy", 11)
     c = ops.time_odor_path(0.05, 2, "numpy", 12)
-    assert len(a["digests"]) == 2
-    assert a["digests"] == b["digests"]
-    assert a["digests"] != c["digests"]
-    x = np.zeros((2, 3))
-    y = x.copy()
-    y[1, 2] = np.nextafter(0.0, 1.0)
-    assert ops.map_digest(x) == ops.map_digest(x.copy())
-    assert ops.map_digest(x) != ops.map_digest(y)
-    assert ops.map_digest(x) != ops.map_digest(x.reshape(3, 2))
+    assert len(a["maps"]) == 2
+    assert ops.maps_agree(a["maps"], b["maps"])
+    assert not ops.maps_agree(a["maps"], c["maps"])
+    assert not ops.maps_agree(a["maps"], b["maps"][:1])
+    x = np.array([[0.0, 0.5, 0.25], [0.125, 0.5, 0.0]])
+    last_bit = x.copy()
+    last_bit[0, 1] = np.nextafter(0.5, 1.0)
+    more = x.copy()
+    more[1, 2] = np.nextafter(0.0, 1.0)
+    far = x.copy()
+    far[1, 1] *= 1 + 1e-10
+    # the same map in a larger box (a zero border) agrees; moved by a cell it does not
+    padded = np.pad(x, 1)
+    assert ops.maps_agree([(3, 4, x)], [(3, 4, last_bit)])
+    assert ops.maps_agree([(3, 4, x)], [(2, 3, padded)])
+    assert not ops.maps_agree([(3, 4, x)], [(3, 5, x)])
+    assert not ops.maps_agree([(3, 4, x)], [(3, 4, more)])
+    assert not ops.maps_agree([(3, 4, x)], [(3, 4, far)])
 
 
 # ---------------------------------------------------------------------- infotaxis_vs_otto

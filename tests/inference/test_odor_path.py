@@ -20,13 +20,15 @@ from odorloc.inference.odor_path import (
 )
 from odorloc.inference.odor_path.estimator import PathPatch
 from odorloc.inference.odor_path.kernel import (
-    axis_pass,
     dw_kernel,
-    dw_pass,
+    exp_nonpositive,
+    exp_nonpositive_fast,
     paint,
+    path_kernel,
+    path_meta,
+    path_workspace,
     window_fill,
     window_kernel,
-    window_pass,
 )
 
 
@@ -37,6 +39,32 @@ def feed(est: OdorPathEstimator, winds: np.ndarray, position=(8.0, 5.0), dt=0.5,
 
 def noisy_winds(rng: np.random.Generator, n=21, mean=(0.8, 0.1), sigma=0.05) -> np.ndarray:
     return np.asarray(mean) + rng.normal(0.0, sigma, (n, 2))
+
+
+def dense(patch: PathPatch) -> np.ndarray:
+    """The patch made dense in a new array."""
+    out = np.zeros(patch.grid.shape)
+    out[patch.slices] = patch.values
+    return out
+
+
+def assert_same_map(ref_est: OdorPathEstimator, ref: np.ndarray, got: np.ndarray) -> int:
+    """``got`` is the map ``ref`` within 1e-12 relative on every cell of both supports; a cell
+    in one support only must lie within rounding of a window's ellipse edge (``q`` of eq. 12
+    within 1e-12 relative of ``2 k``, windows from ``ref_est``). Returns the number of such
+    edge cells."""
+    differ = np.argwhere((ref > 0) != (got > 0))
+    if len(differ):
+        w = ref_est.window_arrays()
+        xc, yc = ref_est.grid.x_centers(), ref_est.grid.y_centers()
+        for ix, iy in differ:
+            q = (xc[ix] - w.center[:, 0]) ** 2 / w.var[:, 0]
+            q += (yc[iy] - w.center[:, 1]) ** 2 / w.var[:, 1]
+            edge = np.abs(q - 2.0 * w.k) <= 1e-12 * np.maximum(2.0 * w.k, 1.0)
+            assert edge.any(), f"cell {(ix, iy)} in one map only, not at a window's edge"
+    both = (ref > 0) & (got > 0)
+    np.testing.assert_allclose(got[both], ref[both], rtol=1e-12, atol=0.0)
+    return len(differ)
 
 
 # ---------------------------------------------------------------------------------------- grid
@@ -150,9 +178,11 @@ def test_dynamic_window_equals_full_grid_reference(kernel, backend, seed):
 @pytest.mark.skipif(not HAVE_NUMBA, reason="numba not installed")
 @pytest.mark.parametrize("kernel", ["point", "cell"])
 @pytest.mark.parametrize("seed", [7, 8, 9])
-def test_compiled_kernel_equals_numpy_batch_to_the_bit(kernel: str, seed: int):
-    """The same patch from both backends, bit for bit (so a D-S episode is the same with or
-    without numba), over many online steps: the robot near the middle and near a corner."""
+def test_compiled_kernel_equals_numpy_batch(kernel: str, seed: int):
+    """The same patch from both backends over many online steps (the robot near the middle
+    and near a corner): the cell kernel's bit for bit (NumPy's ``ndtr`` on both paths), the
+    point kernel's fused map within 1e-12 relative with the same cells; the sub-windows bit
+    for bit on both."""
     rng = np.random.default_rng(seed)
     a = OdorPathEstimator(OdorPathParams(backend="numpy", kernel=kernel), (0, 0), (10, 10))
     b = OdorPathEstimator(OdorPathParams(backend="numba", kernel=kernel), (0, 0), (10, 10))
@@ -163,8 +193,12 @@ def test_compiled_kernel_equals_numpy_batch_to_the_bit(kernel: str, seed: int):
             e.update(0.5 * i, np.asarray(pos, float), u, float(i % 3 == 0))
         if i >= 20:
             pa, pb = a.path_patch(), b.path_patch()
-            assert (pa.ix0, pa.iy0) == (pb.ix0, pb.iy0)
-            np.testing.assert_array_equal(pa.values, pb.values)
+            np.testing.assert_array_equal(pa.ref_cell, pb.ref_cell)
+            if kernel == "cell":
+                assert (pa.ix0, pa.iy0) == (pb.ix0, pb.iy0)
+                np.testing.assert_array_equal(pa.values, pb.values)
+            else:
+                assert_same_map(a, dense(pa), dense(pb))
     assert [w.box for w in a.windows()] == [w.box for w in b.windows()]
     assert [w.n_cells for w in a.windows()] == [w.n_cells for w in b.windows()]
 
@@ -174,20 +208,24 @@ def test_compiled_kernel_equals_numpy_batch_to_the_bit(kernel: str, seed: int):
 @pytest.mark.parametrize("variance", ["online", "fixed"])
 @pytest.mark.parametrize("snap", [False, True])
 def test_compiled_windows_equal_numpy_to_the_bit(advection: str, variance: str, snap: bool):
-    """The sub-windows (record times, centres, variances, k of eq. 13) and the maps from both
-    backends, bit for bit, under every reading of eqs. 10-13, with uneven record intervals,
-    a steady stretch (the variance floor), a moving robot and records trimmed away."""
+    """The sub-windows (record times, centres, variances, k of eq. 13) from both backends, bit
+    for bit, and the fused map within 1e-12 of the batch's (same cells, normalised or not),
+    under every reading of eqs. 10-13, with uneven record intervals, a steady stretch (the
+    variance floor), a moving robot and records trimmed away."""
     rng = np.random.default_rng(13)
     kw = {"advection": advection, "variance": variance, "snap_to_cell": snap, "cell_size": 0.1}
     kw |= {"t_thr": 5.0, "history": 1.0}
     a = OdorPathEstimator(OdorPathParams(backend="numpy", **kw), (0, 0), (10, 8))
     b = OdorPathEstimator(OdorPathParams(backend="numba", **kw), (0, 0), (10, 8))
+    kw["normalise"] = False
+    raw_a = OdorPathEstimator(OdorPathParams(backend="numpy", **kw), (0, 0), (10, 8))
+    raw_b = OdorPathEstimator(OdorPathParams(backend="numba", **kw), (0, 0), (10, 8))
     t = 0.0
     for i in range(50):
         t += float(rng.uniform(0.3, 0.7))
         pos = rng.uniform(1.0, 9.0, 2)
         wind = np.array([0.6, 0.2]) + (rng.normal(0.0, 0.1, 2) if i % 9 else 0.0)
-        for e in (a, b):
+        for e in (a, b, raw_a, raw_b):
             e.update(t, pos, wind, 1.0)
         if i < 2:
             continue
@@ -195,7 +233,8 @@ def test_compiled_windows_equal_numpy_to_the_bit(advection: str, variance: str, 
         assert wa.t_c == wb.t_c
         for name in ("t_r", "center", "var", "k", "ref_cell"):
             np.testing.assert_array_equal(getattr(wa, name), getattr(wb, name), err_msg=name)
-        np.testing.assert_array_equal(a.path_map(), b.path_map())
+        assert_same_map(a, a.path_map(), b.path_map())
+        assert_same_map(raw_a, raw_a.path_map(), raw_b.path_map())
 
 
 def test_python_window_kernel_matches_numpy():
@@ -221,10 +260,10 @@ def test_python_window_kernel_matches_numpy():
     np.testing.assert_array_equal(cell, ref.ref_cell)
 
 
-def test_python_passes_give_the_numpy_patch():
-    """The three passes of the compiled map run as plain Python (what numba compiles) on
-    arrays of their own, NumPy's log and exp between them: the NumPy batch's patch; and the
-    window pass's core run as plain Python gives the same sub-windows."""
+def test_python_fused_kernel_gives_the_numpy_patch():
+    """The fused map's kernel run as plain Python (what numba compiles) on a workspace of its
+    own: the NumPy batch's patch within 1e-12 and its robot cell; and the window pass's core
+    run as plain Python gives the sub-windows."""
     rng = np.random.default_rng(15)
     est = OdorPathEstimator(OdorPathParams(cell_size=0.2, backend="numpy"), (0, 0), (10, 8))
     feed(est, noisy_winds(rng, n=30, sigma=0.1), position=(6.0, 4.0))
@@ -234,30 +273,45 @@ def test_python_passes_give_the_numpy_patch():
     n = len(times)
     winds = noisy_winds(np.random.default_rng(15), n=30, sigma=0.1)[-n:]
     pos = np.tile([6.0, 4.0], (n, 1))
-    limit = times[-1] - p.t_thr - 1e-9
     fixed = (*g.lower, g.cell_size, *p.fixed_variance, p.min_variance)
-    fpar = np.array([p.dt, *fixed, p.noise_time_scale, est.eta])
-    flags = np.array([1, 1, 0], np.intp)  # interval advection, snapped, online variance
-    win = [np.zeros(n), np.zeros((n, 2)), np.zeros((n, 2)), np.zeros(n), np.zeros(2, np.intp)]
-    n_r = window_pass(times, winds, pos, limit, n - 1, 0, fpar, flags, *win)
-    assert n_r == 20
-    _, center, var, k_arg, cell = win
-    k = np.log(k_arg[:n_r])
-    boxes, coef, sizes = np.zeros((n_r, 4), np.intp), np.zeros((n_r, 2)), np.zeros(2, np.intp)
-    qbuf, argbuf = np.zeros(n_r * sum(g.shape)), np.zeros(n_r * sum(g.shape))
-    shape = np.array(g.shape, np.intp)
-    m = axis_pass(center, var, k, n_r, fpar[1:4], shape, boxes, coef, qbuf, argbuf, sizes)
-    np.exp(argbuf[:m], out=argbuf[:m])
-    patch, ix0, iy0 = dw_pass(boxes, coef, k, n_r, qbuf, argbuf, sizes, True)
-    assert (ix0, iy0) == (ref.ix0, ref.iy0)
-    np.testing.assert_array_equal(patch, ref.values)
+    # interval advection, snapped, online variance, normalised
+    par = np.array([p.dt, *fixed, p.noise_time_scale, est.eta, p.t_thr, 1e-9, 1, 1, 0, 1, *g.shape])
+    ws = path_workspace(n, *g.shape)
+    values = path_kernel(times, winds, pos, n - 1, 0, par, ws)
+    ix0, iy0, *cell = path_meta(ws).tolist()
+    got = PathPatch(ix0, iy0, values, g, np.array(cell))
+    assert_same_map(est, dense(ref), dense(got))
     np.testing.assert_array_equal(cell, ref.ref_cell)
-    again = [np.zeros(n), np.zeros((n, 2)), np.zeros((n, 2)), np.zeros(n), np.zeros(2, np.intp)]
+    assert values.shape[0] > 5 and values.shape[1] > 5
+    win = [np.zeros(n), np.zeros((n, 2)), np.zeros((n, 2)), np.zeros(n), np.zeros(2, np.intp)]
     settings = (p.dt, True, True, *g.lower, g.cell_size, False, np.zeros(2), p.min_variance)
-    assert window_fill(times, winds, pos, limit, n - 1, 0, *settings, 1.0, est.eta, *again) == n_r
-    for a, b in zip(again[:4], win[:4], strict=True):
-        np.testing.assert_array_equal(a[:n_r], b[:n_r])
-    np.testing.assert_array_equal(again[4], cell)
+    limit = times[-1] - p.t_thr - 1e-9
+    assert window_fill(times, winds, pos, limit, n - 1, 0, *settings, 1.0, est.eta, *win) == 20
+    w = est.window_arrays()
+    for a, b in zip(win[:3], (w.t_r, w.center, w.var), strict=True):
+        np.testing.assert_array_equal(a[:20], b)
+    np.testing.assert_array_equal(np.log(win[3][:20]), w.k)
+    np.testing.assert_array_equal(win[4], ref.ref_cell)
+
+
+def test_vectorised_exponential_is_numpys_within_one_ulp():
+    """The fused map's exponential against NumPy's over the arguments a map meets (and the
+    subnormal range, which goes to the C library's)."""
+    rng = np.random.default_rng(31)
+    x = -np.concatenate(
+        [rng.uniform(0, 1, 3000), rng.uniform(0, 60, 3000), rng.uniform(700, 760, 500)]
+    )
+    x[:4] = (0.0, -0.0, -5e-324, -1e-300)
+    ref = np.exp(x)
+    normal = ref >= np.finfo(float).tiny
+    for kernel in (exp_nonpositive, exp_nonpositive_fast):  # as Python, and compiled
+        out = np.empty_like(x)
+        kernel(x, out, np.empty(x.size, np.int64))
+        ulps = np.abs(out[normal] - ref[normal]) / np.spacing(ref[normal])
+        assert ulps.max() <= 1.0
+        # subnormal results: within a few of the smallest steps
+        assert np.abs(out[~normal] - ref[~normal]).max() <= 4 * 5e-324
+        assert out[0] == 1.0 and np.array_equal(out > 0, ref > 0)
 
 
 def test_cost_follows_window_size_not_map_size():
@@ -547,10 +601,19 @@ def test_copied_estimator_draws_its_own_dense_maps():
     held = est.path_map()
     twin = copy.deepcopy(est)
     thawed = pickle.loads(pickle.dumps(est))
+    # the same records and one more, in an estimator never copied: its map is the copies'
+    fresh = OdorPathEstimator(OdorPathParams(cell_size=0.1), (0, 0), (10, 10))
+    feed(fresh, noisy_winds(np.random.default_rng(24)))
+    fresh.update(10.5, (2.0, 2.0), (0.5, 0.5), 1.0)
+    moved = fresh.path_patch()
     for other in (twin, thawed):
         np.testing.assert_array_equal(other.path_map(), held)
         other.update(10.5, (2.0, 2.0), (0.5, 0.5), 1.0)
         assert not np.array_equal(other.path_map(), held)
+        patch = other.path_patch()
+        assert (patch.ix0, patch.iy0) == (moved.ix0, moved.iy0)
+        np.testing.assert_array_equal(patch.ref_cell, moved.ref_cell)
+        np.testing.assert_array_equal(patch.values, moved.values)
     np.testing.assert_array_equal(est.path_map(), held)  # the original is unchanged
 
 
@@ -573,7 +636,7 @@ def test_paint_kernel_as_python_writes_the_patch_and_clears_only_the_old_box():
 @pytest.mark.skipif(not HAVE_NUMBA, reason="numba not installed")
 def test_compiled_map_with_more_windows_than_the_first_buffer_holds():
     """Records every 0.05 s: 200 sub-windows, more than the first record buffer (64) and so
-    the compiled map's first arrays hold; the maps stay the NumPy batch's."""
+    the compiled map's first workspace holds; the maps stay the NumPy batch's."""
     rng = np.random.default_rng(23)
     kw = {"cell_size": 0.2, "dt": 0.05}
     a = OdorPathEstimator(OdorPathParams(backend="numpy", **kw), (0, 0), (10, 10))
@@ -583,7 +646,49 @@ def test_compiled_map_with_more_windows_than_the_first_buffer_holds():
         for e in (a, b):
             e.update(0.05 * i, (7.0, 6.0), u, 1.0)
         if i in (40, 63, 64, 65, 120, 229):
-            pa, pb = a.path_patch(), b.path_patch()
-            assert (pa.ix0, pa.iy0) == (pb.ix0, pb.iy0)
-            np.testing.assert_array_equal(pa.values, pb.values)
+            assert_same_map(a, a.path_map(), b.path_map())
     assert len(b.windows()) == 200
+
+
+@pytest.mark.skipif(not HAVE_NUMBA, reason="numba not installed")
+def test_fused_map_on_first_records_empty_windows_and_without_detection():
+    """The fused map against the batch where it has little or nothing to draw: one, two and
+    three records, readings without a detection under eq. (17) (an empty map, the robot's cell
+    still reported), and a threshold no cell reaches (``k <= 0`` in every window)."""
+    rng = np.random.default_rng(32)
+    for eta in (None, 0.9):
+        kw = {"cell_size": 0.1, "eta": eta}
+        a = OdorPathEstimator(OdorPathParams(backend="numpy", **kw), (0, 0), (10, 10))
+        b = OdorPathEstimator(OdorPathParams(backend="numba", **kw), (0, 0), (10, 10))
+        for i in range(12):
+            detect = float(i % 4 != 3)
+            u = np.array([0.5, 0.3]) + rng.normal(0, 0.1, 2)
+            for e in (a, b):
+                e.update(0.5 * i, (4.0 + 0.1 * i, 6.0), u, detect)
+            for literal in (False, True):
+                pa = a.path_patch(require_detection=literal)
+                pb = b.path_patch(require_detection=literal)
+                np.testing.assert_array_equal(pa.ref_cell, pb.ref_cell)
+                assert pa.empty == pb.empty
+                assert_same_map(a, dense(pa), dense(pb))
+                if eta is not None or (literal and not detect) or i == 0:
+                    assert pb.empty and pb.values.shape == (0, 0)
+            if eta is None and i >= 2:
+                assert not b.path_patch().empty
+
+
+def test_map_comparison_fails_off_the_edge():
+    """The comparison the fused map is tested with: a relative error above 1e-12, or a cell
+    missing away from every window's edge, fails it."""
+    est = OdorPathEstimator(OdorPathParams(cell_size=0.1, backend="numpy"), (0, 0), (10, 10))
+    feed(est, noisy_winds(np.random.default_rng(33)))
+    ref = est.path_map()
+    assert assert_same_map(est, ref, ref.copy()) == 0
+    off = ref.copy()
+    off[np.unravel_index(np.argmax(ref), ref.shape)] *= 1 + 1e-11
+    with pytest.raises(AssertionError):
+        assert_same_map(est, ref, off)
+    hole = ref.copy()
+    hole[np.unravel_index(np.argmax(ref), ref.shape)] = 0.0  # the path's peak: no edge
+    with pytest.raises(AssertionError, match="not at a window's edge"):
+        assert_same_map(est, ref, hole)

@@ -10,10 +10,13 @@ sub-dynamic window ``DW(t_r, t_c)`` keeps the cells with ``S >= eta`` -- an axis
 (eqs. 12-15); ``S`` is normalised inside each window and the map is the maximum over ``t_r``
 (eqs. 16-17). Only the cells inside each window's bounding box are evaluated, so the cost follows
 ``sum |DW|`` rather than the map size ``M``; :meth:`OdorPathEstimator.path_map_full` evaluates the
-same maths on every cell as a reference. The per-window loop is compiled with numba when the
-``fast`` extra is installed (``backend="auto"``); otherwise all windows are evaluated in one
-batched NumPy pass. Both give the same map (tested). Dense maps are drawn into an array the
-estimator reuses (:class:`DenseCanvas`) and are read-only.
+same maths on every cell as a reference. With numba (``backend="auto"``) the point kernel's map
+is one compiled call; otherwise all windows are evaluated in one batched NumPy pass, the
+reference. The compiled map equals it within a few units in the last place on every cell, with
+the same cells (tested; a cell within rounding of a window's edge could fall either side).
+:meth:`OdorPathEstimator.windows` and :meth:`OdorPathEstimator.window_arrays` are the batch's to
+the bit on both backends. Dense maps are drawn into an array the estimator reuses
+(:class:`DenseCanvas`) and are read-only.
 
 Readings of the paper's flattened or ambiguous formulas (each one configurable):
 
@@ -62,12 +65,12 @@ from odorloc.geometry.grid import CellGrid
 from odorloc.inference.odor_path.kernel import (
     HAVE_NUMBA,
     axis_kernel_fast,
-    axis_pass_fast,
     dw_kernel_fast,
-    dw_pass_fast,
     paint_fast,
+    path_kernel_fast,
+    path_meta,
+    path_workspace,
     window_kernel_fast,
-    window_pass_fast,
 )
 
 FloatArray = NDArray[np.float64]
@@ -93,6 +96,23 @@ def from_paper_k(grid: CellGrid, k: ArrayLike) -> tuple[IntArray, IntArray]:
     i = (k - 1) // grid.nx + 1
     j = k - (i - 1) * grid.nx
     return (j - 1).astype(np.intp), (i - 1).astype(np.intp)
+
+
+def _pair(value: ArrayLike, name: str) -> tuple[float, float]:
+    """The two finite components of a record's ``position`` or ``wind``, or its error."""
+    if type(value) is np.ndarray and value.dtype is _F64 and value.shape == (2,):
+        x, y = value.tolist()
+    else:
+        v = np.asarray(value, float).reshape(-1)
+        if v.shape != (2,):
+            raise ConfigError(name, f"needs 2 finite components, got {value!r}")
+        x, y = float(v[0]), float(v[1])
+    if not (math.isfinite(x) and math.isfinite(y)):
+        raise ConfigError(name, f"needs 2 finite components, got {value!r}")
+    return x, y
+
+
+_F64 = np.dtype(np.float64)
 
 
 # ---------------------------------------------------------------------------------- parameters
@@ -132,7 +152,7 @@ class OdorPathParams(Params):
         position.
     backend : {"auto", "numpy", "numba"}
         Window kernel: the compiled loop when numba is installed ("auto"), or the batched NumPy
-        form. Both give the same map.
+        form. Both give the same map within a few units in the last place.
     """
 
     cell_size: Positive = 0.05
@@ -243,6 +263,28 @@ class PathPatch:
         return out
 
 
+def _patch(
+    ix0: int,
+    iy0: int,
+    values: FloatArray,
+    grid: CellGrid,
+    ref_cell: IntArray,
+    canvas: DenseCanvas | None,
+) -> PathPatch:
+    """``PathPatch(ix0, iy0, values, grid, ref_cell, canvas)`` without the frozen dataclass's
+    ``__init__`` (one ``object.__setattr__`` per field: a third of the Python around the
+    compiled map); the same object."""
+    p = object.__new__(PathPatch)
+    d = p.__dict__
+    d["ix0"] = ix0
+    d["iy0"] = iy0
+    d["values"] = values
+    d["grid"] = grid
+    d["ref_cell"] = ref_cell
+    d["canvas"] = canvas
+    return p
+
+
 class DenseCanvas:
     """A full ``(nx, ny)`` map reused for the dense form of successive patches.
 
@@ -260,9 +302,12 @@ class DenseCanvas:
 
     def __init__(self, shape: tuple[int, int]) -> None:
         self.shape = shape
-        self._map: FloatArray | None = None
+        # the map is written in _base and handed out as _view, a read-only view of it: no
+        # flag to set and reset around every drawing
+        self._base: FloatArray | None = None
+        self._view: FloatArray | None = None
         self._last = np.zeros(4, np.intp)  # box of the patch the map holds
-        self._free = 0  # reference count of a map nothing outside refers to
+        self._free = (0, 0)  # reference counts of view and base when nothing outside refers
 
     def __getstate__(self) -> dict[str, tuple[int, int]]:
         # a copy or a pickle starts its own map: the array is memory handed out, not state
@@ -273,15 +318,16 @@ class DenseCanvas:
 
     def draw(self, patch: PathPatch) -> FloatArray:
         """``patch`` as a full read-only map (see the class notes)."""
-        m = self._map
-        if m is None or sys.getrefcount(m) > self._free:
+        m, v = self._base, self._view
+        # a view of the map handed out refers to the base, not to the view it was cut from
+        if m is None or (sys.getrefcount(v), sys.getrefcount(m)) != self._free:
             m = np.zeros(self.shape)
-            self._map = m
+            v = m.view()
+            v.flags.writeable = False
+            self._base, self._view = m, v
             self._last[:] = 0
-            # the same expression as the test above, so the count is the same on any CPython
-            self._free = sys.getrefcount(m)
-        else:
-            m.flags.writeable = True
+            # the same expressions as the test above, so the counts are the same on any CPython
+            self._free = (sys.getrefcount(v), sys.getrefcount(m))
         if HAVE_NUMBA:
             paint_fast(m, self._last, patch.values, patch.ix0, patch.iy0)
         else:
@@ -290,8 +336,7 @@ class DenseCanvas:
             m[patch.slices] = patch.values
             bx, by = patch.values.shape
             self._last[:] = (patch.ix0, patch.ix0 + bx, patch.iy0, patch.iy0 + by)
-        m.flags.writeable = False
-        return m
+        return v  # type: ignore[return-value]
 
 
 # -------------------------------------------------------------------------------- estimator
@@ -323,26 +368,6 @@ class AxisTerms:
     lim: FloatArray
 
 
-class _Workspace:
-    """Preallocated arrays of the compiled map (:meth:`OdorPathEstimator._patch_compiled`)
-    for up to ``capacity`` sub-windows on an ``(nx, ny)`` grid."""
-
-    def __init__(self, capacity: int, shape: tuple[int, int]) -> None:
-        self.capacity = capacity
-        self.t_r = np.empty(capacity)
-        self.center = np.empty((capacity, 2))
-        self.var = np.empty((capacity, 2))
-        self.k_arg = np.empty(capacity)
-        self.k = np.empty(capacity)
-        self.ref = np.zeros(2, np.intp)
-        self.boxes = np.zeros((capacity, 4), np.intp)
-        self.coef = np.empty((capacity, 2))
-        # the axis terms of every window padded to the largest box: at most the grid's sides
-        self.q = np.empty(capacity * (shape[0] + shape[1]))
-        self.arg = np.empty(capacity * (shape[0] + shape[1]))
-        self.sizes = np.zeros(2, np.intp)
-
-
 class OdorPathEstimator:
     """Odor-path probability maps from the robot's wind record (odor-path paper, section IV).
 
@@ -370,16 +395,28 @@ class OdorPathEstimator:
         self.eta = params.eta if params.eta is not None else 1.0 / self.grid.n_cells
         self._canvas = DenseCanvas(self.grid.shape)
         g, p = self.grid, params
-        # the compiled map's fixed settings, packed once (window_pass, axis_pass)
+        # the compiled map's fixed settings, packed once: every argument adds to a call's
+        # dispatch (path_kernel's layout)
         fixed = (g.lower[0], g.lower[1], g.cell_size, *p.fixed_variance, p.min_variance)
-        self._fpar = np.array([p.dt, *fixed, p.noise_time_scale, self.eta], float)
-        self._flags = np.array(
-            [p.advection == "interval", p.snap_to_cell, p.variance == "fixed"], np.intp
-        )
-        self._grid_f = self._fpar[1:4]  # x0, y0, a
-        self._grid_n = np.array(g.shape, np.intp)
-        self._ws: _Workspace | None = None
+        readings = (p.advection == "interval", p.snap_to_cell, p.variance == "fixed")
+        self._par = np.array(
+            [p.dt, *fixed, p.noise_time_scale, self.eta, p.t_thr, _TIME_TOL, *readings,
+             p.normalise, *g.shape],
+            float,
+        )  # fmt: skip
+        self._ws: FloatArray | None = None  # its scratch (path_workspace)
+        self._ws_capacity = 0
+        self._meta: IntArray | None = None  # path_meta of the scratch
+        # path_patch by the fused kernel (a missing numba is reported by _use_numba)
+        self._fused = p.kernel == "point" and p.backend != "numpy" and HAVE_NUMBA
         self.reset()
+
+    def __getstate__(self) -> dict[str, object]:
+        # the compiled map's scratch is not state, and a copy of its integer view would not
+        # view the copy's scratch: a copy or a pickle allocates its own on first use
+        state = self.__dict__.copy()
+        state.update(_ws=None, _ws_capacity=0, _meta=None)
+        return state
 
     # ------------------------------------------------------------------------ records
     def reset(self) -> None:
@@ -414,14 +451,10 @@ class OdorPathEstimator:
             raise ConfigError("t", "must be finite")
         if self._hi > self._lo and t <= self._tt[self._hi - 1]:
             raise ConfigError("t", f"must increase (got {t} after {self._tt[self._hi - 1]})")
-        p = np.asarray(position, float).reshape(-1)
-        u = np.asarray(wind, float).reshape(-1)
-        # two scalar tests: this runs at every record, where np.all(np.isfinite(.)) would cost
-        # more than storing the record
-        if p.shape != (2,) or not (math.isfinite(p[0]) and math.isfinite(p[1])):
-            raise ConfigError("position", f"needs 2 finite components, got {position!r}")
-        if u.shape != (2,) or not (math.isfinite(u[0]) and math.isfinite(u[1])):
-            raise ConfigError("wind", f"needs 2 finite components, got {wind!r}")
+        # this runs at every record: scalar tests, not np.all(np.isfinite(.)), and no array
+        # made from a float array of the right shape (either would cost more than the store)
+        px, py = _pair(position, "position")
+        wx, wy = _pair(wind, "wind")
         s = float(signal)
         if not math.isfinite(s):
             raise ConfigError("signal", "must be finite")
@@ -446,8 +479,11 @@ class OdorPathEstimator:
             self._lo, self._hi = 0, n
         i = self._hi
         self._tt[i] = t
-        self._pp[i] = p
-        self._ww[i] = u
+        pp, ww = self._pp, self._ww
+        pp[i, 0] = px
+        pp[i, 1] = py
+        ww[i, 0] = wx
+        ww[i, 1] = wy
         self._ss[i] = s
         self._hi += 1
 
@@ -581,10 +617,10 @@ class OdorPathEstimator:
         """What both paths start from: each sub-window's box and, along each axis of it, the
         ellipse term of eq. (12) and the kernel factor of eq. (11) (padded to a common size).
 
-        The exponentials (and the cell kernel's ``ndtr``) are NumPy's on both paths, so that the
-        batch and the compiled loop give the same numbers to the bit (a compiled ``exp`` is the
-        C library's, which differs from NumPy's in the last bit for a few per cent of
-        arguments); with numba the rest of the point kernel's prelude runs as
+        The exponentials (and the cell kernel's ``ndtr``) are NumPy's on both paths, so that
+        :meth:`windows` gives the same cells to the bit on both (the map itself, with numba and
+        the point kernel, is :meth:`path_patch`'s single compiled call); with numba the rest of
+        the point kernel's prelude runs as
         :func:`~odorloc.inference.odor_path.kernel.axis_kernel`, operation for operation as the
         NumPy code below.
 
@@ -691,44 +727,32 @@ class OdorPathEstimator:
             raise ConfigError("backend", "numba is not installed (install the 'fast' extra)")
         return b == "numba" or (b == "auto" and HAVE_NUMBA)
 
-    def _workspace(self) -> _Workspace:
-        """Arrays the compiled map writes into, sized for the record buffer."""
-        ws = self._ws
-        if ws is None or ws.capacity < len(self._tt):
-            ws = self._ws = _Workspace(len(self._tt), self.grid.shape)
-        return ws
-
     def _patch_compiled(self, c: int, require_detection: bool) -> PathPatch:
-        """:meth:`path_patch` of record ``c`` by the compiled passes (point kernel).
+        """:meth:`path_patch` of record ``c`` in one compiled call (point kernel).
 
-        The same maths as :meth:`window_arrays`, :meth:`axis_terms` and :meth:`_compiled`, in
-        three compiled calls on preallocated arrays with NumPy's logarithm and one NumPy
-        exponential between them, so the patch is the NumPy batch's to the bit.
+        The same maths as :meth:`window_arrays`, :meth:`axis_terms` and the NumPy batch, within
+        a few units in the last place of the batch's values
+        (:func:`~odorloc.inference.odor_path.kernel.path_kernel`).
         """
-        limit = self._tt[c] - self.params.t_thr - _TIME_TOL
+        tt = self._tt
+        limit = tt[c] - self.params.t_thr - _TIME_TOL
         if self._dropped_t >= limit:
             self._first_window(c)  # its error: the records needed are gone
-        ws = self._workspace()
-        n_r = window_pass_fast(
-            self._tt, self._ww, self._pp, limit, c, self._lo, self._fpar, self._flags,
-            ws.t_r, ws.center, ws.var, ws.k_arg, ws.ref,
-        )  # fmt: skip
-        ref = ws.ref.copy()
         if require_detection and not self._ss[c] > 0.0:
-            return PathPatch(0, 0, np.zeros((0, 0)), self.grid, ref, self._canvas)
-        k = ws.k[:n_r]
-        np.log(ws.k_arg[:n_r], out=k)
-        n = axis_pass_fast(
-            ws.center, ws.var, ws.k, n_r, self._grid_f, self._grid_n, ws.boxes, ws.coef,
-            ws.q, ws.arg, ws.sizes,
-        )  # fmt: skip
-        # one contiguous run for both axes: NumPy's exponential, as on the NumPy path
-        e = ws.arg[:n]
-        np.exp(e, out=e)
-        patch, ix0, iy0 = dw_pass_fast(
-            ws.boxes, ws.coef, ws.k, n_r, ws.q, ws.arg, ws.sizes, self.params.normalise
-        )
-        return PathPatch(ix0, iy0, patch, self.grid, ref, self._canvas)
+            # the robot's cell as the kernel finds it
+            g = self.grid
+            ix = math.floor((self._pp[c, 0] - g.lower[0]) / g.cell_size)
+            iy = math.floor((self._pp[c, 1] - g.lower[1]) / g.cell_size)
+            ref = np.array([ix, iy], np.intp)
+            return PathPatch(0, 0, np.zeros((0, 0)), g, ref, self._canvas)
+        ws = self._ws
+        if ws is None or self._ws_capacity < len(tt):
+            ws = self._ws = path_workspace(len(tt), *self.grid.shape)
+            self._ws_capacity = len(tt)
+            self._meta = path_meta(ws)
+        values = path_kernel_fast(tt, self._ww, self._pp, c, self._lo, self._par, ws)
+        ix0, iy0, rx, ry = self._meta.tolist()  # type: ignore[union-attr]
+        return _patch(ix0, iy0, values, self.grid, np.array((rx, ry), np.intp), self._canvas)
 
     def _compiled(self, w: WindowArrays) -> tuple[IntArray, IntArray, FloatArray, int, int]:
         t = self.axis_terms(w)
@@ -786,7 +810,7 @@ class OdorPathEstimator:
         PathPatch
             Cost is proportional to the number of cells in the windows, not to ``M``.
         """
-        if self.params.kernel == "point" and self._use_numba():
+        if self._fused:
             return self._patch_compiled(self._record_index(t_c), require_detection)
         w = self.window_arrays(t_c)
         if require_detection and not self._ss[self._record_index(t_c)] > 0.0:

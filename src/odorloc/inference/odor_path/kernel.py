@@ -1,14 +1,18 @@
 """The compiled loops of the dynamic-window odor-path map (odor-path paper, eqs. 10-17).
 
-:func:`dw_kernel` is the loop form of the estimator's batched NumPy pass plus the maximum over
-windows; :func:`window_kernel` and :func:`axis_kernel` compute the sub-windows and the axis terms
-as the NumPy code does. The estimator's map runs them as three calls on arrays it allocates once
-(:func:`window_pass`, :func:`axis_pass`, :func:`dw_pass`), with NumPy's logarithm and one NumPy
-exponential between them; :func:`paint` writes a patch into a reused dense map. They are compiled
-with numba when it is installed (:data:`HAVE_NUMBA`). The NumPy batch of
-:class:`~odorloc.inference.odor_path.estimator.OdorPathEstimator` is the reference; both paths
-use NumPy's exponentials and logarithms and give the same patch to the bit, so the same seed
-gives the same D-S episode with or without numba.
+The estimator's map (point kernel) is one call of :func:`path_kernel` on a workspace it
+allocates once (:func:`path_workspace`): the sub-windows, eq. (13)'s logarithm, the axis terms
+with a vectorised exponential (:func:`exp_nonpositive`), each window's cells and sum, and the
+maximum over the windows; :func:`paint` writes a patch into a reused dense map. The NumPy batch
+of :class:`~odorloc.inference.odor_path.estimator.OdorPathEstimator` is the reference: the fused
+map equals it within a few units in the last place (its exponentials, logarithm, sums and
+normalisation round differently; see :func:`path_kernel`).
+
+:func:`window_kernel`, :func:`axis_kernel` and :func:`dw_kernel` compute the sub-windows, the
+axis terms and the window pass as the NumPy code does, operation for operation, with NumPy's
+exponentials and logarithms between them: the estimator's :meth:`window_arrays` and
+:meth:`windows` use them, and give the NumPy batch's numbers to the bit. Everything is compiled
+with numba when it is installed (:data:`HAVE_NUMBA`).
 """
 
 from __future__ import annotations
@@ -26,19 +30,19 @@ __all__ = [
     "axis_fill",
     "axis_kernel",
     "axis_kernel_fast",
-    "axis_pass",
-    "axis_pass_fast",
     "dw_kernel",
     "dw_kernel_fast",
-    "dw_pass",
-    "dw_pass_fast",
+    "exp_nonpositive",
+    "exp_nonpositive_fast",
     "paint",
     "paint_fast",
+    "path_kernel",
+    "path_kernel_fast",
+    "path_meta",
+    "path_workspace",
     "window_fill",
     "window_kernel",
     "window_kernel_fast",
-    "window_pass",
-    "window_pass_fast",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -460,148 +464,6 @@ def dw_kernel(
     return n_cells, patch, ux0, uy0
 
 
-def window_pass(
-    tt: FloatArray,
-    ww: FloatArray,
-    pp: FloatArray,
-    limit: float,
-    c: int,
-    oldest: int,
-    fpar: FloatArray,
-    flags: IntArray,
-    t_r: FloatArray,
-    center: FloatArray,
-    var: FloatArray,
-    k_arg: FloatArray,
-    ref: IntArray,
-) -> int:
-    """:func:`window_fill` with an estimator's fixed settings packed in two arrays (few
-    arguments: each one costs the call's dispatch).
-
-    Parameters
-    ----------
-    fpar : (9,) ndarray
-        ``dt0`` (s), ``x0``, ``y0``, ``a`` (m), the fixed variances ``(2,)`` (m^2/s^2),
-        ``min_var`` (m^2/s^2), ``tau`` (s), ``eta``.
-    flags : (3,) int ndarray
-        ``interval``, ``snap``, ``fixed`` (non-zero: true).
-
-    Returns
-    -------
-    int
-        Number of sub-windows written.
-    """
-    return window_fill_fast(
-        tt, ww, pp, limit, c, oldest, fpar[0], flags[0] != 0, flags[1] != 0, fpar[1],
-        fpar[2], fpar[3], flags[2] != 0, fpar[4:6], fpar[6], fpar[7], fpar[8], t_r, center,
-        var, k_arg, ref,
-    )  # fmt: skip
-
-
-def axis_pass(
-    center: FloatArray,
-    var: FloatArray,
-    k: FloatArray,
-    n_r: int,
-    grid_f: FloatArray,
-    grid_n: IntArray,
-    boxes: IntArray,
-    coef: FloatArray,
-    qbuf: FloatArray,
-    argbuf: FloatArray,
-    sizes: IntArray,
-) -> int:
-    """Boxes and axis terms of the first ``n_r`` windows into preallocated arrays (the
-    estimator's workspace), laid out so that one NumPy ``exp`` serves both axes.
-
-    Parameters
-    ----------
-    center, var, k : (>= n_r, 2), (>= n_r, 2), (>= n_r,) ndarray
-        As :func:`axis_kernel`'s.
-    grid_f : (3,) ndarray
-        Grid origin ``(x0, y0)`` and cell size, m.
-    grid_n : (2,) int ndarray
-        Cells per axis.
-    boxes, coef : (>= n_r, 4) int, (>= n_r, 2) ndarray
-        Out: :func:`axis_boxes`'.
-    qbuf, argbuf : (>= n_r (nx + ny),) ndarray
-        Out: ``qx`` ``(n_r, Bx)`` then ``qy`` ``(n_r, By)`` flat, and the exponentials'
-        arguments in the same layout.
-    sizes : (2,) int ndarray
-        Out: ``Bx``, ``By``.
-
-    Returns
-    -------
-    int
-        ``n_r (Bx + By)``: the length of ``argbuf`` to exponentiate.
-    """
-    bx, by = axis_boxes_fast(
-        center, var, k, n_r, grid_f[0], grid_f[1], grid_f[2], grid_n[0], grid_n[1], boxes, coef
-    )
-    mx = n_r * bx
-    my = n_r * by
-    qx = qbuf[:mx].reshape((n_r, bx))
-    qy = qbuf[mx : mx + my].reshape((n_r, by))
-    arg_x = argbuf[:mx].reshape((n_r, bx))
-    arg_y = argbuf[mx : mx + my].reshape((n_r, by))
-    axis_fill_fast(
-        center, var, boxes, grid_f[0], grid_f[1], grid_f[2], grid_n[0], grid_n[1], qx, arg_x,
-        qy, arg_y,
-    )  # fmt: skip
-    sizes[0] = bx
-    sizes[1] = by
-    return mx + my
-
-
-def dw_pass(
-    boxes: IntArray,
-    coef: FloatArray,
-    k: FloatArray,
-    n_r: int,
-    qbuf: FloatArray,
-    ebuf: FloatArray,
-    sizes: IntArray,
-    normalise: bool,
-) -> tuple[FloatArray, int, int]:
-    """:func:`dw_kernel` on :func:`axis_pass`' workspace once NumPy has exponentiated it.
-
-    Parameters
-    ----------
-    boxes, coef, k, n_r, qbuf, sizes
-        As after :func:`axis_pass`.
-    ebuf : ndarray
-        ``exp`` of :func:`axis_pass`' ``argbuf`` (may be ``argbuf`` itself: it is scaled in
-        place to the kernel factors).
-    normalise : bool
-
-    Returns
-    -------
-    patch : (bx, by) ndarray
-    ix0, iy0 : int
-        As :func:`dw_kernel`'s.
-    """
-    bx = sizes[0]
-    by = sizes[1]
-    mx = n_r * bx
-    my = n_r * by
-    qx = qbuf[:mx].reshape((n_r, bx))
-    qy = qbuf[mx : mx + my].reshape((n_r, by))
-    fx = ebuf[:mx].reshape((n_r, bx))
-    fy = ebuf[mx : mx + my].reshape((n_r, by))
-    lim = np.empty(n_r)
-    for r in range(n_r):
-        # coef exp(arg): the NumPy batch's product (one rounding, either order)
-        cx = coef[r, 0]
-        for i in range(bx):
-            fx[r, i] = fx[r, i] * cx
-        cy = coef[r, 1]
-        for j in range(by):
-            fy[r, j] = fy[r, j] * cy
-        lim[r] = 2.0 * k[r]
-    _, patch, ix0, iy0 = dw_kernel_fast(boxes[:n_r], qx, qy, fx, fy, lim, normalise)
-    return patch, ix0, iy0
-
-
 def paint(canvas: FloatArray, last: IntArray, values: FloatArray, ix0: int, iy0: int) -> None:
     """Write a patch into a full map that holds the previous one.
 
@@ -652,22 +514,6 @@ def _warm_window(kernel: Any) -> None:
     kernel(t, w, w, 0.0, 2, 0, 1.0, True, False, 0.0, 0.0, 0.5, False, np.ones(2), 1e-4, 1.0, 1e-3)
 
 
-def _warm_passes(window: Any, axes: Any, dw: Any) -> None:
-    """The three passes of the estimator's compiled map on a two-record history."""
-    t = np.arange(3.0)
-    w = np.ones((3, 2))
-    fpar = np.array([1.0, 0.0, 0.0, 0.5, 1e-3, 1e-3, 1e-4, 1.0, 1e-3])
-    flags = np.array([1, 0, 0], np.intp)
-    t_r, center, var, k = np.empty(3), np.empty((3, 2)), np.empty((3, 2)), np.empty(3)
-    boxes, coef = np.zeros((3, 4), np.intp), np.empty((3, 2))
-    qbuf, argbuf, sizes = np.empty(24), np.empty(24), np.zeros(2, np.intp)
-    n_r = window(t, w, w, 0.0, 2, 0, fpar, flags, t_r, center, var, k, np.zeros(2, np.intp))
-    n = axes(center, var, k, n_r, fpar[1:4], np.array([4, 4], np.intp), boxes, coef, qbuf,
-             argbuf, sizes)  # fmt: skip
-    dw(boxes, coef, k, n_r, qbuf, np.exp(argbuf[:n], out=argbuf[:n]) if n else argbuf, sizes,
-       True)  # fmt: skip
-
-
 def _warm_paint(kernel: Any) -> None:
     kernel(np.zeros((4, 4)), np.zeros(4, np.intp), np.ones((2, 2)), 1, 1)
 
@@ -680,9 +526,323 @@ axis_fill_fast = jit(axis_fill, nogil=True)
 dw_kernel_fast = jit(dw_kernel, warmup=_warm, nogil=True)
 axis_kernel_fast = jit(axis_kernel, warmup=_warm_axes, nogil=True)
 window_kernel_fast = jit(window_kernel, warmup=_warm_window, nogil=True)
-window_pass_fast = jit(window_pass, nogil=True)
-axis_pass_fast = jit(axis_pass, nogil=True)
-dw_pass_fast = jit(
-    dw_pass, warmup=lambda dw: _warm_passes(window_pass_fast, axis_pass_fast, dw), nogil=True
-)
 paint_fast = jit(paint, warmup=_warm_paint, nogil=True)
+
+
+# ------------------------------------------------------------------------ the fused map
+# exp(x) = 2^k exp(r), x = k ln 2 + r, |r| <= ln(2) / 2 (Cody and Waite's reduction; ln 2 split
+# so that k ln2_hi is exact for |k| < 2^20)
+_LN2_HI = 6.93147180369123816490e-01
+_LN2_LO = 1.90821492927058770002e-10
+_INV_LN2 = 1.44269504088896338700e00
+# 1 / n! for n = 13 .. 2: the Taylor series of exp(r) truncated after r^13 (|r|^14 / 14! is
+# below 5e-18 for |r| <= ln(2) / 2)
+_C13 = 1.0 / 6227020800.0
+_C12 = 1.0 / 479001600.0
+_C11 = 1.0 / 39916800.0
+_C10 = 1.0 / 3628800.0
+_C9 = 1.0 / 362880.0
+_C8 = 1.0 / 40320.0
+_C7 = 1.0 / 5040.0
+_C6 = 1.0 / 720.0
+_C5 = 1.0 / 120.0
+_C4 = 1.0 / 24.0
+_C3 = 1.0 / 6.0
+_C2 = 0.5
+
+
+def exp_nonpositive(x: FloatArray, out: FloatArray, bits: NDArray[np.int64]) -> None:
+    """``out[i] = exp(x[i])`` for ``x[i] <= 0``, in loops the compiler vectorises.
+
+    A compiled call of the C library's ``exp`` is one scalar call per argument (several times
+    NumPy's vectorised exponential); this form (argument reduction by ``ln 2``, a degree-13
+    polynomial, the power of two built from its bits) runs several arguments per instruction.
+    Within one unit in the last place of NumPy's value (tested); arguments below -708, whose
+    results are subnormal, go to the C library's ``exp``.
+
+    Parameters
+    ----------
+    x : (n,) ndarray
+        Arguments, ``<= 0``.
+    out : (n,) ndarray
+        Results (not ``x`` itself: the subnormal range reads ``x`` again).
+    bits : (>= n,) int64 ndarray
+        Scratch: the power of two each result is scaled by.
+    """
+    n = x.shape[0]
+    tiny = False
+    for i in range(n):
+        xi = x[i]
+        tiny |= xi < -708.0
+        xi = max(xi, -708.0)  # 2^k stays a normal number
+        k = np.int64(xi * _INV_LN2 - 0.5)  # nearest (ties up): x <= 0 truncates upwards
+        kf = np.float64(k)
+        r = (xi - kf * _LN2_HI) - kf * _LN2_LO
+        p = _C13
+        p = p * r + _C12
+        p = p * r + _C11
+        p = p * r + _C10
+        p = p * r + _C9
+        p = p * r + _C8
+        p = p * r + _C7
+        p = p * r + _C6
+        p = p * r + _C5
+        p = p * r + _C4
+        p = p * r + _C3
+        p = p * r + _C2
+        p = p * r + 1.0
+        p = p * r + 1.0
+        out[i] = p
+        bits[i] = (k + 1023) << 52
+    scale = bits[:n].view(np.float64)
+    for i in range(n):
+        out[i] = out[i] * scale[i]
+    if tiny:
+        for i in range(n):
+            if x[i] < -708.0:
+                out[i] = np.exp(x[i])
+
+
+def path_workspace(capacity: int, nx: int, ny: int) -> FloatArray:
+    """The scratch array :func:`path_kernel` works in, for up to ``capacity`` records on an
+    ``(nx, ny)`` grid (allocated once, reused every map): floats, then integers stored in
+    the float words."""
+    return np.empty(_ws_floats(capacity, nx, ny) + capacity * (6 + 3 * nx + ny) + 8)
+
+
+def _ws_floats(capacity: int, nx: int, ny: int) -> int:
+    return capacity * (9 + 3 * (nx + ny) + ny + 1)
+
+
+def path_kernel(
+    tt: FloatArray,
+    ww: FloatArray,
+    pp: FloatArray,
+    c: int,
+    oldest: int,
+    par: FloatArray,
+    ws: FloatArray,
+) -> FloatArray:
+    """The odor-path patch at record ``c`` in one call (eqs. 10-17, point kernel).
+
+    The sub-windows as :func:`window_fill` computes them, eq. (13)'s logarithm, the boxes as
+    :func:`axis_boxes`, the axis terms with :func:`exp_nonpositive`, each window's cells and
+    sum, and the maximum over the windows (eq. 17).
+
+    Parameters
+    ----------
+    tt, ww, pp : (n,), (n, 2), (n, 2) ndarray
+        Record buffer: times (s), winds (m/s), positions (m).
+    c, oldest : int
+        Buffer index of ``t_c`` and of the oldest stored record.
+    par : (17,) ndarray
+        The estimator's settings in one array (each argument adds to a call's dispatch):
+        ``dt0`` (s, the oldest stored record's interval), ``x0``, ``y0``, ``a`` (m), the fixed
+        variances ``(2,)`` (m^2/s^2), ``min_var`` (m^2/s^2), ``tau`` (s), ``eta``, ``t_thr``
+        (s), the time tolerance (s), then ``interval``, ``snap``, ``fixed``, ``normalise``
+        (non-zero: true) and the grid's cells per axis ``nx``, ``ny`` (see
+        :func:`window_kernel`). The windows start at the oldest stored record at or after
+        ``tt[c] - t_thr - tolerance``.
+    ws : ndarray
+        :func:`path_workspace` for at least ``c - oldest`` records and the grid. Its first
+        four integers (:func:`path_meta`) are written: the grid index ``(ix0, iy0)`` of
+        ``patch[0, 0]`` and the robot's cell.
+
+    Returns
+    -------
+    patch : (bx, by) ndarray
+        The map in the union of the boxes of the windows with cells (``(0, 0)``: none).
+
+    Notes
+    -----
+    What differs from the NumPy batch, each by a few units in the last place: the exponentials
+    (:func:`exp_nonpositive`) and the logarithm (the C library's), a window's sum (each row's
+    cells summed as the difference of two running sums of the column factors, then the rows
+    in order) and the normalisation (one reciprocal per window). The ellipse test of eq. (12)
+    is the batch's, on ``k`` from that logarithm: a cell's membership can differ only where it
+    is within rounding of the ellipse's edge.
+
+    Each row of a window is one run of cells (see :func:`dw_kernel`). Its ends are first
+    placed from the ellipse's chord (all rows at once, vectorised), then moved cell by cell
+    while the exact test of eq. (12) says so (rounding moves them by a cell at most, so these
+    loops rarely turn); the writes loop over whole rows of the box with the run as a mask, so
+    that no loop's length depends on a row's data (a mispredicted loop exit on every row would
+    cost more than the masked cells).
+    """
+    nmax = max(c - oldest, 0)
+    limit = tt[c] - par[9] - par[10]
+    nx = np.intp(par[15])
+    ny = np.intp(par[16])
+    wsf = ws[: _ws_floats_fast(nmax, nx, ny)]
+    end = ws.shape[0] - 4
+    wsi = ws[end - nmax * (6 + 3 * nx + ny) - 4 : end].view(np.intp)
+    meta = ws[end:].view(np.intp)
+    # the float workspace: per window, then per axis cell
+    t_r = wsf[:nmax]
+    k = wsf[nmax : 2 * nmax]
+    scale = wsf[2 * nmax : 3 * nmax]
+    center = wsf[3 * nmax : 5 * nmax].reshape((nmax, 2))
+    var = wsf[5 * nmax : 7 * nmax].reshape((nmax, 2))
+    coef = wsf[7 * nmax : 9 * nmax].reshape((nmax, 2))
+    cells = wsf[9 * nmax :]
+    boxes = wsi[: 4 * nmax].reshape((nmax, 4))
+    off = wsi[4 * nmax : 6 * nmax + 1]
+    ints = wsi[6 * nmax + 4 :]
+    meta[0] = 0
+    meta[1] = 0
+    n_r = window_fill_fast(
+        tt, ww, pp, limit, c, oldest, par[0], par[11] != 0, par[12] != 0, par[1], par[2],
+        par[3], par[13] != 0, par[4:6], par[6], par[7], par[8], t_r, center, var, k, meta[2:4],
+    )  # fmt: skip
+    for r in range(n_r):
+        k[r] = np.log(k[r])  # eq. (13)
+    x0 = par[1]
+    y0 = par[2]
+    a = par[3]
+    for r in range(n_r):
+        for j in range(4):
+            boxes[r, j] = 0
+    axis_boxes_fast(center, var, k, n_r, x0, y0, a, nx, ny, boxes, coef)
+    # every window's axis terms in one run: x of window r at [off[r], off[r + 1]), y at
+    # [off[n_r + r], off[n_r + r + 1])
+    off[0] = 0
+    for ax in range(2):
+        for r in range(n_r):
+            m = ax * n_r + r
+            off[m + 1] = off[m] + boxes[r, 2 * ax + 1] - boxes[r, 2 * ax]
+    n_cells = off[2 * n_r]
+    n_y = n_cells - off[n_r]
+    q = cells[:n_cells]
+    arg = cells[n_cells : 2 * n_cells]
+    f = cells[2 * n_cells : 3 * n_cells]
+    prefix = cells[3 * n_cells : 3 * n_cells + n_y + n_r]
+    for ax in range(2):
+        low = x0 if ax == 0 else y0
+        for r in range(n_r):
+            m = ax * n_r + r
+            start = boxes[r, 2 * ax]
+            cc = center[r, ax]
+            v = var[r, ax]
+            o = off[m]
+            for i in range(off[m + 1] - o):
+                d = (low + (start + i + 0.5) * a) - cc
+                qq = d * d / v  # eq. (12)
+                q[o + i] = qq
+                arg[o + i] = -0.5 * qq  # eq. (11)
+    exp_nonpositive_fast(arg, f, ints[:n_cells])
+    for ax in range(2):
+        for r in range(n_r):
+            m = ax * n_r + r
+            cf = coef[r, ax]
+            for i in range(off[m], off[m + 1]):
+                f[i] = cf * f[i]
+    # per row of a window: where its run of cells starts and ends in the box
+    run_lo = ints[: off[n_r]]
+    run_hi = ints[off[n_r] : 2 * off[n_r]]
+    normalise = par[14] != 0
+    ux0, ux1, uy0, uy1 = 1 << 62, 0, 1 << 62, 0
+    for r in range(n_r):
+        scale[r] = 0.0
+        sx = boxes[r, 1] - boxes[r, 0]
+        sy = boxes[r, 3] - boxes[r, 2]
+        if sx <= 0 or sy <= 0:
+            continue
+        qx = q[off[r] : off[r + 1]]
+        fx = f[off[r] : off[r + 1]]
+        qy = q[off[n_r + r] : off[n_r + r + 1]]
+        fy = f[off[n_r + r] : off[n_r + r + 1]]
+        # running sums of the column factors: a row's sum is the difference of two
+        p0 = off[n_r + r] - off[n_r] + r
+        cum = prefix[p0 : p0 + sy + 1]
+        s = 0.0
+        cum[0] = 0.0
+        for j in range(sy):
+            s += fy[j]
+            cum[j + 1] = s
+        lr = 2.0 * k[r]
+        lo_r = run_lo[off[r] : off[r + 1]]
+        hi_r = run_hi[off[r] : off[r + 1]]
+        vy = var[r, 1]
+        mid = (center[r, 1] - y0) / a - 0.5 - boxes[r, 2]  # the centre, in box cells
+        # each row's run from the ellipse's chord
+        for i in range(sx):
+            h = np.sqrt(max(lr - qx[i], 0.0) * vy) / a
+            lo = min(max(np.ceil(mid - h), 0.0), float(sy))
+            hi = min(max(np.floor(mid + h) + 1.0, lo), float(sy))
+            lo_r[i] = np.intp(lo)
+            hi_r[i] = np.intp(hi)
+        near = min(max(np.intp(np.floor(mid + 0.5)), 0), sy - 1)
+        total = 0.0
+        count = 0
+        for i in range(sx):
+            qi = qx[i]
+            lo = lo_r[i]
+            hi = hi_r[i]
+            if hi <= lo:
+                lo = near
+                hi = near
+            # the exact test of eq. (12) at the run's ends
+            while lo > 0 and qi + qy[lo - 1] <= lr:
+                lo -= 1
+            while lo < hi and not qi + qy[lo] <= lr:
+                lo += 1
+            while hi < sy and qi + qy[hi] <= lr:
+                hi += 1
+            while hi > lo and not qi + qy[hi - 1] <= lr:
+                hi -= 1
+            lo_r[i] = lo
+            hi_r[i] = hi
+            total += fx[i] * (cum[hi] - cum[lo])
+            count += hi - lo
+        if count > 0 and total > 0.0:
+            scale[r] = 1.0 / total if normalise else 1.0
+            ux0 = min(ux0, boxes[r, 0])
+            ux1 = max(ux1, boxes[r, 1])
+            uy0 = min(uy0, boxes[r, 2])
+            uy1 = max(uy1, boxes[r, 3])
+    if ux1 <= ux0:
+        return np.zeros((0, 0))
+    patch = np.zeros((ux1 - ux0, uy1 - uy0))
+    for r in range(n_r):
+        sc = scale[r]
+        if sc == 0.0:
+            continue
+        i0 = boxes[r, 0] - ux0
+        j0 = boxes[r, 2] - uy0
+        sy = boxes[r, 3] - boxes[r, 2]
+        fx = f[off[r] : off[r + 1]]
+        fy = f[off[n_r + r] : off[n_r + r + 1]]
+        lo_r = run_lo[off[r] : off[r + 1]]
+        hi_r = run_hi[off[r] : off[r + 1]]
+        for i in range(boxes[r, 1] - boxes[r, 0]):
+            lo = lo_r[i]
+            hi = hi_r[i]
+            fs = fx[i] * sc
+            out = patch[i0 + i, j0 : j0 + sy]
+            for j in range(sy):
+                val = fs * fy[j]
+                val = val if lo <= j < hi else 0.0
+                old = out[j]
+                out[j] = val if val > old else old  # eq. (17): max over t_r
+    meta[0] = ux0
+    meta[1] = uy0
+    return patch
+
+
+def _warm_path(kernel: Any) -> None:
+    """The fused map on a two-record history, with the argument types the estimator passes."""
+    t = np.arange(3.0)
+    w = np.ones((3, 2))
+    par = np.array([1.0, 0, 0, 0.5, 1e-3, 1e-3, 1e-4, 1.0, 1e-3, 10.0, 1e-9, 1, 0, 0, 1, 4, 4])
+    kernel(t, w, w, 2, 0, par, path_workspace(3, 4, 4))
+
+
+def path_meta(ws: FloatArray) -> IntArray:
+    """The integers :func:`path_kernel` writes at the end of ``ws``: ``(ix0, iy0)`` of the
+    patch and the robot's cell ``(ix, iy)``."""
+    return ws[-4:].view(np.intp)
+
+
+exp_nonpositive_fast = jit(exp_nonpositive, nogil=True)
+_ws_floats_fast = jit(_ws_floats, nogil=True)
+path_kernel_fast = jit(path_kernel, warmup=_warm_path, nogil=True)
