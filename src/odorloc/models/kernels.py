@@ -420,7 +420,7 @@ def history_term(
     (floored distance and exponent of eq. 1) is taken first in a loop without branches, which
     the compiler vectorises, then the logarithms in reading order, the same arithmetic as one
     loop (bit for bit). A 3-D hypothesis is :func:`history_term3`'s (which hot loops call
-    directly: it takes the point as three numbers and the scratch as two vectors, no array
+    directly: it takes the point as three numbers and the scratch as three vectors, no array
     views made per call).
     """
     d = p.shape[0]
