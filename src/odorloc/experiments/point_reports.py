@@ -35,7 +35,14 @@ from odorloc.experiments.claims import (
     summary_texts,
     sweep_rows,
 )
-from odorloc.experiments.reproduction import CONSOLE_WIDTH, Figure, Reproduction, Table, fmt
+from odorloc.experiments.reproduction import (
+    CONSOLE_WIDTH,
+    Figure,
+    Reproduction,
+    Table,
+    console_headers,
+    fmt,
+)
 from odorloc.experiments.variants import Sweep
 
 __all__ = [
@@ -62,7 +69,8 @@ def sweep_tables(
     statements: Mapping[str, str] | None = None,
     console: bool = True,
 ) -> tuple[list[Table], list[list[str]]]:
-    """The two tables of every sweep (named ``<world>_<key>_sr`` and ``_mst``) and the long rows
+    """The two tables of every sweep (named ``<world>_<key>_sr`` and ``_mst``; one too wide for
+    the console with its intervals is printed as ``..._means``, the values alone) and the long rows
     ``[world, sweep key, *POINT_COLUMNS]`` of every point (``at``: the time, s, of the last
     column's success rate). ``statements``: the paper's words per sweep key, under its tables."""
     tables, long = [], []
@@ -77,40 +85,45 @@ def sweep_tables(
         title = f"{sw.figure}, {world} world: %s against {sw.xlabel}"
         words = (statements or {}).get(sw.key, "")
         notes = "\n".join(t for t in (note, words) if t)
-        # times with their intervals are wide: with many methods the console gets the means
-        fits = _console_width(head, mst) <= CONSOLE_WIDTH
-        tables += [
-            Table(f"{world}_{sw.key}_sr", title % "success rate % [95 %]", head, sr),
-            Table(
-                f"{world}_{sw.key}_mst",
-                title % "mean search time s [95 %]",
-                head,
-                mst,
-                console=fits,
-                note=notes,
-            ),
-        ]
-        if not fits:
-            means = [[r[0], *(c.split(" [")[0] for c in r[1:])] for r in mst]
+        parts = (("sr", "success rate %", sr), ("mst", "mean search time s", mst))
+        for j, (suffix, what, cells) in enumerate(parts):
+            last = j == len(parts) - 1
+            # values with their intervals are wide: with many methods the console gets the
+            # values alone, the intervals go to the CSV and the report
+            fits = _console_width(head, cells) <= CONSOLE_WIDTH
             tables.append(
                 Table(
-                    f"{world}_{sw.key}_mst_means",
-                    title % "mean search time s (intervals in the report)",
+                    f"{world}_{sw.key}_{suffix}",
+                    title % f"{what} [95 %]",
                     head,
-                    means,
-                    note=notes,
+                    cells,
+                    console=fits,
+                    note=notes if last else "",
                 )
             )
+            if not fits:
+                values = [[r[0], *(c.split(" [")[0] for c in r[1:])] for r in cells]
+                tables.append(
+                    Table(
+                        f"{world}_{sw.key}_{suffix}_means",
+                        title % f"{what} (intervals in the report)",
+                        head,
+                        values,
+                        note=notes if last else "",
+                    )
+                )
     return tables, long
 
 
 def _console_width(head: Sequence[str], rows: Sequence[Sequence[str]]) -> int:
     """Columns a console table of ``head`` and ``rows`` needs at least: each column as wide as
-    its widest cell and header (a word of it for the first, which may wrap), two spaces between
-    columns."""
+    its widest cell and header (a word of it for the first, which may wrap; a line of it as
+    :func:`~odorloc.experiments.reproduction.console_headers` folds it for the others), two
+    spaces between columns."""
+    shown = console_headers(head, rows)
     widths = [
-        max([len(w) for w in (h.split() if i == 0 else [h])] + [len(r[i]) for r in rows])
-        for i, h in enumerate(head)
+        max([len(w) for w in (h.split() if i == 0 else h.splitlines())] + [len(r[i]) for r in rows])
+        for i, h in enumerate(shown)
     ]
     return sum(widths) + 2 * len(widths)
 
@@ -266,6 +279,10 @@ class World:
     curves : str
         File of its success-against-time figure (a world after the first; default
         ``success_time_<name>.png``).
+    methods : tuple of str
+        The methods of its per-sweep tables and figures (default: the reproduction's
+        :attr:`~PointsReproduction.methods`), e.g. with an ablation run at every point of this
+        world only.
     """
 
     name: str
@@ -275,6 +292,7 @@ class World:
     replay: bool = False
     console: bool = True
     curves: str = ""
+    methods: tuple[str, ...] = ()
 
 
 class PointsReproduction(Reproduction):
@@ -314,6 +332,15 @@ class PointsReproduction(Reproduction):
         if points == "default" and self.default_point is None:
             raise ConfigError("points", f"{self.name} names no default point")
         self.default_only = points == "default"
+
+    def _methods(self, world: World) -> tuple[str, ...]:
+        """The methods of a world's per-sweep tables and figures."""
+        return world.methods or self.methods
+
+    def _every(self) -> tuple[str, ...]:
+        """Every method of any world and the extra ones, once each, in order."""
+        every = [*self.methods, *(m for w in self.worlds() for m in w.methods)]
+        return tuple(dict.fromkeys([*every, *self.extra_methods]))
 
     def worlds(self) -> list[World]:
         """The worlds, in running order."""
@@ -382,7 +409,7 @@ class PointsReproduction(Reproduction):
             t, rows = sweep_tables(
                 points[w.name],
                 w.sweeps,
-                self.methods,
+                self._methods(w),
                 self.names,
                 seed,
                 self.at,
@@ -402,7 +429,7 @@ class PointsReproduction(Reproduction):
 
     def _default_table(self, data: Points, world: str, seed: int) -> Table:
         rows = []
-        for i, m in enumerate((*self.methods, *self.extra_methods)):
+        for i, m in enumerate(self._every()):
             p = summarize_point(data.one(self.default_point, m), np.random.default_rng([seed, i]))
             if p.n:
                 sr, mst = summary_texts(p)
@@ -429,7 +456,7 @@ class PointsReproduction(Reproduction):
             else sweep_figures(
                 first,
                 worlds[0].sweeps,
-                self.methods,
+                self._methods(worlds[0]),
                 self.names,
                 self.colors,
                 seed,
@@ -443,9 +470,11 @@ class PointsReproduction(Reproduction):
             panels = [(f"{s.figure}: {s.xlabel}", s.values, s.setting, s.tick) for s in w.sweeps]
             title = f"Success against time, {w.name} world"
 
-            def draw(p: Path, data: Points = points[w.name], panels=panels, title=title) -> None:
+            def draw(
+                p: Path, data: Points = points[w.name], panels=panels, title=title, w=w
+            ) -> None:
                 F.success_time_figure(
-                    data, panels, self.methods, self.names, p, title, first, self.at, self.limit
+                    data, panels, self._methods(w), self.names, p, title, first, self.at, self.limit
                 )
 
             figs.append(
@@ -456,7 +485,7 @@ class PointsReproduction(Reproduction):
                 )
             )
         if self.default_point is not None:
-            every = (*self.methods, *self.extra_methods)
+            every = self._every()
             rows = [
                 (f"{w.name} world", points[w.name], self.default_point)
                 for w in worlds

@@ -26,6 +26,7 @@ from __future__ import annotations
 import math
 import numbers
 import shutil
+import textwrap
 import time
 import traceback
 import warnings
@@ -47,6 +48,7 @@ __all__ = [
     "ReproductionParams",
     "Table",
     "check_time_limit",
+    "console_headers",
     "console_table",
     "discover",
     "fmt",
@@ -515,6 +517,23 @@ CONSOLE_WIDTH = 100
 """Columns a reproduction's console tables must fit in (wider ones go to CSV and the report)."""
 
 
+def console_headers(
+    headers: Sequence[str], rows: Sequence[Sequence[str]], left: int = 1
+) -> list[str]:
+    """The headers as a console table prints them: a number column's header folded at its
+    words to the width of the column's widest cell (never narrower than its longest word), so
+    that a long method name makes the header taller, not the column wider; the first ``left``
+    (text) columns' headers as they are."""
+    out = []
+    for i, h in enumerate(headers):
+        if i < left or " " not in h:
+            out.append(h)
+            continue
+        cells = max((len(r[i]) for r in rows if i < len(r)), default=0)
+        out.append(textwrap.fill(h, max(cells, *(len(w) for w in h.split()))))
+    return out
+
+
 def console_table(tab: Table) -> Any:
     """A compact rich table of ``tab`` (no vertical rules, so that it fits
     :data:`CONSOLE_WIDTH` columns)."""
@@ -528,7 +547,7 @@ def console_table(tab: Table) -> Any:
         collapse_padding=True,
         expand=bool(tab.widths),  # column ratios only act on a table as wide as the console
     )
-    for i, h in enumerate(tab.headers):
+    for i, h in enumerate(console_headers(tab.headers, tab.rows, tab.left)):
         # text may wrap (a long statement stays readable); numbers never do
         text = i < tab.left
         ratio = tab.widths[i] if text and i < len(tab.widths) else None

@@ -13,11 +13,15 @@ import pytest
 
 from odorloc.core.errors import ConfigError
 from odorloc.papers.muc_osl.reproduction import MucOslReproduction
+from odorloc.papers.muc_osl.sweeps import ROWS
 from odorloc.scenarios import get_scenario
 
 #: Two worlds (the default and the 4-UAV one) and one more particle count, 20 s episodes.
 VALUES = {"area": [(100.0, 60.0, 30.0)], "uavs": [3], "radius": [30.0], "particles": [20, 100]}
-SWEEPS = ("rate", "rate-particles", "filament", "filament-particles")
+SWEEPS = ("rate", "rate-particles", "rate-ablation", "rate-ablation-particles", "filament",
+          "filament-particles")  # fmt: skip
+#: At the default point alone there is no point off it for the ablation's own parts.
+DEFAULT_SWEEPS = ("rate", "rate-particles", "filament", "filament-particles")
 #: Columns that hold timings (they differ between any two runs).
 TIMING = ["wall_time", "finished_at", "extra", "wall_per_step_ms", "world_fraction",
           "searcher_fraction", "movie_wall_time", "movie_cpu_time", "cpu_time"]  # fmt: skip
@@ -59,13 +63,18 @@ def test_sweeps_of_the_reproduction() -> None:
     assert len(labels) == 61 and "muc-osl-no-env-pu" in labels
     assert "muc-osl-printed[N=20]" in labels
     assert MucOslReproduction().sweeps(200, 1)["filament-particles"]["episodes"] == 200
+    # MUC-OSL without eq. 16 at the rate world's 16 other worlds and 10 other particle counts
+    ablation, counts = full["rate-ablation"], full["rate-ablation-particles"]
+    assert [s["label"] for s in ablation["searchers"]] == ["muc-osl-no-env-pu"]
+    assert ablation["scenarios"] == full["rate"]["scenarios"][:1] + full["rate"]["scenarios"][2:]
+    assert len(counts["searchers"]) == 10 and counts["scenarios"] == full["rate"]["scenarios"][1:2]
 
 
 def test_the_default_point_alone_runs_every_method_there_and_nothing_else() -> None:
     rep = MucOslReproduction()
     rep.select_points("default")
     full, cut = MucOslReproduction().sweeps(None, 2024), rep.sweeps(200, 2024)
-    assert list(cut) == list(SWEEPS)
+    assert list(cut) == list(DEFAULT_SWEEPS)
     for name in ("rate", "filament"):
         # one world (the default one) with every method of the full sweep
         assert len(cut[name]["scenarios"]) == 1 and cut[name]["episodes"] == 200
@@ -91,8 +100,10 @@ def test_small_run_stores_resumes_and_runs_only_some_sweeps(tmp_path, few_frames
     assert set(df["sweep"]) == set(SWEEPS)
     assert (df["status"] == "ok").all(), df.loc[df["status"] != "ok", "error"].tolist()
     assert sorted(first.stores) == sorted(SWEEPS)
-    # 2 worlds x 6 algorithms, + 6 particle cells and the ablation, in each world
+    # 2 worlds x 6 algorithms, + 6 particle cells and the ablation, in each world; in the rate
+    # world the ablation at the other world and the other particle count too
     sizes = {"rate": 12, "rate-particles": 7, "filament": 12, "filament-particles": 7}
+    sizes |= {"rate-ablation": 1, "rate-ablation-particles": 1}
     assert df.groupby("sweep").size().to_dict() == sizes
     assert df.loc[df["sweep"].str.startswith("filament"), "replay"].all()
     assert not first.failed_figures
@@ -112,6 +123,10 @@ def test_small_run_stores_resumes_and_runs_only_some_sweeps(tmp_path, few_frames
         assert (tmp_path / name).stat().st_size > 0, name
     points = pd.read_csv(tmp_path / "points.csv")
     assert set(points["world"]) == {"rate", "filament"} and (points["n"] == 1).all()
+    # the ablation is a column of every rate sweep (its 5 points), not of the filament world's
+    ablation = points[points["algorithm"] == "muc-osl-no-env-pu"]
+    assert set(ablation["world"]) == {"rate"} and len(ablation) == 5
+    assert set(points.loc[points["world"] == "filament", "algorithm"]) == set(ROWS)
     html = (tmp_path / "report.html").read_text()
     assert "Table 2, rate world" in html and "Fig. 9" in html
 
@@ -122,7 +137,8 @@ def test_small_run_stores_resumes_and_runs_only_some_sweeps(tmp_path, few_frames
     )
     more = rep.run(tmp_path, episodes=2, workers=1, progress=False, only=["rate"])
     n = more.results.groupby("sweep")["episode"].nunique()
-    assert n["rate"] == n["rate-particles"] == 2 and n["filament"] == n["filament-particles"] == 1
+    assert n["rate"] == n["rate-particles"] == n["rate-ablation"] == 2
+    assert n["filament"] == n["filament-particles"] == 1
     with pytest.raises(ConfigError, match="--only"):
         rep.run(tmp_path, episodes=1, workers=1, progress=False, only=["gaden"])
 
@@ -149,7 +165,8 @@ def test_dask_cluster_gives_the_local_pools_rows(tmp_path, few_frames) -> None:
             progress=False,
         )
     a, b = _rows(local.results), _rows(dask.results)
-    assert len(a) == 2 * (6 + 7) * 2 and (a["status"] == "ok").all()
+    # both worlds' 6 + 7 cells, and the rate world's ablation at N = 20, 2 episodes each
+    assert len(a) == (2 * (6 + 7) + 1) * 2 and (a["status"] == "ok").all()
     pd.testing.assert_frame_equal(a, b)
     assert np.isfinite(a["energy"]).all()
 

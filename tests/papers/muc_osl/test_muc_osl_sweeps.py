@@ -4,6 +4,7 @@ and the verdicts on the paper's statements."""
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pandas as pd
@@ -21,8 +22,10 @@ from odorloc.papers.muc_osl.sweeps import (
     DEFAULT,
     FIG9_VALUES,
     NO_ENV_PU,
+    NO_ENV_PU_PARAMS,
     SWEEPS,
     Setting,
+    ablation_files,
     cell_of,
     fig9_settings,
     source_position,
@@ -289,6 +292,72 @@ def test_claims_of_the_ablation_at_the_default_point() -> None:
     assert c["MUC-OSL without eq. 16: the lowest MST (default point)"].verdict == "held"
     energy = c["MUC-OSL without eq. 16: movement energy E_M below Col-Inf's"]
     assert energy.verdict == "held" and "-20.0 [-20.0, -20.0] %" in energy.ours
+    # MUC-OSL (450 s at 3 UAVs) is 150 s slower than without eq. 16: PUGL did not speed it up
+    eq16 = c["MUC-OSL: eq. 16 shortens the search (against MUC-OSL without eq. 16)"]
+    assert eq16.verdict == "not held"
+    assert eq16.ours == "at the default point, minus without eq. 16: SR +0 [+0, +0] pts; " + (
+        "MST +150 [+150, +150] s"
+    )
+
+
+def test_claims_of_the_ablation_at_every_point() -> None:
+    """With the ablation at every point it is judged there, and eq. 16 paired over them all."""
+    uavs = [s for s in SWEEPS if s.key == "uavs"]
+    sweep = uavs[0]
+    frames = [_world("muc-osl")]
+    for v in sweep.values:
+        world, label = cell_of("muc-osl-3d", sweep.setting(v), NO_ENV_PU)
+        # without eq. 16: always succeeds, 100 s slower than MUC-OSL at every team size
+        frames.append(_rows(world, label, [True] * 30, [700.0 - 50 * v] * 30))
+    c = {c.statement: c for c in evaluate_claims(_points(pd.concat(frames)), uavs)}
+    # against the baselines, which succeed in a third of the episodes
+    assert c["MUC-OSL without eq. 16: the highest SR at every point"].verdict == "held"
+    assert c["MUC-OSL without eq. 16: the lowest MST at every point"].verdict == "held"
+    eq16 = c["MUC-OSL: eq. 16 shortens the search (against MUC-OSL without eq. 16)"]
+    assert eq16.verdict == "held" and eq16.ours.startswith("mean over 8 points")
+    assert "MST -100 [-100, -100] s" in eq16.ours
+    # only where the ablation ran: the default point alone when it runs there only
+    partial = _world("muc-osl")
+    world, label = cell_of("muc-osl-3d", DEFAULT, NO_ENV_PU)
+    partial = pd.concat([partial, _rows(world, label, [True] * 30, [550.0] * 30)])
+    c = {c.statement: c for c in evaluate_claims(_points(partial), uavs)}
+    assert "MUC-OSL without eq. 16: the lowest MST (default point)" in c
+    assert c["MUC-OSL: eq. 16 shortens the search (against MUC-OSL without eq. 16)"].verdict == (
+        "held"
+    )
+
+
+def test_ablation_files_cover_every_other_point_with_common_random_numbers() -> None:
+    """MUC-OSL without eq. 16 at every point but the default one (which the main parts hold),
+    in the same worlds as the algorithms there, with its particle counts on the default world."""
+    main = sweep_files("muc-osl-3d", SWEEPS, 3, 2024, extra_searchers=[{"name": "muc-osl",
+                       "label": NO_ENV_PU, "params": NO_ENV_PU_PARAMS}])  # fmt: skip
+    files = ablation_files("muc-osl-3d", SWEEPS, 3, 2024)
+    assert list(files) == ["ablation", "ablation-particles"]
+
+    def cells(*parts: dict) -> dict:
+        specs = [load_sweep(f) for f in parts]
+        return {c.cell_id: (spec, c) for spec in specs for c in expand_cells(spec)}
+
+    ours, theirs = cells(*files.values()), cells(main[""], main["particles"])
+    # 16 worlds and 10 particle counts, none the main parts hold
+    assert len(ours) == 26 and not set(ours) & set(theirs)
+    every = {
+        "/".join(cell_of("muc-osl-3d", st, NO_ENV_PU)) for sw in SWEEPS for st in sw.settings()
+    }
+    assert set(ours) | {f"muc-osl-3d/{NO_ENV_PU}"} == every
+    # the same world episode by episode as every algorithm at its point
+    for spec, c in ours.values():
+        t_spec, twin = next(v for v in theirs.values() if v[1].world_key == c.world_key)
+        assert make_task(spec, c, 1).world_seed == make_task(t_spec, twin, 1).world_seed
+    se = {x["label"]: x["params"] for x in files["ablation-particles"]["searchers"]}
+    assert se["muc-osl-no-env-pu[N=40]"] == {
+        "estimator": {"type": "col-pf", "env_pu": "off", "n_particles": 40}
+    }
+    # the default point alone: nothing to add
+    only = [replace(sw, values=(v,)) for sw in SWEEPS for v in sw.values
+            if sw.setting(v) == DEFAULT]  # fmt: skip
+    assert ablation_files("muc-osl-3d", only, 3, 2024) == {}
 
 
 def test_recorded_filament_flow_replays_the_layered_wind_and_the_plume() -> None:

@@ -4,8 +4,10 @@ Four sweeps (:mod:`.sweeps`) x the paper's four algorithms (Col-PF with reversib
 and PUGL as printed (``muc-osl-printed``, ``col-pf-printed``), with common random numbers, in
 the rate world (``muc-osl-3d``, Figs. 4-7) and at Fig. 9's settings in the filament world
 (``muc-osl-filament-3d``, replayed to every algorithm; the estimators keep their rate model);
-MUC-OSL without eq. 16 at the default point of both. Stores ``rate``, ``rate-particles``,
-``filament``, ``filament-particles`` (``--only rate``: the first two). The search time is
+MUC-OSL without eq. 16 at every point of the rate world and at the default point of the
+filament world. Stores ``rate``, ``rate-particles``, ``rate-ablation``,
+``rate-ablation-particles`` (the ablation off the default point), ``filament``,
+``filament-particles`` (``--only rate``: the first four). The search time is
 ``reach_fly_hover_turn_time`` (the first UAV within 2 m; failures at the limit), the energy
 ``team_movement_energy``. Besides a :class:`~odorloc.experiments.point_reports.PointsReproduction`'s
 outputs: Tables 2 and 3, the filament world at 8 minutes, the statements judged
@@ -36,6 +38,9 @@ __all__ = ["COLUMNS", "MucOslReproduction", "uav_rows"]
 
 SCENARIO, FILAMENT, FILAMENT_EPISODES = "muc-osl-3d", "muc-osl-filament-3d", 5
 ALL = (*S.ROWS, S.NO_ENV_PU)
+#: The rate world runs MUC-OSL without eq. 16 at every point of its sweeps; the filament world
+#: at its default point only.
+RATE_METHODS = ALL
 #: Episodes per variant of the mechanism figure.
 MECHANISM_EPISODES = 12
 COLORS = {"muc-osl": "tab:red", "col-inf": "tab:blue", "col-pf": "tab:green"}
@@ -122,7 +127,9 @@ class MucOslReproduction(R.PointsReproduction):
 
     def worlds(self) -> list[R.World]:
         return [
-            R.World("rate", SCENARIO, self.rate_sweeps, self.default_episodes),
+            R.World(
+                "rate", SCENARIO, self.rate_sweeps, self.default_episodes, methods=RATE_METHODS
+            ),
             R.World(
                 "filament",
                 FILAMENT,
@@ -137,7 +144,7 @@ class MucOslReproduction(R.PointsReproduction):
     def sweep_files(self, world: R.World, episodes: int, seed: int) -> dict[str, dict[str, Any]]:
         common = {} if self.time_limit is None else {"limits.time": float(self.time_limit)}
         ablation = [{"name": "muc-osl", "label": S.NO_ENV_PU, "params": S.NO_ENV_PU_PARAMS}]
-        return S.sweep_files(
+        files = S.sweep_files(
             world.scenario,
             world.sweeps,
             episodes,
@@ -147,6 +154,18 @@ class MucOslReproduction(R.PointsReproduction):
             scenario_params=common,
             name=f"muc-osl {world.name}",
         )
+        if S.NO_ENV_PU in world.methods:
+            # parts of their own: a study stored before keeps its stores and resumes
+            files |= S.ablation_files(
+                world.scenario,
+                world.sweeps,
+                episodes,
+                seed,
+                replay=world.replay,
+                scenario_params=common,
+                name=f"muc-osl {world.name}",
+            )
+        return files
 
     def cell_of(self, world: R.World, point: Any, method: str) -> tuple[str, str]:
         return S.cell_of(world.scenario, point, method)

@@ -147,9 +147,10 @@ def cell_of(scenario: str, setting: Setting, algorithm: str) -> tuple[str, str]:
     return f"{scenario}{setting.world_suffix()}", searcher_label(algorithm, setting.n_particles)
 
 
-def _with_count(algorithm: str, n: int) -> dict[str, Any]:
-    """The preset's own estimator (its type and every setting) with ``n`` particles."""
-    ref = make_params("searcher", algorithm, {}).estimator  # type: ignore[attr-defined]
+def _with_count(algorithm: str, n: int, params: dict[str, Any] | None = None) -> dict[str, Any]:
+    """The preset's own estimator (its type and every setting), changed by ``params`` (a
+    searcher's parameters that set only its estimator), with ``n`` particles."""
+    ref = make_params("searcher", algorithm, params or {}).estimator  # type: ignore[attr-defined]
     return {"estimator": {"type": ref.type, **ref.values, "n_particles": n}}
 
 
@@ -198,3 +199,58 @@ def sweep_files(
         common=scenario_params,
         name=name,
     )
+
+
+def ablation_files(
+    scenario: str,
+    sweeps: Sequence[Sweep],
+    episodes: int,
+    seed: int,
+    *,
+    algorithm: str = "muc-osl",
+    label: str = NO_ENV_PU,
+    params: dict[str, Any] | None = None,
+    replay: bool = False,
+    scenario_params: dict[str, Any] | None = None,
+    name: str = "muc-osl",
+) -> dict[str, dict[str, Any]]:
+    """Sweep files running one more variant (by default MUC-OSL without eq. 16) at every
+    setting of ``sweeps`` but the default point: ``{"ablation": the other worlds,
+    "ablation-particles": the default world at the other particle counts}`` (a part with
+    nothing to run is left out).
+
+    The default point is left to :func:`sweep_files`' ``extra_searchers``, so that a study
+    run before the ablation covered the sweeps keeps its stores and only these parts run. Its
+    episodes share the world keys of :func:`sweep_files`' (common random numbers): episode
+    ``i`` of the variant at a setting faces the world of episode ``i`` of every algorithm there.
+    """
+    params = NO_ENV_PU_PARAMS if params is None else params
+    settings = list(dict.fromkeys(s for sw in sweeps for s in sw.settings()))
+    worlds = [s.world() for s in settings if s.world() != DEFAULT.world()]
+    counts = sorted(
+        {s.n_particles for s in settings if s.world() == DEFAULT.world()} - {DEFAULT.n_particles}
+    )
+    others = [
+        {
+            "name": algorithm,
+            "label": searcher_label(label, n),
+            "params": _with_count(algorithm, n, params),
+        }
+        for n in counts
+    ]
+    files = variant_sweeps(
+        scenario,
+        worlds,
+        [{"name": algorithm, "label": label, "params": params}],
+        episodes,
+        seed,
+        base_searchers=others,
+        base_part="particles",
+        replay=replay,
+        common=scenario_params,
+        name=f"{name} ablation",
+    )
+    out = {"ablation": files[""]} if worlds else {}
+    if "particles" in files:
+        out["ablation-particles"] = files["particles"]
+    return out
