@@ -34,7 +34,8 @@ ALGORITHMS = ("muc-osl", "col-inf", "col-pf", "adap-pp")
 #: Col-PF's PUGL moves as printed, run at every point beside the four.
 PRINTED = ("muc-osl-printed", "col-pf-printed")
 ROWS = (*ALGORITHMS, *PRINTED)
-#: MUC-OSL without eq. 16 (an ablation at the default point of each world).
+#: MUC-OSL without eq. 16: an ablation at the default point of each world (:func:`sweep_files`
+#: with ``extra_searchers``) and at every other point of a world (:func:`ablation_files`).
 NO_ENV_PU = "muc-osl-no-env-pu"
 NO_ENV_PU_PARAMS = {"estimator": {"type": "col-pf", "env_pu": "off"}}
 
