@@ -625,6 +625,54 @@ def test_muc_osl_budget_result_carries_the_live_replay_check(
     assert keys["same_rows"] == result
 
 
+def test_muc_osl_budget_projects_every_method_at_its_own_cost(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """With the printed readings three times as costly as the rest, the projection of the
+    rate world at 200 episodes is the exact cost of its cells, every method and the paper's
+    four apart: a sample that saw one method only would miss it."""
+    from odorloc.experiments.reproduction import Reproduction
+    from odorloc.experiments.sweep import expand_cells, load_sweep
+    from odorloc.papers.muc_osl.reproduction import MucOslReproduction
+    from odorloc.papers.muc_osl.sweeps import ALGORITHMS
+
+    mob = load("muc_osl_budget")
+    cost = {"muc-osl-printed": 3.0, "col-pf-printed": 3.0}
+    spent = [0.0]
+
+    def run_task(task):
+        spent[0] += cost.get(Reproduction.method_of(task.cell), 1.0)
+        return {"status": "ok", "success": True, "steps": 10}
+
+    def replay(tasks):
+        spent[0] += 1.0  # the filament part's own clock readings (not projected here)
+        return [{"status": "ok", "success": True, "steps": 10} for _ in tasks]
+
+    def live(*args, **kwargs):
+        spent[0] += 1.0
+        return SimpleNamespace(metrics={"success": True, "steps": 10})
+
+    monkeypatch.setattr(mob, "_clock", lambda: (spent[0], spent[0]))
+    monkeypatch.setattr(mob, "run_task", run_task)
+    monkeypatch.setattr(mob, "run_replay_group", replay)
+    monkeypatch.setattr(mob, "cell_scenario", lambda cell: None)
+    monkeypatch.setattr(mob, "run_episode", live)
+    mob.main(["--stride", "5", "--stride-groups", "1000"])
+    last = capsys.readouterr().out.strip().splitlines()[-1]
+    keys = dict(kv.split("=") for kv in last.split()[1:])
+    rate = [
+        c
+        for name, spec in MucOslReproduction().sweeps(None, 2024).items()
+        if name.startswith("rate")
+        for c in expand_cells(load_sweep(spec))
+    ]
+    methods = [Reproduction.method_of(c) for c in rate]
+    every = sum(cost.get(m, 1.0) for m in methods) * 200 / 2 / 60
+    paper = sum(1.0 for m in methods if m in ALGORITHMS) * 200 / 2 / 60
+    assert float(keys["full_rate_min"]) == pytest.approx(every, abs=0.05)
+    assert float(keys["paper_rate_min"]) == pytest.approx(paper, abs=0.05)
+
+
 # ---------------------------------------------------------------------- gas_map_speed
 def test_gas_map_speed_quick_run_checks_both_references(
     capsys: pytest.CaptureFixture[str],

@@ -733,6 +733,14 @@ def reproduce(
             "reproduction over points; e.g. with --episodes 200)."
         ),
     ] = "all",
+    methods: Annotated[
+        list[str] | None,
+        typer.Option(
+            help="Run only these methods (repeat or separate by commas; names as in the "
+            "tables' keys, e.g. muc-osl,col-inf); the others' stored rows are still shown, and "
+            "the same command without it later adds them."
+        ),
+    ] = None,
     list_: Annotated[
         bool,
         typer.Option(
@@ -794,6 +802,11 @@ def reproduce(
         parts = [w.strip() for o in only for w in o.split(",") if w.strip()] if only else None
         if only and not parts:
             raise ConfigError("--only", "names no sweep")
+        wanted = (
+            [w.strip() for o in methods for w in o.split(",") if w.strip()] if methods else None
+        )
+        if methods and not wanted:
+            raise ConfigError("--methods", "names no method")
         outcome = r.run(
             target,
             episodes=episodes,
@@ -804,6 +817,7 @@ def reproduce(
             only=parts,
             progress=progress,
             points=points,
+            methods=wanted,
         )
     except ConfigError as exc:
         # the stores and the cluster are the command's --out and --scheduler

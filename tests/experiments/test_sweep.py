@@ -284,6 +284,27 @@ def test_resume_adds_missing_only(tmp_path):
     pd.testing.assert_frame_equal(_table(more), _table(fresh))
 
 
+def test_selected_cells_run_alone_and_the_rest_resumes(tmp_path):
+    """``select`` runs some cells into the whole sweep's store; the same sweep without it adds
+    only the others, and the store ends as one run of everything would leave it."""
+    store = tmp_path / "s.sqlite"
+    spec = _spec(episodes=4)
+    part = run_sweep(spec, store, workers=1, episode_fn=stub_episode, progress=False,
+                     select=lambda c: c.spec["searcher_label"] == "b")  # fmt: skip
+    assert set(part["searcher"]) == {"b"} and len(part) == 4 and part.attrs["added"] == 4
+    rest = run_sweep(spec, store, workers=2, episode_fn=stub_episode, progress=False)
+    assert rest.attrs["added"] == 4 and len(rest) == 8
+    # b's episodes were not run again
+    pd.testing.assert_frame_equal(rest[rest["searcher"] == "b"].reset_index(drop=True), part)
+    fresh = run_sweep(spec, tmp_path / "f.sqlite", workers=2, episode_fn=stub_episode,
+                      progress=False)  # fmt: skip
+    pd.testing.assert_frame_equal(_table(rest), _table(fresh))
+    # selecting nothing runs nothing
+    none = run_sweep(spec, store, workers=1, episode_fn=stub_episode, progress=False,
+                     select=lambda c: False)  # fmt: skip
+    assert none.attrs["added"] == 0 and len(none) == 8
+
+
 def test_store_of_other_sweep_is_refused_untouched(tmp_path):
     store = tmp_path / "o.sqlite"
     run_sweep(_spec(episodes=3), store, workers=1, episode_fn=stub_episode, progress=False)

@@ -25,12 +25,13 @@ from __future__ import annotations
 
 import math
 import numbers
+import re
 import shutil
 import textwrap
 import time
 import traceback
 import warnings
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, ClassVar
@@ -297,6 +298,36 @@ class Reproduction:
         }
 
     # ------------------------------------------------------------------ template
+    @staticmethod
+    def method_of(cell: Any) -> str:
+        """The method a sweep cell runs (a :class:`~odorloc.experiments.sweep.Cell`, or a task's
+        cell dictionary): its searcher's label without a setting in brackets (``muc-osl[N=20]``
+        is ``muc-osl``)."""
+        spec = cell if isinstance(cell, Mapping) else cell.spec
+        label = str(spec.get("searcher_label") or spec["searcher"])
+        return re.sub(r"\[[^\]]*\]$", "", label)
+
+    def _method_filter(
+        self, specs: Mapping[str, Any], chosen: Sequence[str], methods: Sequence[str] | None
+    ) -> Callable[[Any], bool] | None:
+        """``methods`` as a cell filter (``None``: every cell); :class:`ConfigError` naming
+        ``--methods`` for one no chosen sweep runs."""
+        from odorloc.experiments.sweep import expand_cells
+
+        if methods is None:
+            return None
+        wanted = [str(m) for m in methods]
+        if not wanted:
+            raise ConfigError("--methods", "names no method")
+        known = list(
+            dict.fromkeys(self.method_of(c) for n in chosen for c in expand_cells(specs[n]))
+        )
+        for m in wanted:
+            if m not in known:
+                raise ConfigError("--methods", f"no method {m!r} (methods: {', '.join(known)})")
+        keep = set(wanted)
+        return lambda cell: self.method_of(cell) in keep
+
     def run(
         self,
         out: Path,
@@ -308,6 +339,7 @@ class Reproduction:
         scheduler: str | None = None,
         only: Sequence[str] | None = None,
         points: str = "all",
+        methods: Sequence[str] | None = None,
     ) -> Outcome:
         """Run (or resume) the reproduction and write tables, figures and the report to ``out``.
 
@@ -330,19 +362,27 @@ class Reproduction:
             ``"default"``: run every method at the default point of each world only (a
             reproduction over points, :attr:`has_points`), e.g. to give that one point the
             paper's episode count.
+        methods : sequence of str, optional
+            Run only these methods' cells (:meth:`method_of`); the others contribute the rows
+            already stored. The stores stay the whole sweeps', so a later run without
+            ``methods`` resumes them and adds the rest.
         """
         import pandas as pd
         from rich.console import Console
 
         from odorloc.experiments.report import ReportSection, write_report
         from odorloc.experiments.store import ResultStore, agent_dicts, agent_table, agents_path
-        from odorloc.experiments.sweep import load_sweep, run_sweep
+        from odorloc.experiments.sweep import expand_cells, load_sweep, run_sweep
 
         if episodes is not None and int(episodes) < 1:
             raise ConfigError("episodes", f"must be >= 1, got {episodes}")
         self.select_points(points)
         specs = {name: load_sweep(spec) for name, spec in self.sweeps(episodes, seed).items()}
         chosen = select_sweeps(list(specs), only)
+        select = self._method_filter(specs, chosen, methods)
+        if select is not None:
+            # a sweep with none of the methods runs nothing: its stored rows are shown
+            chosen = [n for n in chosen if any(select(c) for c in expand_cells(specs[n]))]
         out = Path(out)
         check_output_dir(out, "out")
         # every file of a fixed name, before any episode runs (figures and tables are named by
@@ -379,6 +419,7 @@ class Reproduction:
                     # the summary is printed with or without the live bar
                     summary=self.cell_summary and self.success_column == "success",
                     success=self.success_column,
+                    select=select,
                 )
             else:
                 part = _stored_rows(spec, path, console)

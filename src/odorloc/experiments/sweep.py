@@ -732,6 +732,7 @@ def run_sweep(
     group_fn: Callable[[list[EpisodeTask]], list[dict]] | None = None,
     summary: bool | None = None,
     success: str = "success",
+    select: Callable[[Cell], bool] | None = None,
 ) -> Any:
     """Run (or resume) a sweep, writing every finished episode to the store at once.
 
@@ -775,6 +776,10 @@ def run_sweep(
         reproduction prints its own tables instead).
     success : str
         Row column the progress bars count as a success (a reproduction's own criterion).
+    select : callable, optional
+        ``select(cell) -> bool``: run only the cells it accepts. The store stays this whole
+        sweep's (the same config hash), so a later call without ``select`` resumes it and runs
+        the rest; a replay sweep records a world's flow for the accepted cells only.
 
     Returns
     -------
@@ -807,7 +812,7 @@ def run_sweep(
         group_fn = replay_group
     if scheduler is not None:
         backend = "dask"
-    cells = expand_cells(spec)
+    cells = [c for c in expand_cells(spec) if select is None or select(c)]
     chash = config_hash(spec)
     if Path(store_path).exists():
         # refuse a store of another sweep before writing anything to it

@@ -143,6 +143,34 @@ def test_small_run_stores_resumes_and_runs_only_some_sweeps(tmp_path, few_frames
         rep.run(tmp_path, episodes=1, workers=1, progress=False, only=["gaden"])
 
 
+def test_some_methods_run_first_and_the_rest_resumes(tmp_path) -> None:
+    """``methods`` runs those methods' cells in every sweep that has them; the same run without
+    it adds only the others, and the rows are those of one run of everything."""
+    rep = MucOslReproduction(time_limit=20.0, values=VALUES, fig3=False, filament=False)
+    first = rep.run(tmp_path / "a", episodes=1, workers=1, progress=False,
+                    methods=["col-inf", "muc-osl-no-env-pu"])  # fmt: skip
+    df = first.results
+    labels = set(df["searcher"])
+    assert {s.split("[")[0] for s in labels} == {"col-inf", "muc-osl-no-env-pu"}
+    # Col-Inf at both worlds and N = 20; the ablation at the default point, the 4-UAV world, N=20
+    assert len(df) == 3 + 3 and set(df["sweep"]) == set(SWEEPS[:4])
+    rest = rep.run(tmp_path / "a", episodes=1, workers=1, progress=False)
+    assert len(rest.results) == 12 + 7 + 1 + 1
+    whole = rep.run(tmp_path / "b", episodes=1, workers=1, progress=False)
+    pd.testing.assert_frame_equal(_rows(rest.results), _rows(whole.results))
+
+
+@pytest.mark.parametrize(
+    ("methods", "words"),
+    [(["col-infx"], "no method 'col-infx' (methods: muc-osl, col-inf"), ([], "names no method")],
+)
+def test_unknown_methods_are_refused_before_anything_is_written(tmp_path, methods, words):
+    with pytest.raises(ConfigError) as ei:
+        _small().run(tmp_path / "out", episodes=1, workers=1, progress=False, methods=methods)
+    assert ei.value.field == "--methods" and words in ei.value.problem
+    assert not (tmp_path / "out").exists()
+
+
 def test_dask_cluster_gives_the_local_pools_rows(tmp_path, few_frames) -> None:
     """Both worlds (the filament one replays its flows) on a LocalCluster of 2 workers."""
     pytest.importorskip("distributed")
@@ -189,6 +217,15 @@ def test_cli_names_an_unknown_sweep(tmp_path) -> None:
     )  # fmt: skip
     assert r.returncode == 2 and r.stderr.strip() == "error: --only: names no sweep"
     assert not (tmp_path / "x").exists()
+    # a method no sweep runs, named with the ones there are
+    r = subprocess.run(
+        [sys.executable, "-m", "odorloc.cli", "reproduce", "muc-osl", "--methods",
+         "muc-osl,colinf", "--out", str(tmp_path / "m")],
+        capture_output=True, text=True, timeout=120,
+    )  # fmt: skip
+    assert r.returncode == 2 and "Traceback" not in r.stderr
+    assert r.stderr.strip().startswith("error: --methods: no method 'colinf' (methods: muc-osl,")
+    assert len(r.stderr.strip().splitlines()) == 1 and not (tmp_path / "m").exists()
     # --points default needs a reproduction over points
     r = subprocess.run(
         [sys.executable, "-m", "odorloc.cli", "reproduce", "single-agent", "--points", "default",
