@@ -30,13 +30,13 @@ Run: ``python benchmarks/muc_osl_budget.py [--stride 6] [--stride-groups 3]``.
 from __future__ import annotations
 
 import argparse
-import re
 import time
 from collections import defaultdict
 
 import numpy as np
 
 from odorloc.engine.episode import run_episode
+from odorloc.experiments.reproduction import Reproduction
 from odorloc.experiments.runner import cell_scenario, run_replay_group, run_task
 from odorloc.experiments.sweep import expand_cells, load_sweep, make_task
 from odorloc.papers.muc_osl.reproduction import FILAMENT, FILAMENT_EPISODES, MucOslReproduction
@@ -88,15 +88,16 @@ def main(argv: list[str] | None = None) -> None:
                 assert all(r["status"] == "ok" for r in rows), [r.get("error") for r in rows]
                 cpu.append(c1 - c0)
                 wall.append(w1 - w0)
+            sampled, cpu_mean[name] = len(cpu), float(np.mean(cpu))
         else:
             # stratified by method: a method's episodes cost what its simulated time costs (a
             # printed reading runs to the limit), and a plain stride through cells ordered
             # world by world would sample the same method in every world
             groups = defaultdict(list)
             for c in cells:
-                groups[re.sub(r"\[.*\]$", "", c.cell_id.split("/", 1)[1])].append(c)
+                groups[Reproduction.method_of(c)].append(c)
             n_items = len(cells) * spec.episodes
-            cpu, wall, total = [], [], 0.0
+            wall, sampled = [], 0
             for g, (key, members) in enumerate(groups.items()):
                 # each method starts at another offset, so the methods see different worlds
                 chosen = members[g % min(args.stride, len(members)) :: args.stride]
@@ -109,16 +110,14 @@ def main(argv: list[str] | None = None) -> None:
                     assert row["status"] == "ok", row.get("error")
                     spent.append(c1 - c0)
                     wall.append(w1 - w0)
-                cpu += spent
-                total += float(np.mean(spent)) * len(members)
+                sampled += len(spent)
                 by_method[name][key] = float(np.mean(spent)) * len(members)
             # the stratified mean: each method's mean weighted by its share of the cells
-            cpu = [total / len(cells)] * len(cpu)
-        cpu_mean[name] = float(np.mean(cpu))
+            cpu_mean[name] = sum(by_method[name].values()) / len(cells)
         items[name] = n_items
         proj = cpu_mean[name] * n_items / CORES / 60
         print(
-            f"{name:<20} {n_items:>6} {len(cpu):>8} {cpu_mean[name]:7.2f} "
+            f"{name:<20} {n_items:>6} {sampled:>8} {cpu_mean[name]:7.2f} "
             f"{float(np.mean(wall)):7.2f} {proj:12.1f}"
         )
     default_min = sum(cpu_mean[k] * items[k] for k in specs) / CORES / 60

@@ -799,12 +799,10 @@ def reproduce(
         backend = _check_backend(backend, scheduler)
         target = out or Path("odorloc-reproduce") / paper
         _check_outputs(target, REPRODUCE_OUTPUTS)
-        parts = [w.strip() for o in only for w in o.split(",") if w.strip()] if only else None
+        parts = _names(only) if only else None
         if only and not parts:
             raise ConfigError("--only", "names no sweep")
-        wanted = (
-            [w.strip() for o in methods for w in o.split(",") if w.strip()] if methods else None
-        )
+        wanted = _names(methods) if methods else None
         if methods and not wanted:
             raise ConfigError("--methods", "names no method")
         outcome = r.run(

@@ -308,25 +308,25 @@ class Reproduction:
         return re.sub(r"\[[^\]]*\]$", "", label)
 
     def _method_filter(
-        self, specs: Mapping[str, Any], chosen: Sequence[str], methods: Sequence[str] | None
-    ) -> Callable[[Any], bool] | None:
-        """``methods`` as a cell filter (``None``: every cell); :class:`ConfigError` naming
-        ``--methods`` for one no chosen sweep runs."""
+        self, specs: Mapping[str, Any], chosen: Sequence[str], methods: Sequence[str]
+    ) -> tuple[Callable[[Any], bool], list[str]]:
+        """``methods`` as a cell filter, and the chosen sweeps that run any of them;
+        :class:`ConfigError` naming ``--methods`` for one no chosen sweep runs."""
         from odorloc.experiments.sweep import expand_cells
 
-        if methods is None:
-            return None
         wanted = [str(m) for m in methods]
         if not wanted:
             raise ConfigError("--methods", "names no method")
-        known = list(
-            dict.fromkeys(self.method_of(c) for n in chosen for c in expand_cells(specs[n]))
-        )
+        held = {n: dict.fromkeys(self.method_of(c) for c in expand_cells(specs[n])) for n in chosen}
+        known = list(dict.fromkeys(m for n in chosen for m in held[n]))
         for m in wanted:
             if m not in known:
                 raise ConfigError("--methods", f"no method {m!r} (methods: {', '.join(known)})")
         keep = set(wanted)
-        return lambda cell: self.method_of(cell) in keep
+        # a sweep with none of the methods runs nothing: its stored rows are shown
+        return (lambda cell: self.method_of(cell) in keep), [
+            n for n in chosen if keep.intersection(held[n])
+        ]
 
     def run(
         self,
@@ -372,17 +372,16 @@ class Reproduction:
 
         from odorloc.experiments.report import ReportSection, write_report
         from odorloc.experiments.store import ResultStore, agent_dicts, agent_table, agents_path
-        from odorloc.experiments.sweep import expand_cells, load_sweep, run_sweep
+        from odorloc.experiments.sweep import load_sweep, run_sweep
 
         if episodes is not None and int(episodes) < 1:
             raise ConfigError("episodes", f"must be >= 1, got {episodes}")
         self.select_points(points)
         specs = {name: load_sweep(spec) for name, spec in self.sweeps(episodes, seed).items()}
         chosen = select_sweeps(list(specs), only)
-        select = self._method_filter(specs, chosen, methods)
-        if select is not None:
-            # a sweep with none of the methods runs nothing: its stored rows are shown
-            chosen = [n for n in chosen if any(select(c) for c in expand_cells(specs[n]))]
+        select = None
+        if methods is not None:
+            select, chosen = self._method_filter(specs, chosen, methods)
         out = Path(out)
         check_output_dir(out, "out")
         # every file of a fixed name, before any episode runs (figures and tables are named by
