@@ -474,22 +474,22 @@ def paint(canvas: FloatArray, last: IntArray, values: FloatArray, ix0: int, iy0:
     bx, by = values.shape
     ix1 = ix0 + bx
     iy1 = iy0 + by
+    # slices, not element loops: an element index from a run that may start anywhere keeps
+    # its negative-index test, which stops the compiler turning the loops into block moves
     for i in range(last[0], last[1]):
         row = canvas[i]
         if ix0 <= i < ix1:
             # the new patch overwrites its own columns
-            for j in range(last[2], min(last[3], iy0)):
-                row[j] = 0.0
-            for j in range(max(last[2], iy1), last[3]):
-                row[j] = 0.0
-        else:
-            for j in range(last[2], last[3]):
-                row[j] = 0.0
+            end = min(last[3], iy0)
+            if end > last[2]:
+                row[last[2] : end] = 0.0
+            start = max(last[2], iy1)
+            if last[3] > start:
+                row[start : last[3]] = 0.0
+        elif last[3] > last[2]:
+            row[last[2] : last[3]] = 0.0
     for i in range(bx):
-        row = canvas[ix0 + i]
-        v = values[i]
-        for j in range(by):
-            row[iy0 + j] = v[j]
+        canvas[ix0 + i, iy0:iy1] = values[i]
     last[0] = ix0
     last[1] = ix1
     last[2] = iy0
