@@ -399,7 +399,7 @@ def _fake_odor_path_rows(map_of: dict[str, float]):
             "full_ms": 2.0,
             "cell_ms": 3.0,
             "nb_ms": 1.5 if compiled_full else float("nan"),
-            "nb_div_ms": 3.0 if compiled_full else float("nan"),
+            "nb_two_ms": 3.0 if compiled_full else float("nan"),
             "cells": 10.0,
             "max_err": 0.0,
             "maps": [(1, 2, np.full((2, 3), map_of[name]))] * instances,
@@ -428,8 +428,64 @@ def test_odor_path_speed_reports_whether_kernels_agree(
     last = capsys.readouterr().out.strip().splitlines()[-1]
     keys = dict(kv.split("=") for kv in last.split()[1:])
     assert last.startswith("RESULT ") and keys["maps_bit_equal"] == result
-    # the compiled full grid (1.5 ms) over our dense map (1 ms)
+    # the compiled full grids (one pass 1.5 ms, two passes 3 ms) over our dense map (1 ms)
     assert keys["speedup_vs_full_compiled"] == "1.5"
+    assert keys["speedup_vs_full_two_pass"] == "3.0"
+
+
+def _odor_path_windows(seed: int, noise: float, lower=(0.0, 0.0), upper=(10.0, 10.0)):
+    """Window arrays and the reference full-grid map over a benchmark-like record."""
+    ops = load("odor_path_speed")
+    from odorloc.inference.odor_path import OdorPathEstimator, OdorPathParams
+
+    rng = np.random.default_rng(seed)
+    est = OdorPathEstimator(OdorPathParams(cell_size=0.05, t_thr=10.0), lower, upper)
+    winds = ops.wind_record(rng, 30, noise)
+    mid = 0.5 * (np.asarray(lower) + np.asarray(upper))
+    pos = mid + rng.uniform(-2, 2, (30, 2))
+    for i in range(30):
+        est.update(i * ops.DT, pos[i], winds[i], 1.0)
+    return est, est.window_arrays(), est.path_map_full()
+
+
+@pytest.mark.parametrize(
+    ("seed", "noise", "upper"),
+    [(1, 0.05, (10.0, 10.0)), (2, 0.15, (10.0, 10.0)), (3, 0.4, (10.0, 10.0)),
+     (4, 0.15, (4.0, 3.0))],
+)  # fmt: skip
+def test_odor_path_speed_full_grids_equal_the_reference(seed, noise, upper) -> None:
+    """Both compiled full grids give ``path_map_full``'s map: the same cells, values within
+    1e-12 (a small grid cuts the windows at its edges)."""
+    ops = load("odor_path_speed")
+    est, w, ref = _odor_path_windows(seed, noise, upper=upper)
+    xc, yc = est.grid.x_centers(), est.grid.y_centers()
+    for grid in (ops._full_grid_fast, ops._full_grid_two_pass_fast):
+        got = grid(xc, yc, w.center, w.var, w.k, est.grid.cell_size)
+        assert np.array_equal(got > 0, ref > 0)
+        np.testing.assert_allclose(got, ref, rtol=1e-12, atol=0)
+
+
+def test_odor_path_speed_window_sum_counts_each_cell_of_the_ellipse_once() -> None:
+    """The row-run sum equals the sum over a brute-force mask, for ellipses inside the grid,
+    cut by its edges, reduced to a single cell, and outside it (zero)."""
+    ops = load("odor_path_speed")
+    rng = np.random.default_rng(5)
+    x = np.arange(40) * 0.1 + 0.05
+    y = np.arange(30) * 0.1 + 0.05
+    for cx, cy, vx, vy, lim in [
+        (2.0, 1.5, 0.3, 0.1, 2.0),
+        (0.0, 3.0, 0.5, 0.5, 4.0),  # cut by two edges
+        (2.05, 1.55, 1e-4, 1e-4, 1.0),  # one cell
+        (9.0, 9.0, 0.1, 0.1, 1.0),  # outside the grid
+        (2.0, 1.5, 1e3, 1e3, 1.0),  # covers the whole grid
+    ]:
+        qx, qy = (x - cx) ** 2 / vx, (y - cy) ** 2 / vy
+        fx, fy = rng.uniform(0.1, 1.0, x.size), rng.uniform(0.1, 1.0, y.size)
+        cum = np.concatenate([[0.0], np.cumsum(fy)])
+        mask = qx[:, None] + qy[None, :] <= lim
+        brute = float((np.outer(fx, fy) * mask).sum())
+        got = ops._window_sum_fast(qx, fx, qy, cum, lim)
+        assert got == pytest.approx(brute, rel=1e-13, abs=0.0)
 
 
 def test_odor_path_speed_map_comparison_follows_the_maps() -> None:
