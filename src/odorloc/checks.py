@@ -82,7 +82,9 @@ def _world(
     dim: int, plume: str = "gaussian", plume_params: Mapping[str, Any] | None = None
 ) -> World:
     arena = _arena(dim)
-    wv = (0.8, 0.1) if dim == 2 else (0.8, 0.1, 0.0)
+    # along +x at 1 m/s: the windy lattice problem's wind and the Vergassola plume's default
+    # speed, which both refuse a world wind that disagrees with them
+    wv = (1.0, 0.0) if dim == 2 else (1.0, 0.0, 0.0)
     wind = registry.entry("wind", "uniform").build(
         registry.make_params("wind", "uniform", {"velocity": wv}), arena
     )
@@ -318,6 +320,8 @@ def small_scenario(
         wind = [0.6, 0.0, 0.0]
         region = [[0.5, 0.5], [9.5, 5.5]]
     plume_cfg: dict[str, Any] = {"type": plume}
+    if plume == "vergassola":
+        plume_cfg["V"] = None  # the world's wind speed (a different V is refused)
     data = {
         "name": f"contract-{dim}d-{n_agents}",
         "world": {

@@ -421,6 +421,7 @@ def run(
         METRICS,
         agent_table,
         explain_failure,
+        explain_reach,
         format_metric,
         metric_label,
     )
@@ -446,6 +447,10 @@ def run(
     why = explain_failure(res.metrics, len(rec.sources), sc.task.end)
     if why is not None:
         console.print(f"failure: {escape(why)}", highlight=False)
+    t = sc.task
+    reach = explain_reach(res.metrics, len(rec.sources), t.end, t.reach_radius, t.success_radius)
+    if reach is not None:
+        console.print(f"note: {escape(reach)}", highlight=False)
     if stored is not None:
         from odorloc.experiments.rerun import differences
 

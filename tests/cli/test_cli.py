@@ -63,6 +63,40 @@ def test_invalid_scenario_file_one_line_exit_2(tmp_path) -> None:
     assert "Traceback" not in r.stderr
 
 
+@pytest.mark.parametrize(
+    ("edit", "field", "problem"),
+    [
+        # a fixed source at the start where reaching ends the episode: a success at time 0
+        (
+            {"world.sources.0.position": [26.0, 7.5]},
+            "agents.starts[0]",
+            "within task.reach_radius",
+        ),
+        # the world's wind against the plume's own (the plume's would silently win)
+        ({"world.wind.velocity": [-1.0, 0.0]}, "world.plume.wind", "blows along +x"),
+    ],
+)
+def test_scenarios_that_contradict_themselves_are_refused(tmp_path, edit, field, problem) -> None:
+    """One line naming the field, exit 2, nothing written."""
+    name = "open-field-filament" if "sources" in next(iter(edit)) else "lattice-windy-medium"
+    r = runner.invoke(app, ["scenarios", name])
+    data = yaml.safe_load(r.output)
+    for path, value in edit.items():
+        node = data
+        *parents, last = path.split(".")
+        for key in parents:
+            node = node[int(key)] if key.isdigit() else node[key]
+        node[last] = value
+    f = tmp_path / "x.yaml"
+    f.write_text(yaml.safe_dump(data))
+    out = tmp_path / "o"
+    r = _cli("run", str(f), "--out", str(out), "--no-animation")
+    assert r.returncode == 2, r.stdout + r.stderr
+    lines = [ln for ln in r.stderr.strip().splitlines() if ln.strip()]
+    assert len(lines) == 1 and lines[0].startswith(f"error: {field}:") and problem in lines[0]
+    assert not out.exists()
+
+
 def test_malformed_yaml_exit_2(tmp_path) -> None:
     f = tmp_path / "broken.yaml"
     f.write_text("world: [unclosed\n")

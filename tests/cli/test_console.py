@@ -11,7 +11,12 @@ from typer.testing import CliRunner
 
 from helpers import small_scenario_dict
 from odorloc.cli import app
-from odorloc.experiments.display import explain_failure, format_metric, metric_label
+from odorloc.experiments.display import (
+    explain_failure,
+    explain_reach,
+    format_metric,
+    metric_label,
+)
 
 runner = CliRunner()
 
@@ -45,6 +50,19 @@ def test_a_failure_is_explained_by_its_own_columns() -> None:
     )
     assert "within reach" in explain_failure({"success": False, "termination": "x"}, end="reach")
     assert explain_failure({"success": True}) is None
+
+
+def test_a_success_by_reaching_says_when_its_declarations_missed() -> None:
+    row = {"success": True, "declarations": 1, "sources_found": 0, "false_sources": 1}
+    note = explain_reach(row, 1, "reach", 2.0, 1.5)
+    assert note is not None
+    assert "within task.reach_radius (2 m)" in note and "0 of 1 source(s) found, 1 false" in note
+    # declarations that found every source, no declaration, a failure, another end: nothing
+    good = {**row, "sources_found": 1, "false_sources": 0}
+    assert explain_reach(good, 1, "reach", 2.0, 1.5) is None
+    assert explain_reach({**row, "declarations": 0}, 1, "reach", 2.0, 1.5) is None
+    assert explain_reach({**row, "success": False}, 1, "reach", 2.0, 1.5) is None
+    assert explain_reach(row, 1, "first_declaration", None, 1.5) is None
 
 
 def _scenario(tmp_path, time: float = 10.0) -> str:

@@ -86,7 +86,8 @@ def make_params(name: str, dim: int):
     if name == "gaussian":
         return GaussianParams()
     if name == "vergassola":
-        return VergassolaParams(sensor_radius=0.5)
+        # V follows the world's wind (V = 1 with this wind is refused: a test below)
+        return VergassolaParams(V=None, sensor_radius=0.5)
     if name == "eulerian":
         return EulerianParams(cell=0.25 if dim == 2 else 0.5, D=0.05)
     if name == "lattice-isotropic":
@@ -99,6 +100,8 @@ def make_params(name: str, dim: int):
 def make_plume(name: str, dim: int, seed: int = 0):
     arena = make_arena(dim)
     vel = (1.0, 0.3) if dim == 2 else (1.0, 0.3, 0.05)
+    if name == "lattice-windy":
+        vel = (1.0, 0.0)  # its hits blow along +x; another world wind is refused (a test)
     wind = UniformWind(UniformWindParams(velocity=vel), arena)
     sources = make_sources(dim)
     if name == "replay":
@@ -543,7 +546,7 @@ def test_vergassola_one_point_rate_is_the_array_rate_to_the_bit() -> None:
     for velocity in [(0.0, -1.0, 0.0), (0.3, -0.8, 0.1), (1.0, 0.2, 0.0)]:
         for srcs in (sources[:1], sources):
             wind = UniformWind(UniformWindParams(velocity=velocity), arena)
-            plume = VergassolaPlume(VergassolaParams(), arena, wind, srcs)
+            plume = VergassolaPlume(VergassolaParams(V=None), arena, wind, srcs)
             pts = rng.uniform((0, 0, 0), (100, 60, 30), (300, 3))
             pts[:30] = srcs[0].pos + rng.normal(0.0, 0.5, (30, 3))  # within the floor a
             src = np.array([s.pos for s in srcs])
@@ -869,3 +872,59 @@ def test_filament_compiled_step_equals_numpy_to_the_bit(
     assert len(compiled[1]) == 150  # the cap was reached
     for a, b in zip(compiled, reference, strict=True):
         np.testing.assert_array_equal(a, b)
+
+
+# ------------------------------------------------ one wind, stated by the world and the plume
+def test_vergassola_refuses_a_speed_the_uniform_world_wind_does_not_have() -> None:
+    """The direction follows world.wind and the speed is V: a uniform world wind of another
+    speed is one line naming plume.V; V: null or the same speed is accepted."""
+    arena = Arena.box((0, 0, 0), (100, 60, 30), resolution=2.0)
+    src = [Source(position=(50.0, 50.0, 10.0), rate=5.0)]
+    fast = UniformWind(UniformWindParams(velocity=(0.0, -3.0, 0.0)), arena)
+    with pytest.raises(ConfigError, match=r"plume\.V: is 1 m/s, but world\.wind blows at 3 m/s"):
+        VergassolaPlume(VergassolaParams(V=1.0), arena, fast, src)
+    assert VergassolaPlume(VergassolaParams(V=None), arena, fast, src).V == 3.0
+    assert VergassolaPlume(VergassolaParams(V=3.0), arena, fast, src).V == 3.0
+    # still air: the speed is V's (the direction falls back to -y)
+    calm = UniformWind(UniformWindParams(velocity=(0.0, 0.0, 0.0)), arena)
+    assert VergassolaPlume(VergassolaParams(V=1.0), arena, calm, src).V == 1.0
+
+
+def test_windy_lattice_refuses_a_world_wind_not_along_plus_x() -> None:
+    arena = Arena.box((0, 0), (81, 41), resolution=1.0)
+    src = [Source(position=(20.5, 20.5), rate=2.5)]
+    build = registry.entry("plume", "lattice-windy").build
+    for velocity in [(-2.0, 0.0), (0.0, 2.0), (2.0, 0.5)]:
+        wind = UniformWind(UniformWindParams(velocity=velocity), arena)
+        with pytest.raises(ConfigError, match=r"plume\.wind: .* blows along \+x"):
+            build(LatticeWindyParams(), arena, wind, src)
+    for velocity in [(2.0, 0.0), (0.5, 0.0), (0.0, 0.0)]:
+        wind = UniformWind(UniformWindParams(velocity=velocity), arena)
+        build(LatticeWindyParams(), arena, wind, src)
+
+
+@pytest.mark.parametrize("name", ["lattice-isotropic", "lattice-windy"])
+def test_lattice_origin_errors_say_what_is_wrong(name: str) -> None:
+    arena = Arena.box((0, 0), (41, 41), resolution=1.0)
+    src = [Source(position=(20.5, 20.5), rate=2.5)]
+    wind = UniformWind(UniformWindParams(velocity=(2.0, 0.0)), arena)
+    build = registry.entry("plume", name).build
+    params = registry.make_params("plume", name, {"origin": (200.0, 20.5)})
+    with pytest.raises(ConfigError, match=r"\(200, 20\.5\) is outside the arena or blocked"):
+        build(params, arena, wind, src)
+    params = registry.make_params("plume", name, {"origin": (2.5, 2.5, 2.5)})
+    with pytest.raises(ConfigError, match="needs 2 components, got 3"):
+        build(params, arena, wind, src)
+
+
+@pytest.mark.parametrize("name", ["lattice-isotropic", "lattice-windy"])
+def test_lattice_plumes_say_whether_they_draw_their_source(name: str) -> None:
+    arena = Arena.box((0, 0), (41, 41), resolution=1.0)
+    src = [Source(position=(10.5, 20.5), rate=2.5)]
+    wind = UniformWind(UniformWindParams(velocity=(2.0, 0.0)), arena)
+    build = registry.entry("plume", name).build
+    fixed = build(registry.make_params("plume", name, {"start": "fixed"}), arena, wind, src)
+    drawn = build(registry.make_params("plume", name, {"start": "initial-hit"}), arena, wind, src)
+    assert not fixed.draws_sources and drawn.draws_sources
+    gaussian = GaussianPlume(GaussianParams(), arena, wind, src)
+    assert not gaussian.draws_sources

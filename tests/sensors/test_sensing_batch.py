@@ -155,7 +155,7 @@ def _rate_plume(velocity, sources, modulation=None):
         Source(position=p, rate=5.0, **({"modulation": modulation} if modulation else {}))
         for p in sources
     ]
-    return VergassolaPlume(VergassolaParams(), arena, wind, src)
+    return VergassolaPlume(VergassolaParams(V=None), arena, wind, src)
 
 
 @pytest.mark.parametrize("velocity", [(0.0, -1.0, 0.0), (0.3, -0.8, 0.1)])

@@ -17,6 +17,7 @@ __all__ = [
     "MetricFormat",
     "agent_table",
     "explain_failure",
+    "explain_reach",
     "format_metric",
     "metric_label",
 ]
@@ -144,6 +145,33 @@ def explain_failure(
             "on average"
         )
     return "; ".join(parts) + (f" ({term})" if term else "")
+
+
+def explain_reach(
+    metrics: dict[str, Any],
+    n_sources: int,
+    end: str | None,
+    reach_radius: float | None,
+    success_radius: float,
+) -> str | None:
+    """One line for a success by reaching whose declarations missed, or ``None``.
+
+    With ``task.end: reach`` an episode succeeds when an agent comes within ``reach_radius``
+    of a source, while ``sources_found`` and ``false_sources`` score the declared positions
+    within ``success_radius``: a row can read "success yes, 0 found, 1 false". This says so.
+    """
+    if end != "reach" or not metrics.get("success") or not metrics.get("declarations"):
+        return None
+    found = int(metrics.get("sources_found") or 0)
+    false = int(metrics.get("false_sources") or 0)
+    if found >= n_sources and not false:
+        return None
+    reach = f" ({reach_radius:g} m)" if reach_radius is not None else ""
+    return (
+        f"success here is reaching: an agent came within task.reach_radius{reach} of a source; "
+        f"the declarations are scored apart, within task.success_radius ({success_radius:g} m): "
+        f"{found} of {n_sources} source(s) found, {false} false"
+    )
 
 
 MAX_AGENT_COLUMNS = 6

@@ -119,6 +119,13 @@ class PlumeModel(TimeStepped, ABC):
         """Default: concentration read as a rate (override where the model defines one)."""
         return self._concentration(points)
 
+    @property
+    def draws_sources(self) -> bool:
+        """``True`` when the plume places its sources itself at every reset (the lattice
+        problem's ``start: initial-hit``), so the configured positions are not where they
+        end up. Default ``False``."""
+        return False
+
     def initial_hits(self, position: np.ndarray) -> int | None:
         """Hits an episode starts with at ``position`` (``(d,)`` metres), or ``None``.
 

@@ -61,8 +61,11 @@ def lattice_origin(arena: Arena, origin: Sequence[float] | None) -> np.ndarray:
     if origin is None:
         return grid.center(np.asarray(grid.shape) // 2)[0]
     o = np.asarray(origin, float)
-    if o.shape != (arena.dim,) or not arena.is_free(o)[0]:
-        raise ConfigError("plume.origin", f"needs {arena.dim} components in free space")
+    if o.shape != (arena.dim,):
+        raise ConfigError("plume.origin", f"needs {arena.dim} components, got {o.size}")
+    if not arena.is_free(o)[0]:
+        where = ", ".join(f"{v:g}" for v in o)
+        raise ConfigError("plume.origin", f"({where}) is outside the arena or blocked")
     return grid.center(grid.index(o))[0]
 
 
@@ -157,6 +160,11 @@ class LatticeIsotropicPlume(PlumeModel):
         self._q = self.source_rates()
 
     # ------------------------------------------------------------------ episode start
+    @property
+    def draws_sources(self) -> bool:
+        """``True`` with ``start: initial-hit`` (the source is drawn after the first hit)."""
+        return self.params.start == "initial-hit"
+
     @property
     def initial_hit(self) -> int | None:
         """The first hit drawn at the last reset (``None`` with ``start: fixed``)."""

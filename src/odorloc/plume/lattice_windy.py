@@ -30,6 +30,7 @@ from odorloc.plume.base import PlumeModel
 from odorloc.plume.lattice import draw_source_after, hits_at_origin, lattice_origin
 from odorloc.plume.sources import Source
 from odorloc.wind.base import WindModel
+from odorloc.wind.uniform import UniformWind
 
 __all__ = ["LatticeWindyParams", "LatticeWindyPlume"]
 
@@ -40,7 +41,8 @@ class LatticeWindyParams(Params):
     Attributes
     ----------
     wind : float
-        ``V``: dimensionless mean wind, blowing along the first axis.
+        ``V``: dimensionless mean wind, blowing along the first axis (a uniform world wind
+        that blows another way is refused).
     tau : float
         Dimensionless turbulent coherence time.
     start : {"fixed", "initial-hit"}
@@ -90,6 +92,17 @@ class LatticeWindyPlume(PlumeModel):
         self.origin = lattice_origin(arena, params.origin)
         if params.start == "initial-hit" and len(sources) != 1:
             raise ConfigError("plume.start", "initial-hit draws one source; configure exactly one")
+        if isinstance(wind, UniformWind):
+            # the hits blow along +x whatever world.wind says; a world wind the other way
+            # would be read by the anemometer and drawn, but never carry the plume
+            u = wind.mean_velocity()
+            speed = float(np.hypot(u[0], u[1]))
+            if speed > 0.0 and not (u[0] > 0.0 and abs(u[1]) <= 1e-9 * speed):
+                raise ConfigError(
+                    "plume.wind",
+                    "the windy lattice problem's wind blows along +x, but world.wind blows "
+                    f"towards ({u[0]:g}, {u[1]:g}) m/s: give world.wind a velocity along +x",
+                )
         self._initial: int | None = None
         self._src = self.source_positions
         self._q = self.source_rates()
@@ -118,6 +131,11 @@ class LatticeWindyPlume(PlumeModel):
         pos = draw_source_after(self.arena, self.origin, like, rng)
         self.set_sources([src.model_copy(update={"position": pos})])
         self._initial = p.initial_hit
+
+    @property
+    def draws_sources(self) -> bool:
+        """``True`` with ``start: initial-hit`` (the source is drawn after the first hit)."""
+        return self.params.start == "initial-hit"
 
     def initial_hits(self, position: np.ndarray) -> int | None:
         """The first reading at the start (``initial-hit``), ``None`` elsewhere."""

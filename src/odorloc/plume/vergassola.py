@@ -28,6 +28,7 @@ from odorloc.models.vergassola import (
 from odorloc.plume.base import PlumeModel
 from odorloc.plume.sources import Source
 from odorloc.wind.base import WindModel
+from odorloc.wind.uniform import UniformWind
 
 
 class VergassolaParams(Params):
@@ -38,7 +39,8 @@ class VergassolaParams(Params):
     Attributes
     ----------
     V : float or None, m/s
-        Mean wind speed; ``None`` uses the speed of the wind model's spatial mean.
+        Mean wind speed; ``None`` uses the speed of the wind model's spatial mean. With a
+        uniform world wind of another speed the plume is refused (one wind, stated twice).
     D : float, m^2/s
         Isotropic effective diffusivity.
     tau : float, s
@@ -76,6 +78,17 @@ class VergassolaPlume(PlumeModel):
         self.params = params
         if params.wind_direction is not None and len(params.wind_direction) != self.dim:
             raise ConfigError("plume.wind_direction", f"needs {self.dim} components")
+        if params.V is not None and isinstance(wind, UniformWind):
+            # the direction follows world.wind and the speed is V: one wind, stated twice,
+            # must agree (the anemometers read world.wind)
+            u = wind.mean_velocity()
+            speed = math.sqrt(float(u.dot(u)))
+            if speed > 0.0 and not math.isclose(speed, params.V, rel_tol=1e-9):
+                raise ConfigError(
+                    "plume.V",
+                    f"is {params.V:g} m/s, but world.wind blows at {speed:g} m/s: set V to the "
+                    "wind's speed, or V: null to follow world.wind",
+                )
         self._src = self.source_positions
         self._rate_key: tuple[float, bytes, bytes, bytes] | None = None
         self._sync()

@@ -147,6 +147,7 @@ def build(sc: Scenario, world: World | None = None) -> Built:
     radii = np.array([float(pl.radius) for pl in platforms])
     _check_clearance(world.arena, starts, radii)
     _check_bodies(starts, radii)
+    _check_not_reached(sc, world, starts)
     return Built(
         scenario=sc,
         world=world,
@@ -155,6 +156,27 @@ def build(sc: Scenario, world: World | None = None) -> Built:
         platforms=platforms,
         searcher=searcher,
     )
+
+
+def _check_not_reached(sc: Scenario, world: World, starts: np.ndarray) -> None:
+    """Refuse a start that already reaches a configured source where reaching ends the
+    episode: it would end, a success, before its first step. Sources drawn per episode keep
+    their own distance rules (``world.source_draw``, the lattice problem's first hit)."""
+    reach = sc.task.reach_radius
+    if sc.task.end != "reach" or reach is None:
+        return
+    if sc.world.source_draw is not None or world.plume.draws_sources:
+        return
+    sources = world.plume.source_positions
+    for k, s in enumerate(starts):
+        d = np.linalg.norm(sources - s, axis=1)
+        j = int(np.argmin(d))
+        if d[j] <= reach:
+            raise ConfigError(
+                f"agents.starts[{k}]",
+                f"{_where(s)} is {d[j]:.3g} m from world.sources[{j}], within "
+                f"task.reach_radius ({reach:g} m): the episode would end before its first step",
+            )
 
 
 def _where(point: np.ndarray) -> str:

@@ -66,3 +66,31 @@ def test_the_sweeps_cover_every_method_and_the_episode_counts() -> None:
         "ste-vergassola-3d",
     }
     assert all(s["episodes"] == 3 for s in r.sweeps(3, 1).values())
+
+
+def test_only_the_sweeps_that_ran_get_tables_and_figures(tmp_path) -> None:
+    """`--only multi` shows the several-sources table and figure, no empty ones of the
+    sweeps that did not run; all three sweeps give all three."""
+    r = rp.get("source-terms")
+    multi = pd.DataFrame(
+        {"sweep": ["multi"], "status": ["ok"], "scenario": ["two-sources-farrell"]}
+    )
+    names = [f.name for f in r.figures(multi, None, tmp_path, 1)]
+    assert names == ["several_sources.png"]
+    everything = pd.DataFrame(
+        {
+            "sweep": ["search", "calibration", "multi"],
+            "status": ["ok"] * 3,
+            "scenario": ["ste-gaussian", "ste-calibration", "ste-three-sources-farrell"],
+        }
+    )
+    names = [f.name for f in r.figures(everything, None, tmp_path, 1)]
+    assert names == ["posterior_marginals.png", "calibration_pit.png", "several_sources.png"]
+
+
+def test_three_sources_get_time_to_declare() -> None:
+    """The mapping route declares between 5 200 and 7 300 s in this flow (six seeds): the
+    limit leaves it room, unlike the two-source file's 5 000 s."""
+    three = get_scenario("ste-three-sources-farrell")
+    assert three.limits.time >= 10_000.0
+    assert get_scenario("two-sources-farrell").limits.time < three.limits.time

@@ -152,6 +152,11 @@ def score_posterior(snap: dict[str, np.ndarray], truth: np.ndarray, rate: float)
     return out
 
 
+def _ran(df: Any, scenarios: tuple[str, ...]) -> bool:
+    """Whether the results hold an episode of any of ``scenarios``."""
+    return bool(len(df)) and "scenario" in df and bool(df["scenario"].isin(scenarios).any())
+
+
 def _multi_columns(sc: Any, res: Any, seed: int) -> dict[str, Any]:
     """The D-S map's and the multi-source posterior's source sets against the truth."""
     from odorloc.geometry.point_sets import earth_movers_distance, match_sources
@@ -555,7 +560,13 @@ class SourceTermsReproduction(Reproduction):
         if not len(df) or "scenario" not in df:
             return []
         df = self._scored(df, self._out)
-        return [_search_table(df), _calibration_table(df), _multi_table(df)]
+        # the tables of the sweeps that ran (`--only` runs some): no empty table
+        parts = [
+            (SEARCH_SCENARIOS, _search_table),
+            ((CALIBRATION,), _calibration_table),
+            (MULTI_SCENARIOS, _multi_table),
+        ]
+        return [table(df) for names, table in parts if _ran(df, names)]
 
     def _scored(self, df: Any, out: Path | None) -> Any:
         """:func:`truth_columns` once per result frame (the tables and figures share it)."""
@@ -566,7 +577,7 @@ class SourceTermsReproduction(Reproduction):
 
     def figures(self, df: Any, store: Any, out: Path, seed: int) -> list[Figure]:
         df = self._scored(df, out) if len(df) and "scenario" in df else df
-        return [
+        figures = [
             Figure(
                 "posterior_marginals.png",
                 "Posterior marginals of position, release rate and wind over one ste-gaussian "
@@ -584,3 +595,6 @@ class SourceTermsReproduction(Reproduction):
                 lambda p: _multi_figure(df, p),
             ),
         ]
+        # the figures of the sweeps that ran (`--only` runs some): no empty figure
+        ran = [(FIGURE_CELL[0],), (CALIBRATION,), MULTI_SCENARIOS]
+        return [f for f, names in zip(figures, ran, strict=True) if _ran(df, names)]
