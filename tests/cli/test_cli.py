@@ -69,8 +69,8 @@ def test_invalid_scenario_file_one_line_exit_2(tmp_path) -> None:
         # a fixed source at the start where reaching ends the episode: a success at time 0
         (
             {"world.sources.0.position": [26.0, 7.5]},
-            "agents.starts[0]",
-            "within task.reach_radius",
+            "task.reach_radius",
+            "agents.starts[0] (26, 7.5) is 0 m from world.sources[0], within this radius",
         ),
         # the world's wind against the plume's own (the plume's would silently win)
         ({"world.wind.velocity": [-1.0, 0.0]}, "world.plume.wind", "blows along +x"),

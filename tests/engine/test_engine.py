@@ -242,11 +242,13 @@ def test_reach_rule_ends_when_an_agent_comes_close() -> None:
     assert np.linalg.norm(res.recording.positions[-1, 0] - src) <= 1.2
     assert np.linalg.norm(res.recording.positions[-2, 0] - src) > 1.2
     assert res.recording.t[-1] == m["search_time"]
-    # An agent that starts within the radius has reached the source at t = 0.
+    # An agent that starts within the radius of the fixed source would end the episode, a
+    # success, before its first step: refused, naming the radius and the start.
     d["agents"]["starts"] = [[1.5, 2.5]]
-    at_start = run_episode(Scenario.from_dict(d), 1, 2, record=True)
-    assert at_start.metrics["termination"] == "reached" and at_start.metrics["search_time"] == 0.0
-    np.testing.assert_array_equal(at_start.recording.positions[:, 0], [[1.5, 2.5]])
+    with pytest.raises(
+        ConfigError, match=r"task\.reach_radius: agents\.starts\[0\] \(1\.5, 2\.5\)"
+    ):
+        run_episode(Scenario.from_dict(d), 1, 2, record=True)
 
 
 def test_time_limit_shorter_than_a_period_is_refused() -> None:

@@ -252,10 +252,10 @@ def test_use_before_reset_is_refused() -> None:
 
 
 def test_an_episode_over_at_reset_is_refused() -> None:
-    # every start lies within 50 m of the source of this small world
-    env = SearchEnv(small(**{"task.end": "reach", "task.reach_radius": 50.0}))
+    # every start lies within 50 m of the (fixed) source of this small world: refused with
+    # the scenario, before any episode
     with pytest.raises(ConfigError) as ei:
-        env.reset(seed=0)
+        SearchEnv(small(**{"task.end": "reach", "task.reach_radius": 50.0})).reset(seed=0)
     assert ei.value.field == "task.reach_radius"
 
 

@@ -172,10 +172,11 @@ def _check_not_reached(sc: Scenario, world: World, starts: np.ndarray) -> None:
         d = np.linalg.norm(sources - s, axis=1)
         j = int(np.argmin(d))
         if d[j] <= reach:
+            # named like the environments' check of an episode over at reset
             raise ConfigError(
-                f"agents.starts[{k}]",
-                f"{_where(s)} is {d[j]:.3g} m from world.sources[{j}], within "
-                f"task.reach_radius ({reach:g} m): the episode would end before its first step",
+                "task.reach_radius",
+                f"agents.starts[{k}] {_where(s)} is {d[j]:.3g} m from world.sources[{j}], "
+                f"within this radius ({reach:g} m): the episode would end before its first step",
             )
 
 
