@@ -903,28 +903,27 @@ def test_windy_lattice_refuses_a_world_wind_not_along_plus_x() -> None:
         build(LatticeWindyParams(), arena, wind, src)
 
 
+def _lattice_plume(name: str, settings: dict, source=(20.5, 20.5)):
+    """A lattice plume on a 41 x 41 m arena of 1 m cells in a 2 m/s wind along +x."""
+    arena = Arena.box((0, 0), (41, 41), resolution=1.0)
+    wind = UniformWind(UniformWindParams(velocity=(2.0, 0.0)), arena)
+    params = registry.make_params("plume", name, settings)
+    src = [Source(position=source, rate=2.5)]
+    return registry.entry("plume", name).build(params, arena, wind, src)
+
+
 @pytest.mark.parametrize("name", ["lattice-isotropic", "lattice-windy"])
 def test_lattice_origin_errors_say_what_is_wrong(name: str) -> None:
-    arena = Arena.box((0, 0), (41, 41), resolution=1.0)
-    src = [Source(position=(20.5, 20.5), rate=2.5)]
-    wind = UniformWind(UniformWindParams(velocity=(2.0, 0.0)), arena)
-    build = registry.entry("plume", name).build
-    params = registry.make_params("plume", name, {"origin": (200.0, 20.5)})
     with pytest.raises(ConfigError, match=r"\(200, 20\.5\) is outside the arena or blocked"):
-        build(params, arena, wind, src)
-    params = registry.make_params("plume", name, {"origin": (2.5, 2.5, 2.5)})
+        _lattice_plume(name, {"origin": (200.0, 20.5)})
     with pytest.raises(ConfigError, match="needs 2 components, got 3"):
-        build(params, arena, wind, src)
+        _lattice_plume(name, {"origin": (2.5, 2.5, 2.5)})
 
 
 @pytest.mark.parametrize("name", ["lattice-isotropic", "lattice-windy"])
 def test_lattice_plumes_say_whether_they_draw_their_source(name: str) -> None:
-    arena = Arena.box((0, 0), (41, 41), resolution=1.0)
-    src = [Source(position=(10.5, 20.5), rate=2.5)]
-    wind = UniformWind(UniformWindParams(velocity=(2.0, 0.0)), arena)
-    build = registry.entry("plume", name).build
-    fixed = build(registry.make_params("plume", name, {"start": "fixed"}), arena, wind, src)
-    drawn = build(registry.make_params("plume", name, {"start": "initial-hit"}), arena, wind, src)
+    fixed = _lattice_plume(name, {"start": "fixed"}, (10.5, 20.5))
+    drawn = _lattice_plume(name, {"start": "initial-hit"}, (10.5, 20.5))
     assert not fixed.draws_sources and drawn.draws_sources
-    gaussian = GaussianPlume(GaussianParams(), arena, wind, src)
+    gaussian = GaussianPlume(GaussianParams(), fixed.arena, fixed.wind, fixed.sources)
     assert not gaussian.draws_sources
